@@ -1,0 +1,102 @@
+//! Surface scattering models behind one small interface (Mitsuba 3 `BSDF` semantics).
+//!
+//! Directions are local to the hit's shading frame: `si.wi` points toward the previous vertex (the
+//! camera side), `wo` toward the next one (the light side). `eval` returns f(wi, wo) · |cos θ_o|
+//! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
+//! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
+
+pub mod diffuse;
+pub mod texture;
+
+pub use diffuse::Diffuse;
+pub use texture::Texture;
+
+use crate::geometry::SurfaceInteraction;
+use crate::math::{Spectrum, Vec2, Vec3};
+
+/// Lobe classification bits (Mitsuba's `BSDFFlags`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct BsdfFlags(pub u32);
+
+impl BsdfFlags {
+    pub const NONE: BsdfFlags = BsdfFlags(0);
+    pub const DIFFUSE_REFLECTION: BsdfFlags = BsdfFlags(1);
+    pub const GLOSSY_REFLECTION: BsdfFlags = BsdfFlags(1 << 1);
+    pub const DELTA_REFLECTION: BsdfFlags = BsdfFlags(1 << 2);
+    pub const DIFFUSE_TRANSMISSION: BsdfFlags = BsdfFlags(1 << 3);
+    pub const GLOSSY_TRANSMISSION: BsdfFlags = BsdfFlags(1 << 4);
+    pub const DELTA_TRANSMISSION: BsdfFlags = BsdfFlags(1 << 5);
+    /// Spatially varying (uv-dependent) response.
+    pub const SPATIALLY_VARYING: BsdfFlags = BsdfFlags(1 << 6);
+    pub const DELTA: BsdfFlags = BsdfFlags((1 << 2) | (1 << 5));
+    /// Lobes that `eval`/`pdf` can see (everything but delta), i.e. worth emitter sampling.
+    pub const SMOOTH: BsdfFlags = BsdfFlags(1 | (1 << 1) | (1 << 3) | (1 << 4));
+
+    /// True if any bit of `other` is set.
+    #[inline]
+    pub fn has(self, other: BsdfFlags) -> bool {
+        self.0 & other.0 != 0
+    }
+}
+
+impl std::ops::BitOr for BsdfFlags {
+    type Output = BsdfFlags;
+    fn bitor(self, rhs: BsdfFlags) -> BsdfFlags {
+        BsdfFlags(self.0 | rhs.0)
+    }
+}
+
+/// The outcome of [`Bsdf::sample`].
+#[derive(Clone, Copy, Debug)]
+pub struct BsdfSample {
+    /// Sampled direction, local to the shading frame.
+    pub wo: Vec3,
+    /// Solid-angle pdf of `wo` (for a delta lobe: the discrete probability of choosing it).
+    pub pdf: f32,
+    /// Relative index of refraction along the sampled path (1 for reflection).
+    pub eta: f32,
+    /// The lobe that was sampled (one of the single-lobe flags).
+    pub sampled: BsdfFlags,
+}
+
+/// Every scattering model of btfpt.
+#[derive(Clone, Debug)]
+pub enum Bsdf {
+    Diffuse(Diffuse),
+}
+
+impl Bsdf {
+    /// The lobes this BSDF has.
+    pub fn flags(&self) -> BsdfFlags {
+        match self {
+            Bsdf::Diffuse(b) => b.flags(),
+        }
+    }
+
+    /// f(wi, wo) · |cos θ_o|; zero for delta lobes and for direction pairs the model does not cover.
+    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        match self {
+            Bsdf::Diffuse(b) => b.eval(si, wo),
+        }
+    }
+
+    /// Solid-angle pdf with which [`Bsdf::sample`] produces `wo` (0 for delta lobes).
+    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        match self {
+            Bsdf::Diffuse(b) => b.pdf(si, wo),
+        }
+    }
+
+    /// Samples `wo` given one uniform number for lobe selection and two for the direction.
+    /// Returns the sample and its weight f · |cos θ_o| / pdf, or None if sampling failed.
+    pub fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        match self {
+            Bsdf::Diffuse(b) => b.sample(si, sample1, sample2),
+        }
+    }
+}

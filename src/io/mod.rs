@@ -1,0 +1,7 @@
+//! File input/output shared by all subsystems: images (EXR, PNG, JPEG) and atomic writes.
+
+pub mod atomic;
+pub mod image;
+
+pub use atomic::write_atomic;
+pub use image::{RgbImage, read_image, write_exr, write_png_srgb};

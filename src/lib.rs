@@ -1,0 +1,14 @@
+//! btfpt: an offline, physically based CPU path tracer whose signature material is the measured BTF,
+//! stored raw or as the clustered polynomial Lafortune model (PLM-C) of Filip & Haindl (2005).
+//!
+//! See `DESIGN.md` of the project (shared) for the conventions every module follows.
+
+pub mod bsdf;
+pub mod btf;
+pub mod error;
+pub mod geometry;
+pub mod io;
+pub mod math;
+pub mod scene;
+
+pub use error::{Error, Result};

@@ -1,0 +1,87 @@
+//! The scene description: what the Mitsuba-XML and glTF loaders produce and the renderer consumes.
+
+use crate::bsdf::Bsdf;
+use crate::geometry::Mesh;
+use crate::io::RgbImage;
+use crate::math::{Mat4, Spectrum, Vec3};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// A perspective pinhole camera with an `hdrfilm` and box reconstruction filter (Mitsuba semantics).
+#[derive(Clone, Debug)]
+pub struct Camera {
+    /// Camera → world; the camera looks along +z with +y up, as Mitsuba's `lookat` builds it.
+    pub to_world: Mat4,
+    /// Full horizontal field of view in degrees (any `fov_axis` resolved by the loader).
+    pub fov_x_deg: f32,
+    pub near_clip: f32,
+    pub far_clip: f32,
+    /// Film resolution in pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Optional crop window (x, y, w, h) in pixels of the full film.
+    pub crop: Option<[u32; 4]>,
+}
+
+/// Settings of the `path` integrator (Mitsuba 3 semantics).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntegratorSettings {
+    /// Longest path in vertices: 1 = emitters seen directly, 2 = direct lighting; −1 = unbounded.
+    pub max_depth: i32,
+    /// Depth at which Russian roulette starts.
+    pub rr_depth: i32,
+    /// Do not show directly visible emitters.
+    pub hide_emitters: bool,
+}
+
+impl Default for IntegratorSettings {
+    fn default() -> Self {
+        IntegratorSettings {
+            max_depth: -1,
+            rr_depth: 5,
+            hide_emitters: false,
+        }
+    }
+}
+
+/// Emitters that are not attached to a shape (area emitters live on [`Mesh::emitter`]).
+#[derive(Clone, Debug)]
+pub enum Emitter {
+    /// Isotropic point light; `intensity` in W/sr.
+    Point { position: Vec3, intensity: Spectrum },
+    /// Spot light shining along +z of `to_world`; angles in degrees (Mitsuba defaults 20 and 0.75·cutoff).
+    Spot {
+        to_world: Mat4,
+        intensity: Spectrum,
+        cutoff_angle: f32,
+        beam_width: f32,
+    },
+    /// Distant light; `direction` is the unit direction of travel (world), `irradiance` in W/m².
+    Directional {
+        direction: Vec3,
+        irradiance: Spectrum,
+    },
+    /// Uniform environment radiance.
+    Constant { radiance: Spectrum },
+    /// Lat-long environment map (Mitsuba `envmap` mapping), radiance = scale · image.
+    EnvMap {
+        image: Arc<RgbImage>,
+        to_world: Mat4,
+        scale: f32,
+        filename: PathBuf,
+    },
+}
+
+/// A complete scene, in world space.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file the scene was loaded from (for messages).
+    pub source: PathBuf,
+    pub camera: Camera,
+    pub integrator: IntegratorSettings,
+    /// `sampler.sample_count`.
+    pub spp: u32,
+    pub meshes: Vec<Mesh>,
+    pub bsdfs: Vec<Bsdf>,
+    pub emitters: Vec<Emitter>,
+}
