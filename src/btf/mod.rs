@@ -3,6 +3,7 @@
 
 pub mod directions;
 pub mod raw;
+pub mod ubo2003;
 
 pub use directions::DirectionSet;
 pub use raw::{BtfSource, RawBtf, StoredEncoding};
