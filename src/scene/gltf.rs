@@ -339,7 +339,7 @@ impl GltfBuilder<'_> {
                 Some(i) => i.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
             };
-            if flat.len() % 3 != 0 {
+            if !flat.len().is_multiple_of(3) {
                 return Err(self.err(format!(
                     "{}: index count {} is not a multiple of 3",
                     what(),

@@ -526,7 +526,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 let uv_scale = p.float("uv_scale", 1.0)?;
                 let model = p.string("model", "raw")?;
                 p.finish()?;
-                if !(uv_scale > 0.0) {
+                if uv_scale <= 0.0 {
                     return Err(p.err("\"uv_scale\" must be positive"));
                 }
                 return super::btf_bsdf::build_btf(

@@ -16,7 +16,6 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let mut reader = std::io::BufReader::new(bytes.as_slice());
     let (models, _materials) =

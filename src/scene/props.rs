@@ -63,7 +63,7 @@ impl<'a> XmlDoc<'a> {
                 continue;
             }
             // Longest names first, so that `$ab` is not replaced by the value of `$a` + "b".
-            params.sort_by(|a, b| b.0.len().cmp(&a.0.len()));
+            params.sort_by_key(|p| std::cmp::Reverse(p.0.len()));
             let mut values = Vec::new();
             for a in node.attributes() {
                 let mut v = a.value().to_string();
