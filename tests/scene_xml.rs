@@ -451,6 +451,27 @@ fn unknown_plugin_property_and_element() {
         "<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>",
     );
     expect_err(&p, &[], 7, "named conductor material");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>",
+    );
+    expect_err(&p, &[], 7, "non-uniform scale");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><float name=\"fov\" value=\"$x\"/></shape>",
+    );
+    expect_err(
+        &p,
+        &[("x".into(), "1".into())],
+        7,
+        "unreferenced property \"fov\"",
+    );
+    let p = write(
+        dir.path(),
+        "lum.xml",
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"luminance\"/><rfilter type=\"box\"/></film></sensor></scene>",
+    );
+    expect_err(&p, &[], 3, "pixel_format");
 }
 
 #[test]

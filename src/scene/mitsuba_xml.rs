@@ -206,10 +206,20 @@ impl<'a, 'x> Builder<'a, 'x> {
         } else {
             Some([cox as u32, coy as u32, cw as u32, ch as u32])
         };
-        // Output-format options do not change pixel values: accepted.
-        let _ = f.string("file_format", "openexr")?;
-        let _ = f.string("pixel_format", "rgb")?;
-        let _ = f.string("component_format", "float32")?;
+        // Output-format options that do not change RGB pixel values are accepted.
+        for (name, default, ok) in [
+            ("file_format", "openexr", &["openexr", "exr"][..]),
+            ("pixel_format", "rgb", &["rgb", "rgba"][..]),
+            ("component_format", "float32", &["float16", "float32"][..]),
+        ] {
+            let v = f.string(name, default)?.to_ascii_lowercase();
+            if !ok.contains(&v.as_str()) {
+                return Err(f.err(format!(
+                    "{name} \"{v}\" is not supported (use one of {ok:?})"
+                )));
+            }
+        }
+        // With a box filter of radius 0.5 no sample reaches a neighbouring pixel: no effect.
         let _ = f.bool("sample_border", false)?;
         let rf = f.single_child("rfilter")?.ok_or_else(|| {
             f.err(
@@ -315,6 +325,10 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
             "rectangle" => {
+                let l = Mat3::from_mat4(xf);
+                if l.x_axis.normalize().dot(l.y_axis.normalize()).abs() > 1e-4 {
+                    return Err(p.err("the to_world transformation contains shear, which Mitsuba's rectangle does not support"));
+                }
                 opts.keep_orientation = true;
                 shapes::rectangle()
             }
@@ -330,6 +344,18 @@ impl<'a, 'x> Builder<'a, 'x> {
                     return Err(p.err("the sphere radius must be positive"));
                 }
                 xf = xf * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
+                // Mitsuba's sphere is analytic: it keeps only the centre and the radius of to_world
+                // (warning about the rest), so an ellipsoid here would not match its render.
+                let l = Mat3::from_mat4(xf);
+                let g = l.transpose() * l;
+                let s2 = g.x_axis.x;
+                if (g - Mat3::from_diagonal(Vec3::splat(s2)))
+                    .to_cols_array()
+                    .iter()
+                    .any(|v| v.abs() > 1e-4 * s2)
+                {
+                    return Err(p.err("to_world must not contain non-uniform scale or shear for a sphere (Mitsuba ignores it)"));
+                }
                 opts.keep_orientation = true;
                 shapes::sphere(shapes::SPHERE_RINGS, shapes::SPHERE_SEGMENTS)
             }
