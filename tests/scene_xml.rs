@@ -456,6 +456,10 @@ fn unknown_plugin_property_and_element() {
         "<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>",
     );
     expect_err(&p, &[], 7, "non-uniform scale");
+    let p = scene_with(dir.path(), "<shape type=\"cube\" colour=\"red\"/>");
+    expect_err(&p, &[], 7, "unexpected attribute \"colour\"");
+    let p = scene_with(dir.path(), "<shape><bsdf type=\"diffuse\"/></shape>");
+    expect_err(&p, &[], 7, "missing attribute \"type\"");
     let p = scene_with(
         dir.path(),
         "<shape type=\"cube\"><float name=\"fov\" value=\"$x\"/></shape>",

@@ -357,7 +357,8 @@ impl<'a, 'x> Props<'a, 'x> {
     /// Parses the children of a plugin element.
     pub fn parse(x: &'x XmlDoc<'a>, node: Node<'a, 'a>) -> Result<Self> {
         let tag = node.tag_name().name().to_string();
-        let ty = x.attr(node, "type").unwrap_or("").to_string();
+        x.check_attrs(node, &["type", "id", "name"])?;
+        let ty = x.req_attr(node, "type")?.to_string();
         let mut props: Vec<Prop<'a>> = Vec::new();
         let mut children = Vec::new();
         for ch in node.children() {

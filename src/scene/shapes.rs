@@ -18,11 +18,13 @@ pub const DISK_RINGS: usize = 16;
 /// An object-space triangle mesh before it is placed in the world.
 #[derive(Clone, Debug, Default)]
 pub struct LocalMesh {
+    /// Object-space vertex positions.
     pub positions: Vec<Vec3>,
     /// Empty, or one (not necessarily unit) normal per vertex.
     pub normals: Vec<Vec3>,
     /// Empty, or one uv per vertex.
     pub uvs: Vec<Vec2>,
+    /// Triangles (counter-clockwise = front, geometric normal (p1 − p0) × (p2 − p0)).
     pub indices: Vec<[u32; 3]>,
 }
 
