@@ -22,7 +22,11 @@ pub struct FresnelDielectric {
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> FresnelDielectric {
     let outside = cos_theta_i >= 0.0;
     let rcp_eta = 1.0 / eta;
-    let (eta_it, eta_ti) = if outside { (eta, rcp_eta) } else { (rcp_eta, eta) };
+    let (eta_it, eta_ti) = if outside {
+        (eta, rcp_eta)
+    } else {
+        (rcp_eta, eta)
+    };
 
     // Snell: cos²θ_t = 1 − sin²θ_i · (η_i/η_t)².
     let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);

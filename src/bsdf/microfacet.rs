@@ -126,10 +126,7 @@ fn sincos_phi(v: Vec3) -> (f32, f32) {
         return (0.0, 1.0);
     }
     let inv = 1.0 / sin_theta_2.sqrt();
-    (
-        (v.y * inv).clamp(-1.0, 1.0),
-        (v.x * inv).clamp(-1.0, 1.0),
-    )
+    ((v.y * inv).clamp(-1.0, 1.0), (v.x * inv).clamp(-1.0, 1.0))
 }
 
 /// Visible-slope sampling for alpha = 1 (Heitz 2018, "A simpler and exact sampling routine for
@@ -161,11 +158,7 @@ mod tests {
             for j in 0..2 * n {
                 let phi = (j as f64 + 0.5) * dphi;
                 let r = (1.0 - z * z).sqrt();
-                let v = Vec3::new(
-                    (r * phi.cos()) as f32,
-                    (r * phi.sin()) as f32,
-                    z as f32,
-                );
+                let v = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
                 sum += f(v);
             }
         }
