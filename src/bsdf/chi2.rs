@@ -6,7 +6,7 @@
 //!
 //! Reused by every sampled model (BSDFs here, the BTF material later): it only needs closures.
 
-use crate::math::{PI, Pcg32, Vec3};
+use crate::math::{Pcg32, Vec3};
 
 /// Settings of one chi-square test.
 #[derive(Clone, Debug)]
@@ -309,16 +309,10 @@ pub(crate) fn gamma_q(a: f64, x: f64) -> f64 {
     }
 }
 
-/// Uniform-sphere pdf, handy as a deliberately wrong or trivially right reference.
-#[allow(dead_code)]
-pub(crate) fn uniform_sphere_pdf(_v: Vec3) -> f32 {
-    0.25 / PI
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{Vec2, warp};
+    use crate::math::{PI, Vec2, warp};
 
     #[test]
     fn chi2_survival_function_matches_known_values() {
