@@ -18,6 +18,8 @@ pub mod thindielectric;
 pub mod twosided;
 
 #[cfg(test)]
+mod golden;
+#[cfg(test)]
 mod tests;
 
 pub use conductor::Conductor;
