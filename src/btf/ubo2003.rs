@@ -74,7 +74,10 @@ fn parse_name(name: &str) -> Option<ImageName> {
     if b[5] != b' ' || b[11] != b' ' || b[17] != b' ' || b[23] != b' ' {
         return None;
     }
-    if &stem[6..8] != "tl" || &stem[12..14] != "pl" || &stem[18..20] != "tv" || &stem[24..26] != "pv"
+    if &stem[6..8] != "tl"
+        || &stem[12..14] != "pl"
+        || &stem[18..20] != "tv"
+        || &stem[24..26] != "pv"
     {
         return None;
     }
@@ -204,7 +207,9 @@ impl Ubo2003Folder {
                     if (parsed.tv, parsed.pv) != (tv, pv) {
                         return Err(Error::format(
                             &sub_path,
-                            format!("view angles in the name differ from the folder tv{tv:03}_pv{pv:03}"),
+                            format!(
+                                "view angles in the name differ from the folder tv{tv:03}_pv{pv:03}"
+                            ),
                         ));
                     }
                     found.push((sub_path, parsed));
@@ -264,7 +269,11 @@ impl Ubo2003Folder {
             if let Some(prev) = slot {
                 return Err(Error::format(
                     &path,
-                    format!("duplicate image index {} (also {})", p.index, prev.display()),
+                    format!(
+                        "duplicate image index {} (also {})",
+                        p.index,
+                        prev.display()
+                    ),
                 ));
             }
             *slot = Some(path);
@@ -296,7 +305,10 @@ impl Ubo2003Folder {
         } else {
             StoredEncoding::Srgb8
         };
-        let dims: Vec<(usize, usize)> = files.par_iter().map(|p| image_dims(p)).collect::<Result<_>>()?;
+        let dims: Vec<(usize, usize)> = files
+            .par_iter()
+            .map(|p| image_dims(p))
+            .collect::<Result<_>>()?;
         let (width, height) = dims[0];
         if width == 0 || height == 0 {
             return Err(Error::format(&files[0], "image is empty"));
@@ -431,7 +443,11 @@ fn write_png16_srgb(path: &Path, img: &RgbImage) -> Result<()> {
         .data
         .iter()
         .map(|&v| {
-            let v = if v.is_finite() { v.clamp(0.0, 1.0) } else { 0.0 };
+            let v = if v.is_finite() {
+                v.clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             (linear_to_srgb(v) * 65535.0 + 0.5) as u16
         })
         .collect();
@@ -568,7 +584,9 @@ mod tests {
         let d = DirectionSet::ubo2003();
         for view in 0..DIRECTIONS {
             let (t, p) = d.angles_deg[view];
-            let sub = dir.path().join(format!("tv{:03}_pv{:03}", t as u32, p as u32));
+            let sub = dir
+                .path()
+                .join(format!("tv{:03}_pv{:03}", t as u32, p as u32));
             std::fs::create_dir(&sub).unwrap();
             for light in 0..DIRECTIONS {
                 let name = image_name(view, light, "exr");
@@ -594,7 +612,10 @@ mod tests {
         let bytes = std::fs::read(p(5, 7)).unwrap();
         std::fs::remove_file(p(5, 7)).unwrap();
         let e = err_of(dir.path());
-        assert!(e.contains("00572 tl030 pl000 tv015 pv240") && e.contains("missing"), "{e}");
+        assert!(
+            e.contains("00572 tl030 pl000 tv015 pv240") && e.contains("missing"),
+            "{e}"
+        );
         // Corrupt image.
         std::fs::write(p(5, 7), b"garbage").unwrap();
         let e = err_of(dir.path());
@@ -610,7 +631,10 @@ mod tests {
         let wrong = dir.path().join("00000 tl000 pl000 tv015 pv000.png");
         std::fs::rename(p(0, 0), &wrong).unwrap();
         let e = err_of(dir.path());
-        assert!(e.contains("00000 tl000 pl000 tv015 pv000.png") && e.contains("angles"), "{e}");
+        assert!(
+            e.contains("00000 tl000 pl000 tv015 pv000.png") && e.contains("angles"),
+            "{e}"
+        );
         std::fs::rename(&wrong, p(0, 0)).unwrap();
         // Duplicate index in another format.
         let dup = dir.path().join(image_name(3, 3, "jpg"));
@@ -623,7 +647,10 @@ mod tests {
         write_folder(&other, tmp.path(), ImageKind::Png8).unwrap();
         std::fs::copy(tmp.path().join(image_name(9, 9, "png")), p(9, 9)).unwrap();
         let e = err_of(dir.path());
-        assert!(e.contains(&image_name(9, 9, "png")) && e.contains("1×1"), "{e}");
+        assert!(
+            e.contains(&image_name(9, 9, "png")) && e.contains("1×1"),
+            "{e}"
+        );
         // Not a directory.
         assert!(load_folder(&p(0, 0)).is_err());
     }
@@ -631,8 +658,8 @@ mod tests {
     #[test]
     fn writer_rejects_non_ubo2003_directions() {
         let d = DirectionSet::from_angles_deg(vec![(0.0, 0.0)]);
-        let b = RawBtf::from_f32(d.clone(), d, 1, 1, StoredEncoding::Linear, &[0.1, 0.2, 0.3])
-            .unwrap();
+        let b =
+            RawBtf::from_f32(d.clone(), d, 1, 1, StoredEncoding::Linear, &[0.1, 0.2, 0.3]).unwrap();
         let dir = tempfile::tempdir().unwrap();
         assert!(write_folder(&b, dir.path(), ImageKind::Exr).is_err());
     }
