@@ -7,7 +7,7 @@
 //! [`StoredEncoding::Linear`]. All images are decoded to linear RGB by [`crate::io::read_image`].
 
 use super::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
-use crate::io::{RgbImage, read_image, write_atomic, write_exr, write_png_srgb};
+use crate::io::{RgbImage, read_image};
 use crate::math::color::linear_to_srgb;
 use crate::{Error, Result};
 use half::f16;
@@ -438,31 +438,57 @@ fn same_directions(a: &DirectionSet, b: &DirectionSet) -> bool {
             .all(|(x, y)| (x.0 - y.0).abs() < 1e-3 && (x.1 - y.1).abs() < 1e-3)
 }
 
-fn write_png16_srgb(path: &Path, img: &RgbImage) -> Result<()> {
-    let values: Vec<u16> = img
-        .data
-        .iter()
-        .map(|&v| {
-            let v = if v.is_finite() {
-                v.clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (linear_to_srgb(v) * 65535.0 + 0.5) as u16
-        })
-        .collect();
-    let buf = image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(
-        img.width as u32,
-        img.height as u32,
-        values,
-    )
-    .ok_or_else(|| Error::format(path, "image buffer size mismatch"))?;
+/// sRGB-encodes a linear value clamped to [0, 1] (non-finite → 0) at `max` code steps.
+fn srgb_code(v: f32, max: f32) -> f32 {
+    let v = if v.is_finite() {
+        v.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    linear_to_srgb(v) * max + 0.5
+}
+
+/// Encodes one image in memory (PNG8/PNG16 sRGB, or 32-bit float EXR).
+fn encode(path: &Path, img: &RgbImage, kind: ImageKind) -> Result<Vec<u8>> {
     let mut bytes = std::io::Cursor::new(Vec::new());
-    buf.write_to(&mut bytes, image::ImageFormat::Png)
-        .map_err(|e| Error::format(path, format!("cannot encode PNG: {e}")))?;
-    write_atomic(path, |w| {
-        w.write_all(bytes.get_ref()).map_err(|e| Error::io(path, e))
-    })
+    let (w, h) = (img.width as u32, img.height as u32);
+    let size_err = || Error::format(path, "image buffer size mismatch");
+    match kind {
+        ImageKind::Png8 => {
+            let v: Vec<u8> = img
+                .data
+                .iter()
+                .map(|&x| srgb_code(x, 255.0) as u8)
+                .collect();
+            image::RgbImage::from_raw(w, h, v)
+                .ok_or_else(size_err)?
+                .write_to(&mut bytes, image::ImageFormat::Png)
+        }
+        ImageKind::Png16 => {
+            let v: Vec<u16> = img
+                .data
+                .iter()
+                .map(|&x| srgb_code(x, 65535.0) as u16)
+                .collect();
+            image::ImageBuffer::<image::Rgb<u16>, Vec<u16>>::from_raw(w, h, v)
+                .ok_or_else(size_err)?
+                .write_to(&mut bytes, image::ImageFormat::Png)
+        }
+        ImageKind::Exr => {
+            use exr::prelude::*;
+            let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+                let p = img.get(pos.x(), pos.y());
+                (p[0], p[1], p[2])
+            });
+            return Image::from_channels((img.width, img.height), channels)
+                .write()
+                .to_buffered(&mut bytes)
+                .map(|_| bytes.into_inner())
+                .map_err(|e| crate::Error::format(path, format!("cannot encode EXR: {e}")));
+        }
+    }
+    .map_err(|e| Error::format(path, format!("cannot encode PNG: {e}")))?;
+    Ok(bytes.into_inner())
 }
 
 /// Writes `btf` as a flat UBO2003 folder (created if missing). The BTF must use the UBO2003
@@ -494,11 +520,10 @@ pub fn write_folder(btf: &RawBtf, dir: &Path, kind: ImageKind) -> Result<()> {
                 data: src.iter().map(|v| v.to_f32()).collect(),
             };
             let path = dir.join(image_name(view, light, ext));
-            match kind {
-                ImageKind::Png8 => write_png_srgb(&path, &img),
-                ImageKind::Png16 => write_png16_srgb(&path, &img),
-                ImageKind::Exr => write_exr(&path, &img),
-            }
+            // Plain writes: a folder of 6561 files cannot be replaced atomically anyway, and a
+            // per-file fsync would dominate; an interrupted write leaves a file the reader rejects.
+            let bytes = encode(&path, &img, kind)?;
+            std::fs::write(&path, bytes).map_err(|e| Error::io(&path, e))
         })
 }
 
@@ -552,6 +577,29 @@ mod tests {
         let expect: Vec<f32> = btf.view_data(40).iter().map(|x| x.to_f32()).collect();
         assert_eq!(v, expect);
         assert!(src.load_view(81).is_err());
+        // The same images moved into per-view sub-folders read back identically.
+        let d = DirectionSet::ubo2003();
+        for view in 0..DIRECTIONS {
+            let (t, p) = d.angles_deg[view];
+            let sub = dir
+                .path()
+                .join(format!("tv{:03}_pv{:03}", t as u32, p as u32));
+            std::fs::create_dir(&sub).unwrap();
+            for light in 0..DIRECTIONS {
+                let name = image_name(view, light, "exr");
+                std::fs::rename(dir.path().join(&name), sub.join(&name)).unwrap();
+            }
+        }
+        assert_eq!(load_folder(dir.path()).unwrap().data(), btf.data());
+        // An image whose view angles disagree with its sub-folder is rejected.
+        let sub = dir.path().join("tv000_pv000");
+        let moved = image_name(1, 0, "exr");
+        std::fs::rename(
+            dir.path().join("tv015_pv000").join(&moved),
+            sub.join(&moved),
+        )
+        .unwrap();
+        assert!(err_of(dir.path()).contains("differ from the folder"));
     }
 
     #[test]
@@ -574,27 +622,6 @@ mod tests {
                 assert!(worst < 1e-3, "16-bit should be much finer: {worst}");
             }
         }
-    }
-
-    #[test]
-    fn per_view_subfolders_are_accepted() {
-        let dir = tempfile::tempdir().unwrap();
-        let btf = small_btf(1, 1);
-        write_folder(&btf, dir.path(), ImageKind::Exr).unwrap();
-        let d = DirectionSet::ubo2003();
-        for view in 0..DIRECTIONS {
-            let (t, p) = d.angles_deg[view];
-            let sub = dir
-                .path()
-                .join(format!("tv{:03}_pv{:03}", t as u32, p as u32));
-            std::fs::create_dir(&sub).unwrap();
-            for light in 0..DIRECTIONS {
-                let name = image_name(view, light, "exr");
-                std::fs::rename(dir.path().join(&name), sub.join(&name)).unwrap();
-            }
-        }
-        let back = load_folder(dir.path()).unwrap();
-        assert_eq!(back.data(), btf.data());
     }
 
     fn err_of(dir: &Path) -> String {
@@ -642,10 +669,7 @@ mod tests {
         assert!(err_of(dir.path()).contains(&image_name(3, 3, "jpg")));
         std::fs::remove_file(&dup).unwrap();
         // Wrong size.
-        let other = small_btf(1, 1);
-        let tmp = tempfile::tempdir().unwrap();
-        write_folder(&other, tmp.path(), ImageKind::Png8).unwrap();
-        std::fs::copy(tmp.path().join(image_name(9, 9, "png")), p(9, 9)).unwrap();
+        crate::io::write_png_srgb(&p(9, 9), &RgbImage::new(1, 1)).unwrap();
         let e = err_of(dir.path());
         assert!(
             e.contains(&image_name(9, 9, "png")) && e.contains("1×1"),
