@@ -90,3 +90,50 @@ pub fn load_raw(path: &Path) -> Result<RawBtf> {
         BtfFormat::Plmc => Err(not_raw(path)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn open_err(p: &Path) -> String {
+        match open(p) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("{} should not open", p.display()),
+        }
+    }
+
+    #[test]
+    fn open_and_load_raw_dispatch_on_the_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (40.0, 120.0)]);
+        let data: Vec<f32> = (0..2 * 2 * 3 * 2 * 3).map(|i| i as f32 / 64.0).collect();
+        let btf = RawBtf::from_f32(d.clone(), d, 3, 2, StoredEncoding::Linear, &data).unwrap();
+        let p = dir.path().join("x.BTFC");
+        cache::write_raw(&btf, &p).unwrap();
+        assert_eq!(detect_format(&p).unwrap(), BtfFormat::Cache);
+        assert_eq!(load_raw(&p).unwrap().data(), btf.data());
+        assert_eq!(
+            open(&p).unwrap().load_view(1).unwrap(),
+            btf.load_view(1).unwrap()
+        );
+        assert_eq!(detect_format(dir.path()).unwrap(), BtfFormat::Ubo2003Folder);
+
+        let plmc = dir.path().join("m.plmc");
+        std::fs::write(&plmc, b"PLMC").unwrap();
+        assert!(load_raw(&plmc).unwrap_err().to_string().contains("m.plmc"));
+        let other = dir.path().join("m.txt");
+        std::fs::write(&other, b"x").unwrap();
+        assert!(open_err(&other).contains("unknown BTF format"));
+        let missing = dir.path().join("missing.btf");
+        assert!(
+            load_raw(&missing)
+                .unwrap_err()
+                .to_string()
+                .contains("missing.btf")
+        );
+        // A .btf that is really something else.
+        let fake = dir.path().join("fake.btf");
+        std::fs::write(&fake, b"hello").unwrap();
+        assert!(open_err(&fake).contains("not a UBO2014"));
+    }
+}

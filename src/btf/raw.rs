@@ -111,7 +111,7 @@ impl RawBtf {
     ) -> Result<Self> {
         let len = views.len() * lights.len() * width * height * 3;
         let end = len.checked_mul(2).and_then(|b| b.checked_add(offset));
-        let aligned = (map.as_ptr() as usize + offset) % std::mem::align_of::<f16>() == 0;
+        let aligned = (map.as_ptr() as usize + offset).is_multiple_of(std::mem::align_of::<f16>());
         if width == 0 || height == 0 || !aligned || end.is_none_or(|e| e > map.len()) {
             return Err(Error::Invalid(format!(
                 "mapped BTF data of {len} values at byte {offset} does not fit a map of {} bytes",

@@ -85,7 +85,7 @@ impl ColorModel {
     }
 
     #[inline]
-    fn to_rgb(&self, v: [f32; 3]) -> [f32; 3] {
+    fn decode(self, v: [f32; 3]) -> [f32; 3] {
         #[inline]
         fn yuv(v: [f32; 3]) -> [f32; 3] {
             [
@@ -94,7 +94,7 @@ impl ColorModel {
                 v[0] + 2.03211 * v[1],
             ]
         }
-        match *self {
+        match self {
             ColorModel::Rgb => v,
             ColorModel::Yuv => yuv(v),
             ColorModel::Pca { mean, matrix: m } => std::array::from_fn(|j| {
@@ -592,7 +592,7 @@ impl Ubo2014Btf {
                     .rgb_scale
                     .map(|s| if h.cosine_flag == 0 { s * cos } else { s });
                 for px in img.chunks_exact_mut(3) {
-                    let mut v = self.color.to_rgb([px[0], px[1], px[2]]);
+                    let mut v = self.color.decode([px[0], px[1], px[2]]);
                     if self.drr {
                         v = v.map(|x| x.exp() - DRR_EPS);
                     }
@@ -911,7 +911,7 @@ mod tests {
         });
         let raw = raw.map(|v| v as f32);
         let rgb = match f.kind {
-            PayloadKind::Dfmf => f.color.to_rgb(raw),
+            PayloadKind::Dfmf => f.color.decode(raw),
             _ => raw,
         };
         let cos = f.lights.dirs[light].z;
@@ -1041,10 +1041,65 @@ mod tests {
             check_all(&f, &load_btf(&p).unwrap(), 1e-4);
         }
         // YUV inverse against a hand-computed value: Y = 0.5, U = 0.1, V = -0.2.
-        let rgb = ColorModel::Yuv.to_rgb([0.5, 0.1, -0.2]);
+        let rgb = ColorModel::Yuv.decode([0.5, 0.1, -0.2]);
         assert!((rgb[0] - (0.5 - 0.2 * 1.13983)).abs() < 1e-6);
         assert!((rgb[1] - (0.5 - 0.039465 + 0.11612)).abs() < 1e-6);
         assert!((rgb[2] - (0.5 + 0.203211)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn transposed_images_stacked_payloads_decode() {
+        // U rows = texels, S·V rows = (view, light): FMF with channel-interleaved texel rows, and
+        // DFMF per channel. The writer stores whatever matrices it is given.
+        let dir = tempfile::tempdir().unwrap();
+        let (views, lights) = dirs();
+        let (w, h, k) = (4usize, 2usize, 3usize);
+        let (nl, n_lv, n_xy) = (lights.len(), views.len() * lights.len(), w * h);
+        for kind in [PayloadKind::Fmf { extended: false }, PayloadKind::Dfmf] {
+            let fmf = matches!(kind, PayloadKind::Fmf { .. });
+            let (u, sxv) = if fmf {
+                (vec![vals(3 * n_xy * k, 5)], vec![vals(n_lv * k, 6)])
+            } else {
+                let u = (0..3).map(|c| vals(n_xy * k, 7 + c)).collect();
+                (u, (0..3).map(|c| vals(n_lv * k, 17 + c)).collect())
+            };
+            let f = FactorisedBtf {
+                kind,
+                color: ColorModel::Rgb,
+                drr: false,
+                version: 2,
+                cosine_flag: 1,
+                rgb_scale: [1.0; 3],
+                rotations: false,
+                scalar_size: 4,
+                views: views.clone(),
+                lights: lights.clone(),
+                width: w,
+                height: h,
+                components: vec![k; if fmf { 1 } else { 3 }],
+                u,
+                sxv,
+            };
+            let p = dir.path().join("t.btf");
+            f.write(&p).unwrap();
+            let btf = load_btf(&p).unwrap();
+            for (v, l, x, y) in [(0, 0, 0, 0), (1, 2, 3, 1), (1, 1, 2, 0), (0, 2, 1, 1)] {
+                let xy = y * w + x;
+                let lv = v * nl + l;
+                for c in 0..3 {
+                    let (ui, urow, si) = if fmf { (0, xy * 3 + c, 0) } else { (c, xy, c) };
+                    let want: f64 = (0..k)
+                        .map(|j| f.u[ui][urow * k + j] * f.sxv[si][lv * k + j])
+                        .sum();
+                    let got = btf.texel(v, l, x, y)[c];
+                    let want = want.max(0.0) as f32;
+                    assert!(
+                        (got - want).abs() <= 1e-5 + want * 1e-3,
+                        "{kind:?}: {got} vs {want}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
@@ -1052,7 +1107,7 @@ mod tests {
         // Hand-evaluated inverses (btflib `undecorrelate`), independent of `to_rgb`'s code paths.
         let close = |a: [f32; 3], b: [f32; 3]| a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5);
         assert!(close(
-            ColorModel::YCoCg.to_rgb([0.5, 0.1, 0.2]),
+            ColorModel::YCoCg.decode([0.5, 0.1, 0.2]),
             [0.4, 0.7, 0.2]
         ));
         let pca = ColorModel::Pca {
@@ -1060,15 +1115,15 @@ mod tests {
             // Column-major M: rgb_j = Σ_i v_i M(i, j) + mean_j; M(0,1) = 2 is file element 3.
             matrix: [1.0, 0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0],
         };
-        assert!(close(pca.to_rgb([1.0, 1.0, 1.0]), [2.0, 5.0, 4.0]));
+        assert!(close(pca.decode([1.0, 1.0, 1.0]), [2.0, 5.0, 4.0]));
         let y = (0.5f32).ln();
         // Y = exp(ln 0.5) − ε, U = 0.2 · (Y + ε) = 0.1, V = −0.4 · 0.5 = −0.2.
-        let got = ColorModel::YlogUdivYVdivY.to_rgb([y, 0.2, -0.4]);
+        let got = ColorModel::YlogUdivYVdivY.decode([y, 0.2, -0.4]);
         let yy = 0.5 - DRR_EPS;
         let want = [yy - 0.2 * 1.13983, yy - 0.039465 + 0.11612, yy + 0.203211];
         assert!(close(got, want), "{got:?}");
         assert!(close(
-            ColorModel::LogRgb.to_rgb([0.0, y, 0.0]),
+            ColorModel::LogRgb.decode([0.0, y, 0.0]),
             [1.0 - DRR_EPS, 0.5 - DRR_EPS, 1.0 - DRR_EPS]
         ));
     }

@@ -46,8 +46,7 @@ impl Stats {
 
     fn add(&mut self, values: &[f32]) {
         for px in values.chunks_exact(3) {
-            for c in 0..3 {
-                let v = px[c];
+            for (c, &v) in px.iter().enumerate() {
                 if !v.is_finite() {
                     self.non_finite += 1;
                     continue;
