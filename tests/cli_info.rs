@@ -58,3 +58,61 @@ fn info_reports_a_cache_and_fails_clearly_on_bad_input() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("broken.btfc"));
 }
+
+#[test]
+fn info_and_convert_read_a_ubo2014_file() {
+    use btfpt::btf::ubo2014::{ColorModel, FactorisedBtf, PayloadKind};
+    let dir = tempfile::tempdir().unwrap();
+    let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (45.0, 90.0)]);
+    let lights = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (60.0, 0.0)]);
+    // Rank-1 FMF: U = 1 for every (view, light, channel) row, S·V = 0.5 per texel → 0.5 · cos θ_l.
+    let f = FactorisedBtf {
+        kind: PayloadKind::Fmf { extended: true },
+        color: ColorModel::Rgb,
+        drr: false,
+        version: 4,
+        cosine_flag: 0,
+        rgb_scale: [1.0; 3],
+        rotations: true,
+        scalar_size: 2,
+        views,
+        lights,
+        width: 3,
+        height: 2,
+        u: vec![vec![1.0; 3 * 4]],
+        sxv: vec![vec![0.5; 6]],
+        components: vec![1],
+    };
+    let p = dir.path().join("m.btf");
+    f.write(&p).unwrap();
+    let out = btfpt().arg("info").arg(&p).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("!FMF12FCER version 4, cosine flag 0"),
+        "{text}"
+    );
+    // Lights at θ = 0 and 60°: values 0.5 and 0.25, mean 0.375.
+    assert!(
+        text.contains("R: min 0.25000  max 0.50000  mean 0.37500"),
+        "{text}"
+    );
+    let cache = dir.path().join("m.btfc");
+    assert!(
+        btfpt()
+            .arg("convert")
+            .arg(&p)
+            .arg(&cache)
+            .status()
+            .unwrap()
+            .success()
+    );
+    assert_eq!(
+        btf::load_raw(&cache).unwrap().data(),
+        btf::load_raw(&p).unwrap().data()
+    );
+}

@@ -363,7 +363,18 @@ impl Ubo2003Folder {
     /// Decodes every image (in parallel) into an in-memory [`RawBtf`].
     pub fn load(&self) -> Result<RawBtf> {
         let per_image = 3 * self.width * self.height;
-        let mut data = vec![f16::ZERO; per_image * self.files.len()];
+        let total = per_image * self.files.len();
+        let mut data: Vec<f16> = Vec::new();
+        data.try_reserve_exact(total).map_err(|_| {
+            Error::format(
+                &self.dir,
+                format!(
+                    "not enough memory to load the BTF ({:.2} GB as f16)",
+                    total as f64 * 2e-9
+                ),
+            )
+        })?;
+        data.resize(total, f16::ZERO);
         data.par_chunks_mut(per_image)
             .zip(self.files.par_iter())
             .try_for_each(|(out, path)| {

@@ -79,9 +79,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         );
     }
     let t0 = Instant::now();
-    let src = btf::open(path).with_context(|| format!("cannot open {}", path.display()))?;
-    let open_s = t0.elapsed().as_secs_f64();
-    if format == BtfFormat::Ubo2014 {
+    let src: Box<dyn btf::BtfSource + Send> = if format == BtfFormat::Ubo2014 {
         let b = btf::ubo2014::open_btf(path)?;
         let h = b.header();
         println!(
@@ -97,7 +95,11 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
             h.rgb_scale,
             b.color_model()
         );
-    }
+        Box::new(b)
+    } else {
+        btf::open(path).with_context(|| format!("cannot open {}", path.display()))?
+    };
+    let open_s = t0.elapsed().as_secs_f64();
     let (nv, nl, w, h) = (
         src.views().len(),
         src.lights().len(),
