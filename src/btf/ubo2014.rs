@@ -573,32 +573,44 @@ impl Ubo2014Btf {
 
     /// Decodes view `view` into `out` (`[light][row][col][rgb]`).
     fn decode_view_into(&self, view: usize, out: &mut [f32]) {
+        // Lights per task and texels per block: a block of S·V rows (≤ 256 · k scalars) stays in
+        // cache while it is reused for every light of the group and every channel.
+        const LIGHTS_PER_TASK: usize = 8;
+        const TEXEL_BLOCK: usize = 256;
         let h = &self.header;
         let nl = h.lights.len();
         let n_xy = h.width * h.height;
-        out.par_chunks_mut(3 * n_xy)
+        out.par_chunks_mut(3 * n_xy * LIGHTS_PER_TASK)
             .enumerate()
-            .for_each(|(l, img)| {
-                let row = view * nl + l;
-                for c in 0..3 {
-                    let a = self.angular[c].row(row);
-                    let s = &self.spatial[c];
-                    for xy in 0..n_xy {
-                        img[3 * xy + c] = dot(a, s.row(xy));
+            .for_each(|(task, imgs)| {
+                let l0 = task * LIGHTS_PER_TASK;
+                for start in (0..n_xy).step_by(TEXEL_BLOCK) {
+                    let end = (start + TEXEL_BLOCK).min(n_xy);
+                    for (li, img) in imgs.chunks_exact_mut(3 * n_xy).enumerate() {
+                        let row = view * nl + l0 + li;
+                        for c in 0..3 {
+                            let a = self.angular[c].row(row);
+                            let s = &self.spatial[c];
+                            for xy in start..end {
+                                img[3 * xy + c] = dot(a, s.row(xy));
+                            }
+                        }
                     }
                 }
-                let cos = h.lights.dirs[l].z.max(0.0);
-                let factor = h
-                    .rgb_scale
-                    .map(|s| if h.cosine_flag == 0 { s * cos } else { s });
-                for px in img.chunks_exact_mut(3) {
-                    let mut v = self.color.decode([px[0], px[1], px[2]]);
-                    if self.drr {
-                        v = v.map(|x| x.exp() - DRR_EPS);
-                    }
-                    for c in 0..3 {
-                        let x = v[c] * factor[c];
-                        px[c] = if x > 0.0 { x } else { 0.0 };
+                for (li, img) in imgs.chunks_exact_mut(3 * n_xy).enumerate() {
+                    let cos = h.lights.dirs[l0 + li].z.max(0.0);
+                    let factor = h
+                        .rgb_scale
+                        .map(|s| if h.cosine_flag == 0 { s * cos } else { s });
+                    for px in img.chunks_exact_mut(3) {
+                        let mut v = self.color.decode([px[0], px[1], px[2]]);
+                        if self.drr {
+                            v = v.map(|x| x.exp() - DRR_EPS);
+                        }
+                        for c in 0..3 {
+                            let x = v[c] * factor[c];
+                            px[c] = if x > 0.0 { x } else { 0.0 };
+                        }
                     }
                 }
             });
@@ -978,6 +990,21 @@ mod tests {
             let src = open_btf(&p).unwrap();
             assert_eq!(src.header().cosine_flag, if ver > 1 { cos } else { 0 });
         }
+    }
+
+    #[test]
+    fn decoding_spans_several_light_groups_and_texel_blocks() {
+        // 10 lights (> 8 per task) and 20 × 15 = 300 texels (> one 256-texel block).
+        let dir = tempfile::tempdir().unwrap();
+        let mut f = fmf(4, 0, false, false, 2);
+        f.lights = DirectionSet::from_rings(&[(0.0, 1, 0.0), (40.0, 9, 5.0)]);
+        (f.width, f.height) = (20, 15);
+        let n_lv = f.views.len() * f.lights.len();
+        f.u = vec![vals(3 * n_lv * 5, 3)];
+        f.sxv = vec![vals(300 * 5, 4)];
+        let p = dir.path().join("big.btf");
+        f.write(&p).unwrap();
+        check_all(&f, &load_btf(&p).unwrap(), 1e-5);
     }
 
     #[test]
