@@ -8,6 +8,8 @@ when the file is not called scene.xml):
   <name>.exr      mean radiance, float32 linear RGB (box filter, N samples per pixel)
   <name>_var.exr  per-pixel, per-channel variance of that mean, float32
                   (= unbiased sample variance of the N per-pixel samples / N)
+  <name>_sample_var.exr  the per-sample variance itself (= <name>_var · N), float32: the variance
+                  of a test render's mean at n spp is predicted as sample_var / n (robust z-test)
   <name>.png      sRGB preview
   <name>.json     how it was made: scene, defines, spp, passes, seeds, Mitsuba version, timing,
                   and a consistency check of the variance estimate.
@@ -135,6 +137,7 @@ def main(argv=None) -> int:
 
     write_exr(out_dir / f"{name}.exr", mean)
     write_exr(out_dir / f"{name}_var.exr", var_mean)
+    write_exr(out_dir / f"{name}_sample_var.exr", var_sample)
     mi.util.write_bitmap(str(out_dir / f"{name}.png"), mi.TensorXf(mean.astype(np.float32)))
     try:
         scene_rel = str(args.scene.resolve().relative_to(mc.HERE.parent))
