@@ -37,11 +37,12 @@ def parse_defines(items: list[str]) -> dict[str, str]:
 
 
 def scene_name(scene: Path) -> str:
-    """`scenes/foo/scene.xml` → `foo`; `scenes/foo/bar.xml` → `foo-bar`."""
+    """`scenes/foo/scene.xml` → `foo`; `scenes/foo/scene-bar.xml` and `scenes/foo/bar.xml` → `foo-bar`."""
     scene = scene.resolve()
     if scene.stem == "scene":
         return scene.parent.name
-    return f"{scene.parent.name}-{scene.stem}"
+    stem = scene.stem[len("scene-"):] if scene.stem.startswith("scene-") else scene.stem
+    return f"{scene.parent.name}-{stem}"
 
 
 def load_scene(path: Path, defines: dict[str, str]):
