@@ -28,7 +28,8 @@ from scipy.stats import norm
 def read(path) -> np.ndarray:
     import mitsuba as mi
 
-    mi.set_variant("scalar_rgb")
+    if mi.variant() is None:
+        mi.set_variant("scalar_rgb")
     try:
         a = np.array(mi.Bitmap(str(path)), dtype=np.float64)
     except Exception as e:  # noqa: BLE001
