@@ -7,3 +7,4 @@ spp="${SPP:-16384}"
 "$py" "$here/render.py" "$here/../scenes/cornell-box/scene.xml" --spp "$spp"
 "$py" "$here/render.py" "$here/../scenes/cornell-box-all/scene.xml" --spp "$spp"
 "$py" "$here/render.py" "$here/../scenes/cornell-box-all/scene-constant.xml" --spp "$spp"
+# afterwards refresh the test bounds: calibrate.py on each scene (rewrites <name>_calibration.json)
