@@ -44,6 +44,10 @@ impl Accel {
         for (mi, mesh) in meshes.iter().enumerate() {
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = idx.map(|i| mesh.positions[i as usize]);
+                // Non-finite or degenerate triangles cannot be hit; keep them out of the BVH.
+                if !p.iter().all(|q| q.is_finite()) || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO {
+                    continue;
+                }
                 for q in p {
                     lo = lo.min(q);
                     hi = hi.max(q);
