@@ -68,7 +68,10 @@ fn identical_exr_bytes_with_one_and_two_threads() {
     assert_eq!(files[0], files[1]);
     // And a different seed gives a different image (the test can fail).
     let other = render(&rs, settings(&rs.scene, 6, 10));
-    assert_ne!(other.mean_image(), render(&rs, settings(&rs.scene, 6, 9)).mean_image());
+    assert_ne!(
+        other.mean_image(),
+        render(&rs, settings(&rs.scene, 6, 9)).mean_image()
+    );
 }
 
 #[test]
@@ -103,7 +106,12 @@ fn interrupted_and_resumed_render_is_bit_identical() {
     }
     let a = full.mean_image();
     let b = resumed.mean_image();
-    assert!(a.data.iter().zip(&b.data).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert!(
+        a.data
+            .iter()
+            .zip(&b.data)
+            .all(|(x, y)| x.to_bits() == y.to_bits())
+    );
     // A corrupted checkpoint is an error naming the file.
     let mut bytes = std::fs::read(&ck).unwrap();
     let mid = bytes.len() / 2;
@@ -147,14 +155,24 @@ fn crop_and_sample_range_merges_equal_a_single_render() {
                 if y < 20 {
                     assert_eq!(a[c].to_bits(), b[c].to_bits(), "crop pixel ({x},{y})");
                 } else {
-                    assert!((a[c] - b[c]).abs() <= 4.0 * f32::EPSILON * a[c].abs().max(1e-30), "range pixel ({x},{y}): {} vs {}", a[c], b[c]);
+                    assert!(
+                        (a[c] - b[c]).abs() <= 4.0 * f32::EPSILON * a[c].abs().max(1e-30),
+                        "range pixel ({x},{y}): {} vs {}",
+                        a[c],
+                        b[c]
+                    );
                 }
             }
         }
     }
     // Overlapping sample ranges and holes are refused.
     let dup = vec![parts[0].clone(), parts[0].clone()];
-    assert!(merge(&dup, &names).unwrap_err().to_string().contains("twice"));
+    assert!(
+        merge(&dup, &names)
+            .unwrap_err()
+            .to_string()
+            .contains("twice")
+    );
     let hole = vec![parts[0].clone(), parts[3].clone()];
     assert!(merge(&hole, &names).is_err());
 }

@@ -23,7 +23,11 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         .iter()
         .map(|p| read_partial_exr(p))
         .collect::<Result<Vec<_>, _>>()?;
-    let names: Vec<String> = args.inputs.iter().map(|p| p.display().to_string()).collect();
+    let names: Vec<String> = args
+        .inputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
     let (img, meta) = merge(&parts, &names)?;
     write_partial_exr(&args.output, &img, &meta)?;
     let png = args.output.with_extension("png");

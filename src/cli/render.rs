@@ -99,10 +99,15 @@ fn check_writable(path: &Path) -> anyhow::Result<()> {
         _ => PathBuf::from("."),
     };
     if !dir.is_dir() {
-        bail!("{}: output directory {} does not exist", path.display(), dir.display());
+        bail!(
+            "{}: output directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
     }
     let probe = btfpt::io::atomic::temp_path(path);
-    std::fs::write(&probe, b"").with_context(|| format!("{}: output is not writable", path.display()))?;
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("{}: output is not writable", path.display()))?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
 }
@@ -133,7 +138,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| args.scene.with_extension("exr"));
-    if out.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()) != Some("exr".into()) {
+    if out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        != Some("exr".into())
+    {
         bail!("{}: the output must be an .exr file", out.display());
     }
     let (spp_begin, spp_end) = match (&args.spp_range, args.spp) {
@@ -211,7 +221,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         let flag = interrupt.clone();
         if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {
-            eprintln!("warning: cannot install the Ctrl-C handler ({e}); no checkpoint on interrupt");
+            eprintln!(
+                "warning: cannot install the Ctrl-C handler ({e}); no checkpoint on interrupt"
+            );
         }
     }
     let pool = {

@@ -45,7 +45,9 @@ impl Accel {
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = idx.map(|i| mesh.positions[i as usize]);
                 // Non-finite or degenerate triangles cannot be hit; keep them out of the BVH.
-                if !p.iter().all(|q| q.is_finite()) || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO {
+                if !p.iter().all(|q| q.is_finite())
+                    || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO
+                {
                     continue;
                 }
                 for q in p {
@@ -184,8 +186,16 @@ mod tests {
             .intersect(Vec3::new(-0.5, 0.2, -5.0), Vec3::Z, f32::INFINITY)
             .unwrap();
         assert_eq!((h.mesh, h.prim), (0, 1));
-        assert!(accel.intersect(Vec3::new(3.0, 0.0, 5.0), -Vec3::Z, 100.0).is_none());
-        assert!(accel.intersect(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 2.5).is_none());
+        assert!(
+            accel
+                .intersect(Vec3::new(3.0, 0.0, 5.0), -Vec3::Z, 100.0)
+                .is_none()
+        );
+        assert!(
+            accel
+                .intersect(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 2.5)
+                .is_none()
+        );
         assert!(accel.occluded(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 3.5));
         assert!(!accel.occluded(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 2.9));
         let (lo, hi) = accel.bounds();
@@ -196,7 +206,11 @@ mod tests {
     #[test]
     fn empty_scene_never_hits() {
         let accel = Accel::build(&[]);
-        assert!(accel.intersect(Vec3::ZERO, Vec3::Z, f32::INFINITY).is_none());
+        assert!(
+            accel
+                .intersect(Vec3::ZERO, Vec3::Z, f32::INFINITY)
+                .is_none()
+        );
         assert!(!accel.occluded(Vec3::ZERO, Vec3::Z, f32::INFINITY));
     }
 

@@ -26,7 +26,11 @@ pub fn sphere_displaced(
         let theta = PI * i as f32 / n_lat as f32;
         for j in 0..=n_lon {
             let phi = 2.0 * PI * j as f32 / n_lon as f32;
-            let d = Vec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            let d = Vec3::new(
+                theta.sin() * phi.cos(),
+                theta.sin() * phi.sin(),
+                theta.cos(),
+            );
             positions.push(center + d * radius * (1.0 + displace(d)));
             normals.push(if inward { -d } else { d });
             uvs.push(Vec2::new(j as f32 / n_lon as f32, i as f32 / n_lat as f32));
@@ -65,7 +69,14 @@ pub fn sphere_displaced(
 }
 
 /// A plain sphere (see [`sphere_displaced`]).
-pub fn sphere(center: Vec3, radius: f32, n_lat: u32, n_lon: u32, inward: bool, smooth: bool) -> Mesh {
+pub fn sphere(
+    center: Vec3,
+    radius: f32,
+    n_lat: u32,
+    n_lon: u32,
+    inward: bool,
+    smooth: bool,
+) -> Mesh {
     sphere_displaced(center, radius, n_lat, n_lon, inward, smooth, |_| 0.0)
 }
 

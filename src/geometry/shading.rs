@@ -116,7 +116,11 @@ mod tests {
                 vec![]
             },
             uvs: if uvs {
-                vec![Vec2::new(0.0, 1.0), Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0)]
+                vec![
+                    Vec2::new(0.0, 1.0),
+                    Vec2::new(0.0, 0.0),
+                    Vec2::new(1.0, 1.0),
+                ]
             } else {
                 vec![]
             },

@@ -1,5 +1,8 @@
 //! Discrete and piecewise-constant distributions for importance sampling lights.
 
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 /// A discrete distribution over `n` bins proportional to non-negative weights.
 #[derive(Clone, Debug)]
 pub struct Distribution1D {

@@ -8,6 +8,9 @@
 //! luminance × its solid angle, and sampled uniformly in (φ, cos θ), so the solid-angle pdf is
 //! constant per cell (no 1/sin θ singularity at the poles).
 
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::distribution::Distribution1D;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
@@ -69,12 +72,13 @@ impl EnvMapLight {
         let mut cols = Vec::with_capacity(h - 1);
         let mut row_w = Vec::with_capacity(h - 1);
         for j in 0..h - 1 {
-            let d_omega = (cos_row[j] as f64 - cos_row[j + 1] as f64).max(0.0) * 2.0
-                * std::f64::consts::PI
-                / w as f64;
+            let d_omega =
+                (cos_row[j] as f64 - cos_row[j + 1] as f64).max(0.0) * 2.0 * std::f64::consts::PI
+                    / w as f64;
             let cells = (0..w).map(|i| {
                 let i1 = (i + 1) % w;
-                let m = lum[j * w + i] + lum[j * w + i1] + lum[(j + 1) * w + i] + lum[(j + 1) * w + i1];
+                let m =
+                    lum[j * w + i] + lum[j * w + i1] + lum[(j + 1) * w + i] + lum[(j + 1) * w + i1];
                 0.25 * m * d_omega
             });
             let dist = Distribution1D::new(cells);
@@ -177,7 +181,8 @@ mod tests {
         let mut img = RgbImage::new(w, h);
         for j in 0..h {
             for i in 0..w {
-                let v = 0.1 + (i * 7 + j * 3) as f32 % 5.0 + if (i, j) == (2, 1) { 40.0 } else { 0.0 };
+                let v =
+                    0.1 + (i * 7 + j * 3) as f32 % 5.0 + if (i, j) == (2, 1) { 40.0 } else { 0.0 };
                 img.set(i, j, [v, 0.5 * v, 0.25]);
             }
         }
@@ -194,7 +199,11 @@ mod tests {
         let u = 0.5 / 8.0;
         let phi = 2.0 * PI * u;
         let theta = PI * 1.0 / 4.0; // row 1
-        let d = Vec3::new(theta.sin() * phi.sin(), theta.cos(), -theta.sin() * phi.cos());
+        let d = Vec3::new(
+            theta.sin() * phi.sin(),
+            theta.cos(),
+            -theta.sin() * phi.cos(),
+        );
         let got = env.eval(d);
         let want1 = Spectrum::from(img.get(0, 1)) * 2.0;
         assert!((got - want1).length() < 1e-4, "{got} vs {want1}");
@@ -238,7 +247,11 @@ mod tests {
         for _ in 0..n {
             let (d, val, pdf) = env.sample(rng.next_2d()).unwrap();
             assert!((d.length() - 1.0).abs() < 1e-4);
-            assert!((pdf - env.pdf(d)).abs() <= 1e-3 * pdf, "{pdf} vs {}", env.pdf(d));
+            assert!(
+                (pdf - env.pdf(d)).abs() <= 1e-3 * pdf,
+                "{pdf} vs {}",
+                env.pdf(d)
+            );
             assert!((val - env.eval(d)).length() < 1e-5);
             hist[bin(d)] += 1.0;
         }
@@ -252,7 +265,8 @@ mod tests {
                 let phi = 2.0 * PI * (p as f32 + 0.5) / (np * sub) as f32;
                 let r = (1.0 - z * z).sqrt();
                 let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                let w = env.pdf(d) as f64 * 4.0 * std::f64::consts::PI / (nt * np * sub * sub) as f64;
+                let w =
+                    env.pdf(d) as f64 * 4.0 * std::f64::consts::PI / (nt * np * sub * sub) as f64;
                 expect[bin(d)] += w;
                 total += w;
             }

@@ -2,6 +2,9 @@
 //! directional, constant and lat-long environment map; uniform emitter selection
 //! (a shape with an `area` emitter is one emitter).
 
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod distribution;
 pub mod envmap;
 
@@ -136,7 +139,11 @@ impl LightSet {
                         cos_cutoff: cutoff.cos(),
                         cos_beam: beam.cos(),
                         cutoff,
-                        inv_transition: if cutoff > beam { 1.0 / (cutoff - beam) } else { 0.0 },
+                        inv_transition: if cutoff > beam {
+                            1.0 / (cutoff - beam)
+                        } else {
+                            0.0
+                        },
                     }
                 }
                 Emitter::Directional {
@@ -403,7 +410,8 @@ mod tests {
         let at = |deg: f32| {
             let t = deg.to_radians();
             let p = Vec3::new(t.sin(), 0.0, t.cos()) * 2.0;
-            ls.sample(&[], p, 0.0, Vec2::ZERO).map_or(0.0, |s| s.weight.x * 4.0)
+            ls.sample(&[], p, 0.0, Vec2::ZERO)
+                .map_or(0.0, |s| s.weight.x * 4.0)
         };
         assert!((at(5.0) - 1.0).abs() < 1e-5);
         assert!((at(15.0) - 0.5).abs() < 1e-3);

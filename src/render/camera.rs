@@ -5,6 +5,9 @@
 //! y_cam = (1 − 2 s_y)·tan(fov_x/2)/aspect for film coordinates s ∈ [0, 1]² (row 0 at the top).
 //! The ray starts on the near plane and ends on the far plane, as in `perspective.cpp`.
 
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use crate::math::Vec3;
 use crate::scene::Camera;
 use crate::{Error, Result};

@@ -25,7 +25,9 @@ pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
     b.extend_from_slice(MAGIC);
     b.extend_from_slice(&VERSION.to_le_bytes());
     b.extend_from_slice(&fingerprint.to_le_bytes());
-    for v in [s.width, s.height, s.crop[0], s.crop[1], s.crop[2], s.crop[3]] {
+    for v in [
+        s.width, s.height, s.crop[0], s.crop[1], s.crop[2], s.crop[3],
+    ] {
         b.extend_from_slice(&v.to_le_bytes());
     }
     b.extend_from_slice(&s.spp_begin.to_le_bytes());

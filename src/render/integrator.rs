@@ -4,6 +4,9 @@
 //! q = min(max(throughput)·η², 0.95), and `hide_emitters` hiding what the camera sees directly
 //! (area emitters are skipped by camera rays, the environment is black behind them).
 
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use super::RenderScene;
 use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;

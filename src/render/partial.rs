@@ -76,7 +76,10 @@ impl PartialMeta {
             || x as u64 + w as u64 > m.width as u64
             || y as u64 + h as u64 > m.height as u64
         {
-            return Err(Error::format(path, format!("inconsistent '{ATTR}' attribute: {s:?}")));
+            return Err(Error::format(
+                path,
+                format!("inconsistent '{ATTR}' attribute: {s:?}"),
+            ));
         }
         Ok(m)
     }
@@ -101,12 +104,15 @@ pub fn write_partial_exr(path: &Path, img: &RgbImage, meta: &PartialMeta) -> cra
             layer_position: Vec2(x as i32, y as i32),
             ..LayerAttributes::default()
         };
-        let layer = Layer::new((w as usize, h as usize), attrs, Encoding::SMALL_LOSSLESS, channels);
-        let mut image = Image::from_layer(layer);
-        image.attributes.display_window = IntegerBounds::new(
-            Vec2(0, 0),
-            Vec2(meta.width as usize, meta.height as usize),
+        let layer = Layer::new(
+            (w as usize, h as usize),
+            attrs,
+            Encoding::SMALL_LOSSLESS,
+            channels,
         );
+        let mut image = Image::from_layer(layer);
+        image.attributes.display_window =
+            IntegerBounds::new(Vec2(0, 0), Vec2(meta.width as usize, meta.height as usize));
         // A single custom attribute keeps the header byte-identical from run to run.
         image.attributes.other.insert(
             Text::from(ATTR),
@@ -136,7 +142,13 @@ pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
         },
     )
     .map_err(|e| E::format(path, format!("cannot read EXR: {e}")))?;
-    let text = match image.attributes.other.get(&Text::from(ATTR)) {
+    let key = Text::from(ATTR);
+    let found = image
+        .attributes
+        .other
+        .get(&key)
+        .or_else(|| image.layer_data.attributes.other.get(&key));
+    let text = match found {
         Some(AttributeValue::Text(t)) => t.to_string(),
         _ => {
             return Err(E::format(
@@ -148,8 +160,12 @@ pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
     let meta = PartialMeta::parse(&text, path)?;
     let pos = image.layer_data.attributes.layer_position;
     let img = image.layer_data.channel_data.pixels;
-    if [pos.x() as i64, pos.y() as i64, img.width as i64, img.height as i64]
-        != meta.crop.map(|v| v as i64)
+    if [
+        pos.x() as i64,
+        pos.y() as i64,
+        img.width as i64,
+        img.height as i64,
+    ] != meta.crop.map(|v| v as i64)
     {
         return Err(E::format(
             path,
@@ -162,12 +178,20 @@ pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
 /// Combines partial renders of one film and seed into one (see the module docs). Every pixel of
 /// the inputs' bounding window must be covered by disjoint sample ranges whose union is the
 /// same contiguous range for all pixels. `names` label the inputs in error messages.
-pub fn merge(parts: &[(RgbImage, PartialMeta)], names: &[String]) -> Result<(RgbImage, PartialMeta)> {
+pub fn merge(
+    parts: &[(RgbImage, PartialMeta)],
+    names: &[String],
+) -> Result<(RgbImage, PartialMeta)> {
     let first = parts
         .first()
         .ok_or_else(|| Error::Invalid("merge needs at least one input".into()))?
         .1;
-    let name = |i: usize| names.get(i).cloned().unwrap_or_else(|| format!("input {i}"));
+    let name = |i: usize| {
+        names
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| format!("input {i}"))
+    };
     for (i, (_, m)) in parts.iter().enumerate() {
         if (m.width, m.height, m.seed) != (first.width, first.height, first.seed) {
             return Err(Error::Invalid(format!(
@@ -185,8 +209,16 @@ pub fn merge(parts: &[(RgbImage, PartialMeta)], names: &[String]) -> Result<(Rgb
     }
     let x0 = parts.iter().map(|p| p.1.crop[0]).min().unwrap_or(0);
     let y0 = parts.iter().map(|p| p.1.crop[1]).min().unwrap_or(0);
-    let x1 = parts.iter().map(|p| p.1.crop[0] + p.1.crop[2]).max().unwrap_or(0);
-    let y1 = parts.iter().map(|p| p.1.crop[1] + p.1.crop[3]).max().unwrap_or(0);
+    let x1 = parts
+        .iter()
+        .map(|p| p.1.crop[0] + p.1.crop[2])
+        .max()
+        .unwrap_or(0);
+    let y1 = parts
+        .iter()
+        .map(|p| p.1.crop[1] + p.1.crop[3])
+        .max()
+        .unwrap_or(0);
     let (w, h) = (x1 - x0, y1 - y0);
     let mut out = RgbImage::new(w as usize, h as usize);
     let mut range: Option<(u32, u32)> = None;
