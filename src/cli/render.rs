@@ -132,7 +132,13 @@ fn fingerprint(scene: &Path, defines: &[(String, String)], s: &RenderSettings) -
 
 /// Runs `btfpt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    // Argument errors first, before the (possibly slow) scene load.
     let defines = parse_defines(&args.defines)?;
+    let range = args.spp_range.as_deref().map(parse_range).transpose()?;
+    let crop_arg = args.crop.as_deref().map(parse_crop).transpose()?;
+    if !args.scene.is_file() {
+        bail!("{}: scene file not found", args.scene.display());
+    }
     let scene = btfpt::scene::load(&args.scene, &defines)?;
     let out = args
         .output
@@ -146,16 +152,16 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("{}: the output must be an .exr file", out.display());
     }
-    let (spp_begin, spp_end) = match (&args.spp_range, args.spp) {
-        (Some(r), _) => parse_range(r)?,
+    let (spp_begin, spp_end) = match (range, args.spp) {
+        (Some(r), _) => r,
         (None, Some(n)) => (0, n),
         (None, None) => (0, scene.spp),
     };
     if spp_end == 0 {
         bail!("sample count must be at least 1");
     }
-    let crop = match &args.crop {
-        Some(c) => parse_crop(c)?,
+    let crop = match crop_arg {
+        Some(c) => c,
         None => scene
             .camera
             .crop
