@@ -8,7 +8,9 @@ pub mod btf;
 pub mod error;
 pub mod geometry;
 pub mod io;
+pub mod light;
 pub mod math;
+pub mod render;
 pub mod scene;
 
 pub use error::{Error, Result};

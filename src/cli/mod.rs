@@ -2,6 +2,8 @@
 
 pub mod convert;
 pub mod info;
+pub mod merge;
+pub mod render;
 
 use clap::{Parser, Subcommand};
 
@@ -19,6 +21,10 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Convert a BTF to a `.btfc` cache or a UBO2003 image folder.
     Convert(convert::ConvertArgs),
+    /// Render a scene to EXR (+ PNG preview).
+    Render(render::RenderArgs),
+    /// Merge partial renders (crop windows, sample ranges) into one image.
+    Merge(merge::MergeArgs),
 }
 
 /// Runs one subcommand.
@@ -26,5 +32,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(a) => info::run(a),
         Command::Convert(a) => convert::run(a),
+        Command::Render(a) => render::run(a),
+        Command::Merge(a) => merge::run(a),
     }
 }

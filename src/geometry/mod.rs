@@ -1,7 +1,10 @@
 //! Scene geometry: triangle meshes in world space, the hit record, and (in `accel`) the BVH.
 
+pub mod accel;
+pub mod generate;
 pub mod intersection;
 pub mod mesh;
+pub mod shading;
 
 pub use intersection::SurfaceInteraction;
 pub use mesh::Mesh;

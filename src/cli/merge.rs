@@ -1,0 +1,46 @@
+//! `btfpt merge`: combine partial renders (crop windows and/or sample ranges of one film and
+//! seed) into the image a single render would have produced.
+
+use btfpt::render::partial::{merge, read_partial_exr, write_partial_exr};
+use clap::Args;
+use std::path::PathBuf;
+
+/// Arguments of `btfpt merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// Partial renders written by `btfpt render` (--crop / --spp-range).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Merged EXR (a PNG preview is written next to it).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+/// Runs `btfpt merge`.
+pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    let parts = args
+        .inputs
+        .iter()
+        .map(|p| read_partial_exr(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let names: Vec<String> = args
+        .inputs
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect();
+    let (img, meta) = merge(&parts, &names)?;
+    write_partial_exr(&args.output, &img, &meta)?;
+    let png = args.output.with_extension("png");
+    btfpt::io::write_png_srgb(&png, &img)?;
+    let [x, y, w, h] = meta.crop;
+    eprintln!(
+        "merged {} inputs: window {x},{y},{w}×{h} of {}×{}, samples {}..{} → {}",
+        parts.len(),
+        meta.width,
+        meta.height,
+        meta.spp_begin,
+        meta.spp_end,
+        args.output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,107 @@
+//! Discrete and piecewise-constant distributions for importance sampling lights.
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+/// A discrete distribution over `n` bins proportional to non-negative weights.
+#[derive(Clone, Debug)]
+pub struct Distribution1D {
+    /// Normalised cumulative sums; `cdf[i]` = P(bin < i + 1), last entry exactly 1.
+    cdf: Vec<f32>,
+    /// Probability of each bin.
+    pmf: Vec<f32>,
+    /// Sum of the (sanitised) weights.
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Builds from weights; negative and non-finite weights count as 0. Returns None if the sum
+    /// is 0 (nothing to sample).
+    pub fn new(weights: impl IntoIterator<Item = f64>) -> Option<Self> {
+        let w: Vec<f64> = weights
+            .into_iter()
+            .map(|x| if x.is_finite() && x > 0.0 { x } else { 0.0 })
+            .collect();
+        let total: f64 = w.iter().sum();
+        if !(total > 0.0) || !total.is_finite() {
+            return None;
+        }
+        let mut acc = 0.0f64;
+        let mut cdf = Vec::with_capacity(w.len());
+        let mut pmf = Vec::with_capacity(w.len());
+        for &x in &w {
+            acc += x;
+            cdf.push((acc / total) as f32);
+            pmf.push((x / total) as f32);
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Some(Distribution1D { cdf, pmf, total })
+    }
+
+    /// Number of bins.
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// True if there are no bins (never, for a constructed distribution).
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// Sum of the weights it was built from.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    /// Probability of bin `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Picks a bin for `u` in [0, 1); returns (bin, its probability, u re-scaled to [0, 1) inside the bin).
+    #[inline]
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        // First bin whose cdf exceeds u; bins with zero probability are never chosen.
+        let mut i = self.cdf.partition_point(|&c| c <= u);
+        if i >= self.cdf.len() {
+            i = self.cdf.len() - 1;
+        }
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let p = self.pmf[i];
+        let rem = if p > 0.0 {
+            ((u - lo) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.5
+        };
+        (i, p, rem)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frequencies_follow_weights_and_zero_bins_are_skipped() {
+        let d = Distribution1D::new([1.0, 0.0, 3.0, f64::NAN, -2.0]).unwrap();
+        assert_eq!(d.len(), 5);
+        let mut counts = [0u32; 5];
+        let n = 40_000;
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, p, r) = d.sample(u);
+            assert!((0.0..1.0).contains(&r));
+            assert_eq!(p, d.pmf(i));
+            counts[i] += 1;
+        }
+        assert_eq!(counts[1] + counts[3] + counts[4], 0);
+        assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
+        assert!(Distribution1D::new([0.0, 0.0]).is_none());
+    }
+}

@@ -1,0 +1,151 @@
+//! Mitsuba 3 `perspective` sensor: film position → primary ray.
+//!
+//! Mitsuba's camera space has +x to the *left*, +y up and +z forward (its `lookat` builds the
+//! columns (left, up, dir)); film x grows to the right, so x_cam = (1 − 2 s_x)·tan(fov_x/2) and
+//! y_cam = (1 − 2 s_y)·tan(fov_x/2)/aspect for film coordinates s ∈ [0, 1]² (row 0 at the top).
+//! The ray starts on the near plane and ends on the far plane, as in `perspective.cpp`.
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::math::Vec3;
+use crate::scene::Camera;
+use crate::{Error, Result};
+
+/// Precomputed primary-ray generator.
+#[derive(Clone, Debug)]
+pub struct PerspectiveCamera {
+    origin: Vec3,
+    /// World images of the camera axes (x = left, y = up, z = forward), not normalised when the
+    /// transform scales (directions are normalised after the transform, as Mitsuba does).
+    axes: [Vec3; 3],
+    tan_half_x: f32,
+    inv_aspect: f32,
+    near: f32,
+    far: f32,
+    /// Full film size in pixels.
+    pub width: u32,
+    pub height: u32,
+}
+
+impl PerspectiveCamera {
+    /// Validates and precomputes the camera.
+    pub fn new(cam: &Camera) -> Result<Self> {
+        if cam.width == 0 || cam.height == 0 {
+            return Err(Error::Invalid(format!(
+                "film resolution {}×{} must be positive",
+                cam.width, cam.height
+            )));
+        }
+        if !(cam.fov_x_deg > 0.0 && cam.fov_x_deg < 180.0) {
+            return Err(Error::Invalid(format!(
+                "horizontal field of view {}° must be in (0, 180)",
+                cam.fov_x_deg
+            )));
+        }
+        if !(cam.near_clip > 0.0 && cam.far_clip > cam.near_clip) {
+            return Err(Error::Invalid(format!(
+                "clip planes near={} far={} must satisfy 0 < near < far",
+                cam.near_clip, cam.far_clip
+            )));
+        }
+        let m = cam.to_world;
+        let axes = [
+            m.transform_vector3(Vec3::X),
+            m.transform_vector3(Vec3::Y),
+            m.transform_vector3(Vec3::Z),
+        ];
+        if !m.is_finite() || glam::Mat3::from_mat4(m).determinant().abs() < 1e-20 {
+            return Err(Error::Invalid("camera to_world is singular".into()));
+        }
+        Ok(PerspectiveCamera {
+            origin: m.transform_point3(Vec3::ZERO),
+            axes,
+            tan_half_x: (0.5 * cam.fov_x_deg.to_radians()).tan(),
+            inv_aspect: cam.height as f32 / cam.width as f32,
+            near: cam.near_clip,
+            far: cam.far_clip,
+            width: cam.width,
+            height: cam.height,
+        })
+    }
+
+    /// The ray through film position (`fx`, `fy`) in pixels of the full film; returns
+    /// (origin, unit direction, maximum distance).
+    #[inline]
+    pub fn ray(&self, fx: f32, fy: f32) -> (Vec3, Vec3, f32) {
+        let sx = fx / self.width as f32;
+        let sy = fy / self.height as f32;
+        let x = (1.0 - 2.0 * sx) * self.tan_half_x;
+        let y = (1.0 - 2.0 * sy) * self.tan_half_x * self.inv_aspect;
+        // Camera-space direction (x, y, 1), with |.| used to place near/far along the ray.
+        let inv_len = 1.0 / (x * x + y * y + 1.0).sqrt();
+        let d_world = (self.axes[0] * x + self.axes[1] * y + self.axes[2]).normalize();
+        // Near/far planes are at camera-space z = near/far: t = near · |d_cam| / z_cam.
+        let near_t = self.near / inv_len;
+        let far_t = self.far / inv_len;
+        (self.origin + d_world * near_t, d_world, far_t - near_t)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Mat4;
+
+    fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+        // Mitsuba: dir = normalize(target - origin); left = normalize(cross(up, dir)); new_up = cross(dir, left).
+        let dir = (target - origin).normalize();
+        let left = up.normalize().cross(dir).normalize();
+        let new_up = dir.cross(left);
+        Mat4::from_cols(
+            left.extend(0.0),
+            new_up.extend(0.0),
+            dir.extend(0.0),
+            origin.extend(1.0),
+        )
+    }
+
+    #[test]
+    fn image_left_is_world_left_and_top_is_up() {
+        // Looking down −z from +z with +y up: world −x must be on the left of the image.
+        let cam = Camera {
+            to_world: lookat(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y),
+            fov_x_deg: 90.0,
+            near_clip: 0.01,
+            far_clip: 100.0,
+            width: 200,
+            height: 100,
+            crop: None,
+        };
+        let c = PerspectiveCamera::new(&cam).unwrap();
+        let (_, d, _) = c.ray(100.0, 50.0);
+        assert!((d - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+        let (_, d, _) = c.ray(0.0, 50.0);
+        assert!((d - Vec3::new(-1.0, 0.0, -1.0).normalize()).length() < 1e-6);
+        let (_, d, _) = c.ray(100.0, 0.0);
+        assert!((d - Vec3::new(0.0, 0.5, -1.0).normalize()).length() < 1e-6);
+        let (o, d, tmax) = c.ray(0.0, 0.0);
+        let end = o + d * tmax;
+        // Near plane at z_cam = 0.01, far plane at z_cam = 100.
+        assert!(((5.0 - o.z) - 0.01).abs() < 1e-5);
+        assert!(((5.0 - end.z) - 100.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn bad_cameras_are_errors() {
+        let mut cam = Camera {
+            to_world: Mat4::IDENTITY,
+            fov_x_deg: 180.0,
+            near_clip: 0.01,
+            far_clip: 100.0,
+            width: 2,
+            height: 2,
+            crop: None,
+        };
+        assert!(PerspectiveCamera::new(&cam).is_err());
+        cam.fov_x_deg = 45.0;
+        cam.width = 0;
+        assert!(PerspectiveCamera::new(&cam).is_err());
+    }
+}

@@ -1,0 +1,211 @@
+//! Unidirectional path tracing with next-event estimation and MIS (power heuristic), following
+//! Mitsuba 3's `path` integrator: max_depth counts path vertices (1 = emitters seen directly,
+//! 2 = direct lighting, −1 = unbounded), Russian roulette from `rr_depth` with
+//! q = min(max(throughput)·η², 0.95), and `hide_emitters` hiding what the camera sees directly
+//! (area emitters are skipped by camera rays, the environment is black behind them).
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::RenderScene;
+use crate::bsdf::BsdfFlags;
+use crate::geometry::accel::offset_origin;
+use crate::geometry::shading::surface_interaction;
+use crate::math::{Pcg32, Spectrum, Vec3};
+use crate::scene::IntegratorSettings;
+use crate::{Error, Result};
+
+/// Counters a worker keeps while tracing (summed for progress and the final report).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TraceStats {
+    /// Rays traced (camera, continuation and shadow rays).
+    pub rays: u64,
+}
+
+/// Integrator parameters resolved from [`IntegratorSettings`].
+#[derive(Clone, Copy, Debug)]
+pub struct PathTracer {
+    /// Longest path in vertices; `u32::MAX` for unbounded.
+    pub max_depth: u32,
+    pub rr_depth: u32,
+    pub hide_emitters: bool,
+    /// Next-event estimation on (the default). Off = pure BSDF sampling, used to cross-check MIS.
+    pub nee: bool,
+}
+
+impl PathTracer {
+    /// Validates Mitsuba's settings.
+    pub fn new(s: &IntegratorSettings) -> Result<PathTracer> {
+        if s.max_depth < -1 {
+            return Err(Error::Invalid(format!(
+                "integrator max_depth = {} (must be ≥ −1)",
+                s.max_depth
+            )));
+        }
+        if s.rr_depth < 1 {
+            return Err(Error::Invalid(format!(
+                "integrator rr_depth = {} (must be ≥ 1)",
+                s.rr_depth
+            )));
+        }
+        Ok(PathTracer {
+            max_depth: if s.max_depth < 0 {
+                u32::MAX
+            } else {
+                s.max_depth as u32
+            },
+            rr_depth: s.rr_depth as u32,
+            hide_emitters: s.hide_emitters,
+            nee: true,
+        })
+    }
+
+    /// Radiance arriving at `o` from direction `d` (unit) within distance `tmax`.
+    pub fn li(
+        &self,
+        rs: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        rng: &mut Pcg32,
+        stats: &mut TraceStats,
+    ) -> Spectrum {
+        let mut result = Spectrum::ZERO;
+        if self.max_depth == 0 {
+            return result;
+        }
+        let meshes = &rs.scene.meshes;
+        let lights = &rs.lights;
+        let mut throughput = Spectrum::ONE;
+        let mut eta = 1.0f32;
+        let mut depth = 0u32;
+        let mut prev_p = o;
+        let mut prev_pdf = 1.0f32;
+        let mut prev_delta = true;
+        let (mut ray_o, mut ray_d, mut ray_t) = (o, d, tmax);
+        stats.rays += 1;
+        let mut hit = rs.accel.intersect(ray_o, ray_d, ray_t);
+        if self.hide_emitters {
+            // Camera rays pass through area emitters (Mitsuba's skip_area_emitters).
+            while let Some(h) = hit {
+                if !lights.is_emissive(h.mesh) {
+                    break;
+                }
+                let si = surface_interaction(meshes, ray_o, ray_d, &h);
+                let travelled = (si.p - o).length();
+                ray_o = offset_origin(si.p, si.n, ray_d);
+                ray_t = tmax - travelled;
+                stats.rays += 1;
+                hit = if ray_t > 0.0 {
+                    rs.accel.intersect(ray_o, ray_d, ray_t)
+                } else {
+                    None
+                };
+            }
+        }
+        loop {
+            let Some(h) = hit else {
+                // Escaped: lights at infinity (hidden from the camera with hide_emitters).
+                if !(depth == 0 && self.hide_emitters) {
+                    for k in 0..lights.infinite_count() {
+                        let (le, pdf_e) = lights.eval_infinite(k, ray_d);
+                        let em_pdf = if prev_delta || !self.nee { 0.0 } else { pdf_e };
+                        result += throughput * le * mis_weight(prev_pdf, em_pdf);
+                    }
+                }
+                break;
+            };
+            let si = surface_interaction(meshes, ray_o, ray_d, &h);
+            if lights.is_emissive(h.mesh) {
+                let le = lights.area_radiance(meshes, &si);
+                if le != Spectrum::ZERO {
+                    let em_pdf = if prev_delta || !self.nee {
+                        0.0
+                    } else {
+                        lights.pdf_area_hit(prev_p, &si)
+                    };
+                    result += throughput * le * mis_weight(prev_pdf, em_pdf);
+                }
+            }
+            if depth.saturating_add(1) >= self.max_depth {
+                break;
+            }
+            let mesh = &meshes[h.mesh as usize];
+            let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
+                break;
+            };
+            // ------------------------- emitter sampling -------------------------
+            if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
+                let u_sel = rng.next_f32();
+                let u = rng.next_2d();
+                if let Some(ls) = lights.sample(meshes, si.p, u_sel, u) {
+                    let wo = si.to_local(ls.wi);
+                    let f = bsdf.eval(&si, wo);
+                    if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
+                        let so = offset_origin(si.p, si.n, ls.wi);
+                        stats.rays += 1;
+                        let blocked = if ls.dist.is_finite() {
+                            let target = if ls.n_geo != Vec3::ZERO {
+                                offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
+                            } else {
+                                si.p + ls.wi * ls.dist
+                            };
+                            let to = target - so;
+                            let len = to.length();
+                            len > 0.0 && rs.accel.occluded(so, to / len, len * (1.0 - 1e-4))
+                        } else {
+                            rs.accel.occluded(so, ls.wi, f32::INFINITY)
+                        };
+                        if !blocked {
+                            let mis = if ls.delta {
+                                1.0
+                            } else {
+                                mis_weight(ls.pdf, bsdf.pdf(&si, wo))
+                            };
+                            result += throughput * f * ls.weight * mis;
+                        }
+                    }
+                }
+            }
+            // -------------------------- BSDF sampling ---------------------------
+            let u1 = rng.next_f32();
+            let u2 = rng.next_2d();
+            let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
+                break;
+            };
+            let wo_world = si.to_world(bs.wo);
+            throughput *= weight;
+            eta *= bs.eta;
+            prev_p = si.p;
+            prev_pdf = bs.pdf;
+            prev_delta = bs.sampled.has(BsdfFlags::DELTA);
+            depth += 1;
+            let t_max = throughput.max_element();
+            if depth >= self.rr_depth {
+                let q = (t_max * eta * eta).min(0.95);
+                if !(rng.next_f32() < q) {
+                    break;
+                }
+                throughput /= q;
+            }
+            if !(t_max > 0.0) {
+                break;
+            }
+            ray_o = offset_origin(si.p, si.n, wo_world);
+            ray_d = wo_world;
+            ray_t = f32::INFINITY;
+            stats.rays += 1;
+            hit = rs.accel.intersect(ray_o, ray_d, ray_t);
+        }
+        result
+    }
+}
+
+/// Power heuristic with β = 2; 0 where undefined (Mitsuba's `mis_weight`).
+#[inline]
+pub fn mis_weight(pdf_a: f32, pdf_b: f32) -> f32 {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    let w = a / (a + b);
+    if w.is_finite() { w } else { 0.0 }
+}

@@ -1,0 +1,128 @@
+//! The renderer: scene preparation (BVH, lights, camera), tiled deterministic sample passes on
+//! rayon, film accumulation, checkpoints and partial-render EXRs that merge exactly.
+
+pub mod camera;
+pub mod checkpoint;
+pub mod film;
+pub mod integrator;
+pub mod partial;
+
+use crate::geometry::accel::Accel;
+use crate::light::LightSet;
+use crate::scene::Scene;
+use crate::{Error, Result};
+use camera::PerspectiveCamera;
+use integrator::PathTracer;
+
+pub use film::{RenderSettings, RenderState};
+
+/// A scene prepared for rendering.
+pub struct RenderScene {
+    pub scene: Scene,
+    pub accel: Accel,
+    pub lights: LightSet,
+    pub camera: PerspectiveCamera,
+    pub integrator: PathTracer,
+}
+
+impl RenderScene {
+    /// Builds the BVH and the light tables and validates camera and integrator settings.
+    pub fn new(scene: Scene) -> Result<RenderScene> {
+        for (i, m) in scene.meshes.iter().enumerate() {
+            let nv = m.positions.len();
+            if let Some(bad) = m.indices.iter().flatten().find(|&&k| k as usize >= nv) {
+                return Err(Error::Invalid(format!(
+                    "mesh {i} '{}': vertex index {bad} out of range ({nv} vertices)",
+                    m.name
+                )));
+            }
+            if (!m.normals.is_empty() && m.normals.len() != nv)
+                || (!m.uvs.is_empty() && m.uvs.len() != nv)
+            {
+                return Err(Error::Invalid(format!(
+                    "mesh {i} '{}': normals/uvs count differs from the {nv} positions",
+                    m.name
+                )));
+            }
+            if m.bsdf as usize >= scene.bsdfs.len() {
+                return Err(Error::Invalid(format!(
+                    "mesh {i} '{}': BSDF index {} out of range ({} BSDFs)",
+                    m.name,
+                    m.bsdf,
+                    scene.bsdfs.len()
+                )));
+            }
+        }
+        let accel = Accel::build(&scene.meshes);
+        let lights = LightSet::new(&scene, accel.bounds())?;
+        let camera = PerspectiveCamera::new(&scene.camera)?;
+        let integrator = PathTracer::new(&scene.integrator)?;
+        Ok(RenderScene {
+            scene,
+            accel,
+            lights,
+            camera,
+            integrator,
+        })
+    }
+
+    /// A few lines describing the scene, printed before rendering.
+    pub fn summary(&self) -> String {
+        let s = &self.scene;
+        let (lo, hi) = self.accel.bounds();
+        let max_depth = if self.integrator.max_depth == u32::MAX {
+            "∞".to_string()
+        } else {
+            self.integrator.max_depth.to_string()
+        };
+        format!(
+            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  path: max_depth {}, rr_depth {}, hide_emitters {}",
+            s.source.display(),
+            s.camera.width,
+            s.camera.height,
+            s.camera.fov_x_deg,
+            s.spp,
+            s.meshes.len(),
+            self.accel.triangle_count(),
+            lo.x,
+            lo.y,
+            lo.z,
+            hi.x,
+            hi.y,
+            hi.z,
+            s.bsdfs.len(),
+            self.lights.lights.len(),
+            self.lights.infinite_count(),
+            max_depth,
+            self.integrator.rr_depth,
+            self.integrator.hide_emitters,
+        )
+    }
+}
+
+#[cfg(test)]
+pub(crate) mod tests_support {
+    use crate::math::Mat4;
+    use crate::scene::{Camera, Emitter, IntegratorSettings, Scene};
+
+    /// A scene with no geometry, a default camera and the given emitters.
+    pub fn empty_scene(emitters: Vec<Emitter>) -> Scene {
+        Scene {
+            source: "test.xml".into(),
+            camera: Camera {
+                to_world: Mat4::IDENTITY,
+                fov_x_deg: 45.0,
+                near_clip: 0.01,
+                far_clip: 1000.0,
+                width: 4,
+                height: 4,
+                crop: None,
+            },
+            integrator: IntegratorSettings::default(),
+            spp: 1,
+            meshes: vec![],
+            bsdfs: vec![],
+            emitters,
+        }
+    }
+}

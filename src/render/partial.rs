@@ -1,0 +1,301 @@
+//! Partial renders as EXR files (DESIGN §6): the image holds the per-pixel *mean* of the
+//! samples [spp_begin, spp_end) of the pixels in a window of the full film. The window is the
+//! EXR data window inside the display window (the full film), and one text attribute `btfpt`
+//! records film size, window, sample range and seed. Merging weights each input by its sample
+//! count, so crop tiles and sample-range splits recombine into the single-machine image (bit
+//! for bit for crop tiles, to float rounding for sample ranges).
+
+use crate::io::{RgbImage, write_atomic};
+use crate::{Error, Result};
+
+type E = crate::Error;
+use std::path::Path;
+
+/// Which part of which render an image is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PartialMeta {
+    /// Full film size in pixels.
+    pub width: u32,
+    pub height: u32,
+    /// Window (x, y, w, h) the image covers.
+    pub crop: [u32; 4],
+    pub spp_begin: u32,
+    pub spp_end: u32,
+    pub seed: u64,
+}
+
+const ATTR: &str = "btfpt";
+
+impl PartialMeta {
+    fn to_text(self) -> String {
+        let [x, y, w, h] = self.crop;
+        format!(
+            "v1 film={}x{} window={x},{y},{w},{h} spp={}..{} seed={}",
+            self.width, self.height, self.spp_begin, self.spp_end, self.seed
+        )
+    }
+
+    fn parse(s: &str, path: &Path) -> Result<PartialMeta> {
+        let bad = || Error::format(path, format!("malformed '{ATTR}' attribute: {s:?}"));
+        let mut it = s.split_whitespace();
+        if it.next() != Some("v1") {
+            return Err(bad());
+        }
+        let mut field = |key: &str| -> Result<String> {
+            let kv = it.next().ok_or_else(bad)?;
+            kv.strip_prefix(key)
+                .and_then(|v| v.strip_prefix('='))
+                .map(str::to_string)
+                .ok_or_else(bad)
+        };
+        let film = field("film")?;
+        let window = field("window")?;
+        let spp = field("spp")?;
+        let seed = field("seed")?;
+        let (fw, fh) = film.split_once('x').ok_or_else(bad)?;
+        let win: Vec<u32> = window
+            .split(',')
+            .map(|v| v.parse().map_err(|_| bad()))
+            .collect::<Result<_>>()?;
+        let (a, b) = spp.split_once("..").ok_or_else(bad)?;
+        if win.len() != 4 {
+            return Err(bad());
+        }
+        let m = PartialMeta {
+            width: fw.parse().map_err(|_| bad())?,
+            height: fh.parse().map_err(|_| bad())?,
+            crop: [win[0], win[1], win[2], win[3]],
+            spp_begin: a.parse().map_err(|_| bad())?,
+            spp_end: b.parse().map_err(|_| bad())?,
+            seed: seed.parse().map_err(|_| bad())?,
+        };
+        let [x, y, w, h] = m.crop;
+        if m.spp_begin >= m.spp_end
+            || w == 0
+            || h == 0
+            || x as u64 + w as u64 > m.width as u64
+            || y as u64 + h as u64 > m.height as u64
+        {
+            return Err(Error::format(
+                path,
+                format!("inconsistent '{ATTR}' attribute: {s:?}"),
+            ));
+        }
+        Ok(m)
+    }
+}
+
+/// Writes the window image `img` (size crop w × h) with its metadata, atomically.
+pub fn write_partial_exr(path: &Path, img: &RgbImage, meta: &PartialMeta) -> crate::Result<()> {
+    use exr::prelude::*;
+    let [x, y, w, h] = meta.crop;
+    if img.width != w as usize || img.height != h as usize {
+        return Err(E::Invalid(format!(
+            "image {}×{} does not match its window {w}×{h}",
+            img.width, img.height
+        )));
+    }
+    write_atomic(path, |out| {
+        let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+            let p = img.get(pos.x(), pos.y());
+            (p[0], p[1], p[2])
+        });
+        let attrs = LayerAttributes {
+            layer_position: Vec2(x as i32, y as i32),
+            ..LayerAttributes::default()
+        };
+        let layer = Layer::new(
+            (w as usize, h as usize),
+            attrs,
+            Encoding::SMALL_LOSSLESS,
+            channels,
+        );
+        let mut image = Image::from_layer(layer);
+        image.attributes.display_window =
+            IntegerBounds::new(Vec2(0, 0), Vec2(meta.width as usize, meta.height as usize));
+        // A single custom attribute keeps the header byte-identical from run to run.
+        image.attributes.other.insert(
+            Text::from(ATTR),
+            AttributeValue::Text(Text::from(meta.to_text().as_str())),
+        );
+        let mut buf = std::io::Cursor::new(Vec::new());
+        image
+            .write()
+            .non_parallel()
+            .to_buffered(&mut buf)
+            .map_err(|e| E::format(path, format!("cannot encode EXR: {e}")))?;
+        out.write_all(buf.get_ref()).map_err(|e| E::io(path, e))
+    })
+}
+
+/// Reads a partial render written by [`write_partial_exr`].
+pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
+    use exr::prelude::*;
+    if !path.exists() {
+        return Err(E::format(path, "file not found"));
+    }
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |res: Vec2<usize>, _| RgbImage::new(res.width(), res.height()),
+        |img: &mut RgbImage, pos: Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
+            img.set(pos.x(), pos.y(), [r, g, b]);
+        },
+    )
+    .map_err(|e| E::format(path, format!("cannot read EXR: {e}")))?;
+    let key = Text::from(ATTR);
+    let found = image
+        .attributes
+        .other
+        .get(&key)
+        .or_else(|| image.layer_data.attributes.other.get(&key));
+    let text = match found {
+        Some(AttributeValue::Text(t)) => t.to_string(),
+        _ => {
+            return Err(E::format(
+                path,
+                format!("not a btfpt partial render (no '{ATTR}' header attribute)"),
+            ));
+        }
+    };
+    let meta = PartialMeta::parse(&text, path)?;
+    let pos = image.layer_data.attributes.layer_position;
+    let img = image.layer_data.channel_data.pixels;
+    if [
+        pos.x() as i64,
+        pos.y() as i64,
+        img.width as i64,
+        img.height as i64,
+    ] != meta.crop.map(|v| v as i64)
+    {
+        return Err(E::format(
+            path,
+            "EXR data window does not match the recorded render window",
+        ));
+    }
+    Ok((img, meta))
+}
+
+/// Combines partial renders of one film and seed into one (see the module docs). Every pixel of
+/// the inputs' bounding window must be covered by disjoint sample ranges whose union is the
+/// same contiguous range for all pixels. `names` label the inputs in error messages.
+pub fn merge(
+    parts: &[(RgbImage, PartialMeta)],
+    names: &[String],
+) -> Result<(RgbImage, PartialMeta)> {
+    let first = parts
+        .first()
+        .ok_or_else(|| Error::Invalid("merge needs at least one input".into()))?
+        .1;
+    let name = |i: usize| {
+        names
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| format!("input {i}"))
+    };
+    for (i, (_, m)) in parts.iter().enumerate() {
+        if (m.width, m.height, m.seed) != (first.width, first.height, first.seed) {
+            return Err(Error::Invalid(format!(
+                "{}: film {}×{} seed {} differs from {} (film {}×{} seed {})",
+                name(i),
+                m.width,
+                m.height,
+                m.seed,
+                name(0),
+                first.width,
+                first.height,
+                first.seed
+            )));
+        }
+    }
+    let x0 = parts.iter().map(|p| p.1.crop[0]).min().unwrap_or(0);
+    let y0 = parts.iter().map(|p| p.1.crop[1]).min().unwrap_or(0);
+    let x1 = parts
+        .iter()
+        .map(|p| p.1.crop[0] + p.1.crop[2])
+        .max()
+        .unwrap_or(0);
+    let y1 = parts
+        .iter()
+        .map(|p| p.1.crop[1] + p.1.crop[3])
+        .max()
+        .unwrap_or(0);
+    let (w, h) = (x1 - x0, y1 - y0);
+    let mut out = RgbImage::new(w as usize, h as usize);
+    let mut range: Option<(u32, u32)> = None;
+    let mut cover: Vec<(u32, u32, usize)> = Vec::with_capacity(parts.len());
+    for y in y0..y1 {
+        for x in x0..x1 {
+            cover.clear();
+            for (i, (_, m)) in parts.iter().enumerate() {
+                let [cx, cy, cw, ch] = m.crop;
+                if x >= cx && x < cx + cw && y >= cy && y < cy + ch {
+                    cover.push((m.spp_begin, m.spp_end, i));
+                }
+            }
+            if cover.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "pixel ({x}, {y}) lies in the merged window {x0},{y0},{w},{h} but no input covers it"
+                )));
+            }
+            cover.sort_unstable();
+            for pair in cover.windows(2) {
+                if pair[1].0 < pair[0].1 {
+                    return Err(Error::Invalid(format!(
+                        "{} and {} both contain samples {}..{} of pixel ({x}, {y}); overlapping sample ranges would count samples twice",
+                        name(pair[0].2),
+                        name(pair[1].2),
+                        pair[1].0,
+                        pair[0].1.min(pair[1].1)
+                    )));
+                }
+                if pair[1].0 > pair[0].1 {
+                    return Err(Error::Invalid(format!(
+                        "pixel ({x}, {y}) misses samples {}..{} between {} and {}",
+                        pair[0].1,
+                        pair[1].0,
+                        name(pair[0].2),
+                        name(pair[1].2)
+                    )));
+                }
+            }
+            let r = (cover[0].0, cover[cover.len() - 1].1);
+            match range {
+                None => range = Some(r),
+                Some(q) if q != r => {
+                    return Err(Error::Invalid(format!(
+                        "pixel ({x}, {y}) has samples {}..{} but others have {}..{}; the merged image would mix sample counts",
+                        r.0, r.1, q.0, q.1
+                    )));
+                }
+                _ => {}
+            }
+            let mut acc = [0f64; 3];
+            for &(b, e, i) in &cover {
+                let (img, m) = &parts[i];
+                let v = img.get((x - m.crop[0]) as usize, (y - m.crop[1]) as usize);
+                let n = (e - b) as f64;
+                for c in 0..3 {
+                    acc[c] += v[c] as f64 * n;
+                }
+            }
+            let n = (r.1 - r.0) as f64;
+            out.set(
+                (x - x0) as usize,
+                (y - y0) as usize,
+                acc.map(|a| (a / n) as f32),
+            );
+        }
+    }
+    let (spp_begin, spp_end) = range.unwrap_or((0, 1));
+    Ok((
+        out,
+        PartialMeta {
+            width: first.width,
+            height: first.height,
+            crop: [x0, y0, w, h],
+            spp_begin,
+            spp_end,
+            seed: first.seed,
+        },
+    ))
+}

@@ -1,0 +1,97 @@
+//! Scenes built in code for the render tests (the XML loader is another module's job).
+#![allow(dead_code)]
+
+use btfpt::bsdf::{Bsdf, Diffuse, Texture};
+use btfpt::geometry::Mesh;
+use btfpt::math::{Mat4, Spectrum, Vec3};
+use btfpt::render::RenderScene;
+use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::scene::{Camera, Emitter, IntegratorSettings, Scene};
+use std::sync::atomic::AtomicBool;
+
+/// Mitsuba's `lookat` (camera x = left).
+pub fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
+    let dir = (target - origin).normalize();
+    let left = up.normalize().cross(dir).normalize();
+    let new_up = dir.cross(left);
+    Mat4::from_cols(
+        left.extend(0.0),
+        new_up.extend(0.0),
+        dir.extend(0.0),
+        origin.extend(1.0),
+    )
+}
+
+pub fn diffuse(albedo: f32) -> Bsdf {
+    Bsdf::Diffuse(Diffuse {
+        reflectance: Texture::Constant(Spectrum::splat(albedo)),
+    })
+}
+
+pub fn scene(
+    origin: Vec3,
+    target: Vec3,
+    fov: f32,
+    res: (u32, u32),
+    meshes: Vec<Mesh>,
+    bsdfs: Vec<Bsdf>,
+    emitters: Vec<Emitter>,
+) -> Scene {
+    Scene {
+        source: "in-code.xml".into(),
+        camera: Camera {
+            to_world: lookat(origin, target, Vec3::Y),
+            fov_x_deg: fov,
+            near_clip: 1e-3,
+            far_clip: 1e4,
+            width: res.0,
+            height: res.1,
+            crop: None,
+        },
+        integrator: IntegratorSettings::default(),
+        spp: 4,
+        meshes,
+        bsdfs,
+        emitters,
+    }
+}
+
+pub fn settings(s: &Scene, spp: u32, seed: u64) -> RenderSettings {
+    RenderSettings {
+        width: s.camera.width,
+        height: s.camera.height,
+        crop: [0, 0, s.camera.width, s.camera.height],
+        spp_begin: 0,
+        spp_end: spp,
+        seed,
+    }
+}
+
+/// Renders to completion on the current thread pool.
+pub fn render(rs: &RenderScene, st: RenderSettings) -> RenderState {
+    let mut state = RenderState::new(st).unwrap();
+    let stop = AtomicBool::new(false);
+    while !state.is_complete() {
+        state.run_pass(rs, 1 << 20, &stop, &|_, _| {});
+    }
+    state
+}
+
+/// Per-channel-0 mean and standard error of the mean over the pixels where `mask` holds,
+/// from the per-pixel means and variances of the mean.
+pub fn region_stats(state: &RenderState, mask: impl Fn(usize, usize) -> bool) -> (f64, f64, usize) {
+    let mean = state.mean_image();
+    let var = state.variance_image().unwrap();
+    let (mut s, mut v, mut n) = (0.0, 0.0, 0usize);
+    for y in 0..mean.height {
+        for x in 0..mean.width {
+            if mask(x, y) {
+                s += mean.get(x, y)[0] as f64;
+                v += var.get(x, y)[0] as f64;
+                n += 1;
+            }
+        }
+    }
+    let n_f = n.max(1) as f64;
+    (s / n_f, (v / (n_f * n_f)).sqrt(), n)
+}
