@@ -1,0 +1,7 @@
+//! Fitting a measured BTF to the one-lobe Lafortune model (LM), its polynomial extension (PLM) and
+//! the clustered PLM-C of Filip & Haindl (2005), plus the per-view PCA baseline.
+
+pub mod kmeans;
+pub mod lafortune;
+pub mod polynomial;
+pub mod select;
