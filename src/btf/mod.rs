@@ -2,6 +2,7 @@
 //! formats, the measurement simulator, and (later) the PLM-C evaluation core.
 
 pub mod directions;
+pub mod format;
 pub mod raw;
 pub mod ubo2003;
 

@@ -3,5 +3,6 @@
 
 pub mod kmeans;
 pub mod lafortune;
+pub mod model;
 pub mod polynomial;
 pub mod select;
