@@ -528,6 +528,34 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
     Ok(model)
 }
 
+/// Magic of a resumable-fit part file (one finished view, see `fit::pipeline`).
+pub const PART_MAGIC: &[u8; 4] = b"PLMP";
+
+/// Serialises one finished view of a fit in progress: magic, the fit's fingerprint, the view
+/// index, then a complete one-view `.plmc` (so the same CRC-checked code reads it back).
+pub fn part_to_bytes(fingerprint: u64, view: usize, one_view: &PlmcModel) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    out.extend_from_slice(PART_MAGIC);
+    out.extend_from_slice(&fingerprint.to_le_bytes());
+    out.extend_from_slice(&(view as u32).to_le_bytes());
+    out.extend_from_slice(&to_bytes(one_view)?);
+    Ok(out)
+}
+
+/// Reads a part written by [`part_to_bytes`]; `Ok(None)` if it belongs to another fit (different
+/// fingerprint or view), an error if it is corrupt.
+pub fn part_from_bytes(bytes: &[u8], path: &Path, fingerprint: u64, view: usize) -> Result<Option<PlmcModel>> {
+    if bytes.len() < 16 || &bytes[..4] != PART_MAGIC {
+        return Err(Error::format(path, "not a fit part file (missing 'PLMP' magic)"));
+    }
+    let fp = u64::from_le_bytes(bytes[4..12].try_into().map_err(|_| Error::format(path, "short part header"))?);
+    let v = u32::from_le_bytes(bytes[12..16].try_into().map_err(|_| Error::format(path, "short part header"))?);
+    if fp != fingerprint || v as usize != view {
+        return Ok(None);
+    }
+    from_bytes(&bytes[16..], path).map(Some)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

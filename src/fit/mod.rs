@@ -6,3 +6,7 @@ pub mod lafortune;
 pub mod model;
 pub mod polynomial;
 pub mod select;
+pub mod pipeline;
+pub mod pca;
+pub mod report;
+pub mod evaluate;
