@@ -3,7 +3,7 @@
 //! ```text
 //! file    := "PLMC" u32 version(=1) section* END
 //! section := tag[4] u64 len payload[len] u32 crc32(tag ‖ payload)
-//! HEAD    := u8 kind(0 LM,1 PLM,2 PLM-C) u8 index_bytes(0|1|2) u8 reserved u8 reserved
+//! HEAD    := u8 kind(0 LM,1 PLM,2 PLM-C) u8 index_bytes(0|1|2) u8 space(0 linear,1 sRGB) u8 reserved
 //!            u32 width u32 height u32 tile_w u32 tile_h u32 clusters u32 views u32 lights
 //!            views × (f32 θ°, f32 φ°)  lights × (f32 θ°, f32 φ°)
 //! VIEW    := u32 view u32 k  (k = 0: per-texel lobes)
@@ -19,7 +19,7 @@
 //! because a degree-4 mapping in f16 would lose most digits to cancellation and they are small.
 
 use crate::btf::DirectionSet;
-use crate::fit::model::{ModelKind, PackedLobe, PlmcModel, ViewParams};
+use crate::fit::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use crate::{Error, Result};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -101,7 +101,7 @@ fn index_bytes(clusters: usize) -> u8 {
 }
 
 fn head_payload(m: &PlmcModel) -> Vec<u8> {
-    let mut p = vec![m.kind.code(), index_bytes(m.clusters), 0, 0];
+    let mut p = vec![m.kind.code(), index_bytes(m.clusters), m.space.code(), 0];
     for v in [
         m.width,
         m.height,
@@ -336,7 +336,10 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
     };
     let kind = ModelKind::from_code(h.u8()?).ok_or_else(|| h.err("unknown model kind"))?;
     let ib = h.u8()?;
-    let _ = (h.u8()?, h.u8()?);
+    let space = ValueSpace::from_code(h.u8()?).ok_or_else(|| h.err("unknown value space"))?;
+    if h.u8()? != 0 {
+        return Err(h.err("reserved header byte is not 0"));
+    }
     let mut dims = [0usize; 7];
     for d in dims.iter_mut() {
         *d = h.u32()? as usize;
@@ -519,6 +522,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
         width,
         height,
         clusters,
+        space,
         params,
         polys,
     };
@@ -544,12 +548,28 @@ pub fn part_to_bytes(fingerprint: u64, view: usize, one_view: &PlmcModel) -> Res
 
 /// Reads a part written by [`part_to_bytes`]; `Ok(None)` if it belongs to another fit (different
 /// fingerprint or view), an error if it is corrupt.
-pub fn part_from_bytes(bytes: &[u8], path: &Path, fingerprint: u64, view: usize) -> Result<Option<PlmcModel>> {
+pub fn part_from_bytes(
+    bytes: &[u8],
+    path: &Path,
+    fingerprint: u64,
+    view: usize,
+) -> Result<Option<PlmcModel>> {
     if bytes.len() < 16 || &bytes[..4] != PART_MAGIC {
-        return Err(Error::format(path, "not a fit part file (missing 'PLMP' magic)"));
+        return Err(Error::format(
+            path,
+            "not a fit part file (missing 'PLMP' magic)",
+        ));
     }
-    let fp = u64::from_le_bytes(bytes[4..12].try_into().map_err(|_| Error::format(path, "short part header"))?);
-    let v = u32::from_le_bytes(bytes[12..16].try_into().map_err(|_| Error::format(path, "short part header"))?);
+    let fp = u64::from_le_bytes(
+        bytes[4..12]
+            .try_into()
+            .map_err(|_| Error::format(path, "short part header"))?,
+    );
+    let v = u32::from_le_bytes(
+        bytes[12..16]
+            .try_into()
+            .map_err(|_| Error::format(path, "short part header"))?,
+    );
     if fp != fingerprint || v as usize != view {
         return Ok(None);
     }
@@ -606,6 +626,11 @@ mod tests {
             width: w,
             height: h,
             clusters,
+            space: if kind == ModelKind::Plm {
+                ValueSpace::Srgb
+            } else {
+                ValueSpace::Linear
+            },
             params,
             polys,
         }

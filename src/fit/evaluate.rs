@@ -57,10 +57,19 @@ pub fn evaluate(
     let nl = source.lights().len();
     let dims = 3 * nl;
     let enc = source.encoding();
-    let refit_kind = if model.kind == ModelKind::PlmC { ModelKind::Plm } else { ModelKind::PlmC };
+    let refit_kind = if model.kind == ModelKind::PlmC {
+        ModelKind::Plm
+    } else {
+        ModelKind::PlmC
+    };
     let refit_opts = FitOptions {
         kind: refit_kind,
-        clusters: if model.kind == ModelKind::PlmC { model.clusters } else { opts.clusters },
+        fit_stored: model.space == super::model::ValueSpace::Srgb,
+        clusters: if model.kind == ModelKind::PlmC {
+            model.clusters
+        } else {
+            opts.clusters
+        },
         ..*opts
     };
     let poly_bytes_per_view = nl * 3 * 20;
@@ -74,7 +83,15 @@ pub fn evaluate(
         .into_par_iter()
         .map(|v| -> Result<PerView> {
             let data = source.load_view(v)?;
-            let fit = pipeline::fit_view(&fitter, source.lights(), &data, texels, enc, &refit_opts, &|_: Stage| {});
+            let fit = pipeline::fit_view(
+                &fitter,
+                source.lights(),
+                &data,
+                texels,
+                enc,
+                &refit_opts,
+                &|_: Stage| {},
+            );
             let mut recon = Vec::new();
             let mut err = [ViewError::default(); 4];
             let mut section = [0usize; 3];
@@ -83,14 +100,25 @@ pub fn evaluate(
                     model.reconstruct_view(v, &mut recon);
                     section[i] = format::view_section_size(v, &model.params[v], model.clusters)?;
                 } else {
-                    let m = pipeline::view_model(source, v, &fit, kind, refit_opts.clusters)
-                        .ok_or_else(|| Error::Invalid(format!("view {v}: {} was not refitted", kind.name())))?;
+                    let m = pipeline::view_model(
+                        source,
+                        v,
+                        &fit,
+                        kind,
+                        refit_opts.clusters,
+                        model.space,
+                    )
+                    .ok_or_else(|| {
+                        Error::Invalid(format!("view {v}: {} was not refitted", kind.name()))
+                    })?;
                     m.reconstruct_view(0, &mut recon);
                     section[i] = format::view_section_size(v, &m.params[0], m.clusters)?;
                 }
                 err[i] = view_error(&data, &recon, enc);
             }
-            let k = pca_k.unwrap_or_else(|| pca::k_for_budget(dims, texels, section[2] + poly_bytes_per_view));
+            let k = pca_k.unwrap_or_else(|| {
+                pca::k_for_budget(dims, texels, section[2] + poly_bytes_per_view)
+            });
             pca::reconstruct_view(&data, texels, k, &mut recon);
             err[3] = view_error(&data, &recon, enc);
             progress(v);
@@ -107,13 +135,23 @@ pub fn evaluate(
             skel.kind = kind;
             skel.params.clear();
             skel.polys.clear();
-            skel.clusters = if kind == ModelKind::PlmC { refit_opts.clusters } else { 0 };
+            skel.clusters = if kind == ModelKind::PlmC {
+                refit_opts.clusters
+            } else {
+                0
+            };
             format::file_size(&skel, per_view.iter().map(|p| p.section[i]).sum())
         };
         let errs: Vec<ViewError> = per_view.iter().map(|p| p.err[i]).collect();
-        models.insert(kind.name().to_string(), ModelReport::from_views(&errs, bytes, raw));
+        models.insert(
+            kind.name().to_string(),
+            ModelReport::from_views(&errs, bytes, raw),
+        );
     }
-    let pca_bytes = per_view.iter().map(|p| pca::view_bytes(dims, texels, p.k)).sum();
+    let pca_bytes = per_view
+        .iter()
+        .map(|p| pca::view_bytes(dims, texels, p.k))
+        .sum();
     let errs: Vec<ViewError> = per_view.iter().map(|p| p.err[3]).collect();
     models.insert("pca".into(), ModelReport::from_views(&errs, pca_bytes, raw));
     Ok(EvalReport {

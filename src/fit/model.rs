@@ -1,9 +1,10 @@
 //! The fitted model in memory (LM, PLM or PLM-C), exactly as stored in a `.plmc` file, and its
 //! reconstruction at the measured directions.
 //!
-//! Values are linear RGB, cosine-baked (DESIGN §2): the model is fitted in linear space. A
-//! reconstruction is `max(0, Σ_j a_j Y^j)` with `Y = ρ·max(0, D·u)^n` (LM: the polynomial is the
-//! identity).
+//! A reconstruction is `max(0, Σ_j a_j Y^j)` with `Y = ρ·max(0, D·u)^n` (LM: the polynomial is the
+//! identity), in the model's [`ValueSpace`]: linear cosine-baked RGB (DESIGN §2), or the sRGB
+//! encoding for models fitted to 8-bit data in their stored encoding (then decoded with the sRGB
+//! EOTF to give the BTF value).
 
 use super::lafortune::{self, Lobe};
 use super::polynomial::{self, Poly};
@@ -51,6 +52,42 @@ impl ModelKind {
     /// True if the model carries per-image polynomials.
     pub fn has_polys(self) -> bool {
         self != ModelKind::Lm
+    }
+}
+
+/// The space the model's values live in (the space it was fitted in).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ValueSpace {
+    /// Linear cosine-baked reflectance: the polynomial output is the BTF value.
+    Linear,
+    /// sRGB-encoded (the stored encoding of 8-bit data): the BTF value is
+    /// `srgb_to_linear(max(0, polynomial output))`.
+    Srgb,
+}
+
+impl ValueSpace {
+    /// Code stored in the file header.
+    pub fn code(self) -> u8 {
+        match self {
+            ValueSpace::Linear => 0,
+            ValueSpace::Srgb => 1,
+        }
+    }
+    /// Inverse of [`ValueSpace::code`].
+    pub fn from_code(c: u8) -> Option<Self> {
+        match c {
+            0 => Some(ValueSpace::Linear),
+            1 => Some(ValueSpace::Srgb),
+            _ => None,
+        }
+    }
+    /// Converts a model output (after the polynomial) to the linear BTF value.
+    #[inline]
+    pub fn to_linear(self, v: f32) -> f32 {
+        match self {
+            ValueSpace::Linear => v.max(0.0),
+            ValueSpace::Srgb => crate::math::color::srgb_to_linear(v.max(0.0)),
+        }
     }
 }
 
@@ -169,6 +206,8 @@ pub struct PlmcModel {
     pub height: usize,
     /// Requested clusters per view and channel (PLM-C), 0 otherwise.
     pub clusters: usize,
+    /// Space of the model's values.
+    pub space: ValueSpace,
     /// One entry per view.
     pub params: Vec<ViewParams>,
     /// `[view][light][channel]` coefficients a_0..a_4; empty for LM.
@@ -233,8 +272,8 @@ impl PlmcModel {
         Ok(())
     }
 
-    /// Reconstructs all images of `view` at the measured light directions into `out` as
-    /// `[light][texel][rgb]` (the layout of `BtfSource::load_view`).
+    /// Reconstructs all images of `view` at the measured light directions into `out` as linear
+    /// values `[light][texel][rgb]` (the layout of `BtfSource::load_view`).
     pub fn reconstruct_view(&self, view: usize, out: &mut Vec<f32>) {
         let texels = self.width * self.height;
         let nl = self.lights.len();
@@ -250,9 +289,10 @@ impl PlmcModel {
                     for c in 0..3 {
                         let a = self.poly(view, l, c);
                         for j in 0..*k {
-                            vals[3 * j + c] =
-                                polynomial::eval(&a, lafortune::eval(&lobes[3 * j + c], u))
-                                    .max(0.0);
+                            vals[3 * j + c] = self.space.to_linear(polynomial::eval(
+                                &a,
+                                lafortune::eval(&lobes[3 * j + c], u),
+                            ));
                         }
                     }
                     let img = &mut out[l * texels * 3..(l + 1) * texels * 3];
@@ -272,7 +312,9 @@ impl PlmcModel {
                     ];
                     let img = &mut out[l * texels * 3..(l + 1) * texels * 3];
                     for (i, o) in img.iter_mut().enumerate() {
-                        *o = polynomial::eval(&a[i % 3], lafortune::eval(&lobes[i], u)).max(0.0);
+                        *o = self
+                            .space
+                            .to_linear(polynomial::eval(&a[i % 3], lafortune::eval(&lobes[i], u)));
                     }
                 }
             }

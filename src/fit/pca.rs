@@ -19,7 +19,8 @@ pub fn view_bytes(dims: usize, texels: usize, k: usize) -> usize {
 /// The k whose storage is closest to `budget` bytes per view (at least 1).
 pub fn k_for_budget(dims: usize, texels: usize, budget: usize) -> usize {
     let per = 2 * (dims + texels);
-    (((budget.saturating_sub(2 * dims)) as f64 / per as f64).round() as usize).clamp(1, dims.min(texels).max(1))
+    (((budget.saturating_sub(2 * dims)) as f64 / per as f64).round() as usize)
+        .clamp(1, dims.min(texels).max(1))
 }
 
 /// Reconstructs one view (`data` = `[light][texel][rgb]`, linear) from its k-component PCA with
@@ -124,7 +125,11 @@ fn multiply(a: &[f64], n: usize, v: &[f64], m: usize, out: &mut [f64]) {
     for j in 0..m {
         let vj = &v[j * n..(j + 1) * n];
         for i in 0..n {
-            out[j * n + i] = a[i * n..(i + 1) * n].iter().zip(vj).map(|(x, y)| x * y).sum();
+            out[j * n + i] = a[i * n..(i + 1) * n]
+                .iter()
+                .zip(vj)
+                .map(|(x, y)| x * y)
+                .sum();
         }
     }
 }
@@ -137,7 +142,10 @@ fn orthonormalise(v: &mut [f64], n: usize, m: usize) {
                 v[j * n + d] -= dot * v[i * n + d];
             }
         }
-        let len = (0..n).map(|d| v[j * n + d] * v[j * n + d]).sum::<f64>().sqrt();
+        let len = (0..n)
+            .map(|d| v[j * n + d] * v[j * n + d])
+            .sum::<f64>()
+            .sqrt();
         if len > 1e-300 {
             (0..n).for_each(|d| v[j * n + d] /= len);
         } else {
@@ -152,7 +160,10 @@ fn jacobi_eigen(a: &mut [f64], m: usize) -> (Vec<f64>, Vec<f64>) {
     let mut vec = vec![0.0f64; m * m];
     (0..m).for_each(|i| vec[i * m + i] = 1.0);
     for _ in 0..100 {
-        let off: f64 = (0..m).flat_map(|i| (0..m).filter(move |&j| j != i).map(move |j| (i, j))).map(|(i, j)| a[i * m + j] * a[i * m + j]).sum();
+        let off: f64 = (0..m)
+            .flat_map(|i| (0..m).filter(move |&j| j != i).map(move |j| (i, j)))
+            .map(|(i, j)| a[i * m + j] * a[i * m + j])
+            .sum();
         let diag: f64 = (0..m).map(|i| a[i * m + i] * a[i * m + i]).sum();
         if off <= 1e-30 * diag.max(1e-300) {
             break;
@@ -210,10 +221,18 @@ mod tests {
         }
         let mut out = Vec::new();
         reconstruct_view(&data, texels, 2, &mut out);
-        let err = data.iter().zip(&out).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        let err = data
+            .iter()
+            .zip(&out)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
         assert!(err < 3e-3, "{err}");
         reconstruct_view(&data, texels, 1, &mut out);
-        let err1 = data.iter().zip(&out).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        let err1 = data
+            .iter()
+            .zip(&out)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
         assert!(err1 > 10.0 * err, "{err1} vs {err}");
     }
 

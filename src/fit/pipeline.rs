@@ -1,13 +1,15 @@
 //! The fitting pipeline raw BTF → LM → PLM → PLM-C, per view (the paper fits every view
 //! separately so view-dependent masking and parallax stay in the per-view parameters).
 //!
-//! Space: lobes and polynomials are fitted to the linear, cosine-baked values (what the renderer
-//! needs). K-means features are the original values in the data's stored encoding (sRGB for 8-bit
-//! data) — the paper clusters the original pixels, and that is also the space its MAE is in.
+//! Space: by default lobes and polynomials are fitted in the data's stored encoding (sRGB for 8-bit
+//! data, as the paper fits the 8-bit pixels; its MAE is measured there too); the model records its
+//! [`ValueSpace`] and the renderer decodes. With `fit_stored = false` (or linear data) they are
+//! fitted to the linear cosine-baked values. K-means features are always the original values in the
+//! stored encoding (the paper clusters the original pixels).
 
 use super::kmeans;
 use super::lafortune::{self, Lobe, LobeFitter};
-use super::model::{ModelKind, PackedLobe, PlmcModel, ViewParams};
+use super::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use super::polynomial::{self, Poly};
 use super::select;
 use crate::btf::{BtfSource, DirectionSet, StoredEncoding, format};
@@ -29,6 +31,8 @@ pub struct FitOptions {
     pub seed: u64,
     /// Cap on Lloyd iterations.
     pub kmeans_iters: usize,
+    /// Fit in the data's stored encoding (sRGB for 8-bit data) instead of linear values.
+    pub fit_stored: bool,
 }
 
 impl Default for FitOptions {
@@ -39,6 +43,7 @@ impl Default for FitOptions {
             features: 20,
             seed: 0,
             kmeans_iters: 40,
+            fit_stored: true,
         }
     }
 }
@@ -98,6 +103,17 @@ pub fn fit_view(
     stage: &(dyn Fn(Stage) + Sync),
 ) -> ViewFit {
     let nl = lights.len();
+    let space = value_space(encoding, opts);
+    let converted: Vec<f32>;
+    let data = if space == ValueSpace::Srgb {
+        converted = data
+            .iter()
+            .map(|&v| linear_to_srgb(v.clamp(0.0, 1.0)))
+            .collect();
+        &converted[..]
+    } else {
+        data
+    };
     // LM: one lobe per texel and channel.
     let lm: Vec<PackedLobe> = (0..texels * 3)
         .into_par_iter()
@@ -124,7 +140,9 @@ pub fn fit_view(
     if opts.kind == ModelKind::Lm {
         return out;
     }
-    out.plm_polys = fit_polys(lights, data, texels, |t, c, u| lafortune::eval(&lm_lobes[3 * t + c], u));
+    out.plm_polys = fit_polys(lights, data, texels, |t, c, u| {
+        lafortune::eval(&lm_lobes[3 * t + c], u)
+    });
     stage(Stage::Plm);
     if opts.kind == ModelKind::Plm {
         return out;
@@ -137,7 +155,7 @@ pub fn fit_view(
     for c in 0..3 {
         for (l, p) in planes.iter_mut().enumerate() {
             plane(data, texels, l, c, p);
-            if encoding == StoredEncoding::Srgb8 {
+            if encoding == StoredEncoding::Srgb8 && space == ValueSpace::Linear {
                 p.iter_mut().for_each(|v| *v = linear_to_srgb(v.max(0.0)));
             }
         }
@@ -151,7 +169,13 @@ pub fn fit_view(
             }
         }
         let seed = opts.seed ^ (c as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let km = kmeans::kmeans(&feat, d, opts.clusters.clamp(1, 65536), seed, opts.kmeans_iters);
+        let km = kmeans::kmeans(
+            &feat,
+            d,
+            opts.clusters.clamp(1, 65536),
+            seed,
+            opts.kmeans_iters,
+        );
         out.stats.clusters += km.k;
         out.stats.kmeans_iterations += km.iterations;
         // Members' mean light curve (linear) and mean parameters per cluster.
@@ -186,7 +210,11 @@ pub fn fit_view(
                 let avg = PackedLobe::pack(&avg).unpack();
                 let (e_refit, e_avg) = (fitter.sse(&refit, &y), fitter.sse(&avg, &y));
                 let bright = y.iter().map(|&v| v as f64).sum::<f64>();
-                if e_refit <= e_avg { (refit, true, bright) } else { (avg, false, bright) }
+                if e_refit <= e_avg {
+                    (refit, true, bright)
+                } else {
+                    (avg, false, bright)
+                }
             })
             .collect();
         // Order clusters by brightness so the three channels' indices correlate (the file's
@@ -215,7 +243,11 @@ pub fn fit_view(
     let mut table = vec![PackedLobe::pack(&lafortune::ZERO_LOBE); 3 * k];
     for (c, tc) in tables.iter().enumerate() {
         for j in 0..k {
-            let l = tc.get(j).or(tc.last()).copied().unwrap_or(lafortune::ZERO_LOBE);
+            let l = tc
+                .get(j)
+                .or(tc.last())
+                .copied()
+                .unwrap_or(lafortune::ZERO_LOBE);
             table[3 * j + c] = PackedLobe::pack(&l);
         }
     }
@@ -226,6 +258,15 @@ pub fn fit_view(
     out.plmc = Some((ViewParams::Clustered { k, table, index }, polys));
     stage(Stage::PlmC);
     out
+}
+
+/// The space a fit with `opts` works in for data stored with `encoding`.
+pub fn value_space(encoding: StoredEncoding, opts: &FitOptions) -> ValueSpace {
+    if opts.fit_stored && encoding == StoredEncoding::Srgb8 {
+        ValueSpace::Srgb
+    } else {
+        ValueSpace::Linear
+    }
 }
 
 /// Polynomials `[light][channel]` mapping the model image `model(texel, channel, u)` onto the
@@ -262,10 +303,16 @@ pub fn fingerprint(source: &dyn BtfSource, opts: &FitOptions) -> u64 {
     add(opts.features as u64);
     add(opts.seed);
     add(opts.kmeans_iters as u64);
+    add(opts.fit_stored as u64);
     add(source.width() as u64);
     add(source.height() as u64);
     add(source.encoding() as u64);
-    for d in source.views().angles_deg.iter().chain(&source.lights().angles_deg) {
+    for d in source
+        .views()
+        .angles_deg
+        .iter()
+        .chain(&source.lights().angles_deg)
+    {
         add(d.0.to_bits() as u64);
         add(d.1.to_bits() as u64);
     }
@@ -278,7 +325,10 @@ const FIT_CODE_VERSION: u64 = 1;
 
 /// The sidecar directory holding finished views of an interrupted fit: `mat.plmc.parts/`.
 pub fn parts_dir(output: &Path) -> PathBuf {
-    let mut name = output.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = output
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(".parts");
     output.with_file_name(name)
 }
@@ -294,8 +344,14 @@ pub struct FitOutcome {
 }
 
 /// The empty model (no views yet) for a source and options.
-fn skeleton(source: &dyn BtfSource, kind: ModelKind, clusters: usize) -> PlmcModel {
+fn skeleton(
+    source: &dyn BtfSource,
+    kind: ModelKind,
+    clusters: usize,
+    space: ValueSpace,
+) -> PlmcModel {
     PlmcModel {
+        space,
         kind,
         views: source.views().clone(),
         lights: source.lights().clone(),
@@ -308,8 +364,15 @@ fn skeleton(source: &dyn BtfSource, kind: ModelKind, clusters: usize) -> PlmcMod
 }
 
 /// The model of kind `kind` from one view's fit (a complete one-view model).
-pub fn view_model(source: &dyn BtfSource, view: usize, fit: &ViewFit, kind: ModelKind, clusters: usize) -> Option<PlmcModel> {
-    let mut m = skeleton(source, kind, clusters);
+pub fn view_model(
+    source: &dyn BtfSource,
+    view: usize,
+    fit: &ViewFit,
+    kind: ModelKind,
+    clusters: usize,
+    space: ValueSpace,
+) -> Option<PlmcModel> {
+    let mut m = skeleton(source, kind, clusters, space);
     m.views = DirectionSet::from_angles_deg(vec![source.views().angles_deg[view]]);
     match kind {
         ModelKind::Lm => m.params.push(ViewParams::Texel(fit.lm.clone())),
@@ -342,7 +405,10 @@ pub fn fit_model(
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
     if opts.kind == ModelKind::PlmC && !(1..=65536).contains(&opts.clusters) {
-        return Err(Error::Invalid(format!("--clusters must be in 1..=65536, got {}", opts.clusters)));
+        return Err(Error::Invalid(format!(
+            "--clusters must be in 1..=65536, got {}",
+            opts.clusters
+        )));
     }
     if opts.kind == ModelKind::PlmC && opts.features == 0 {
         return Err(Error::Invalid("--features must be at least 1".into()));
@@ -373,9 +439,24 @@ pub fn fit_model(
                 }
             }
             let data = source.load_view(v)?;
-            let fit = fit_view(&fitter, source.lights(), &data, texels, source.encoding(), opts, &|s| progress(v, s));
-            let m = view_model(source, v, &fit, opts.kind, opts.clusters)
-                .ok_or_else(|| Error::Invalid(format!("view {v}: requested level was not fitted")))?;
+            let fit = fit_view(
+                &fitter,
+                source.lights(),
+                &data,
+                texels,
+                source.encoding(),
+                opts,
+                &|s| progress(v, s),
+            );
+            let m = view_model(
+                source,
+                v,
+                &fit,
+                opts.kind,
+                opts.clusters,
+                value_space(source.encoding(), opts),
+            )
+            .ok_or_else(|| Error::Invalid(format!("view {v}: requested level was not fitted")))?;
             if let Some(p) = &part_path {
                 let bytes = format::part_to_bytes(fp, v, &m)?;
                 crate::io::write_atomic(p, |w| w.write_all(&bytes).map_err(|e| Error::io(p, e)))?;
@@ -385,7 +466,12 @@ pub fn fit_model(
             Ok((m.params.remove(0), m.polys, fit.stats))
         })
         .collect::<Result<_>>()?;
-    let mut model = skeleton(source, opts.kind, opts.clusters);
+    let mut model = skeleton(
+        source,
+        opts.kind,
+        opts.clusters,
+        value_space(source.encoding(), opts),
+    );
     let mut stats = ViewStats::default();
     for (p, polys, s) in views {
         model.params.push(p);
@@ -401,4 +487,167 @@ pub fn fit_model(
         resumed_views: resumed.into_inner(),
         stats,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::btf::RawBtf;
+    use crate::fit::report::view_error;
+    use crate::math::Pcg32;
+
+    /// A synthetic BTF: texels drawn from 6 material types (one lobe per channel each), plus a
+    /// monotone per-image tone curve y ↦ y^γ (what one lobe cannot model, PLM can), plus noise.
+    fn synth(views: usize, side: usize, seed: u64) -> RawBtf {
+        let lights = DirectionSet::ubo2003();
+        let vdirs = DirectionSet::from_angles_deg(lights.angles_deg[..views].to_vec());
+        let mut rng = Pcg32::new(seed, 11);
+        let types: Vec<[Lobe; 3]> = (0..6)
+            .map(|_| {
+                let th = rng.next_f32() * 0.6;
+                let ph = rng.next_f32() * 6.28;
+                let n = 1.0 + rng.next_f32() * 8.0;
+                std::array::from_fn(|_| {
+                    [
+                        0.2 + rng.next_f32(),
+                        th.sin() * ph.cos(),
+                        th.sin() * ph.sin(),
+                        th.cos(),
+                        n,
+                    ]
+                })
+            })
+            .collect();
+        let texel_type: Vec<usize> = (0..side * side)
+            .map(|_| rng.next_below(6) as usize)
+            .collect();
+        let gamma: Vec<f32> = (0..views * 81).map(|_| 0.5 + rng.next_f32()).collect();
+        let mut data = Vec::new();
+        for v in 0..views {
+            for l in 0..81 {
+                for &ty in &texel_type {
+                    for lobe in &types[ty] {
+                        let y = lafortune::eval(lobe, lights.dirs[l]);
+                        data.push(
+                            (y.powf(gamma[v * 81 + l]) + 0.01 * (rng.next_f32() - 0.5)).max(0.0),
+                        );
+                    }
+                }
+            }
+        }
+        RawBtf::from_f32(vdirs, lights, side, side, StoredEncoding::Linear, &data).unwrap()
+    }
+
+    fn mae(btf: &RawBtf, m: &PlmcModel) -> f64 {
+        let mut r = Vec::new();
+        (0..m.views.len())
+            .map(|v| {
+                m.reconstruct_view(v, &mut r);
+                view_error(&btf.load_view(v).unwrap(), &r, btf.encoding()).mae
+            })
+            .sum::<f64>()
+            / m.views.len() as f64
+    }
+
+    #[test]
+    fn plm_beats_lm_and_plmc_stays_close_to_plm() {
+        let btf = synth(2, 12, 1);
+        let fit = |kind, clusters| {
+            let o = FitOptions {
+                kind,
+                clusters,
+                features: 20,
+                ..FitOptions::default()
+            };
+            fit_model(&btf, &o, None, &|_, _| {}).unwrap().model
+        };
+        let (lm, plm, plmc) = (
+            fit(ModelKind::Lm, 0),
+            fit(ModelKind::Plm, 0),
+            fit(ModelKind::PlmC, 16),
+        );
+        let (e_lm, e_plm, e_plmc) = (mae(&btf, &lm), mae(&btf, &plm), mae(&btf, &plmc));
+        assert!(e_plm < 0.7 * e_lm, "LM {e_lm} PLM {e_plm}");
+        assert!(e_plmc < 1.1 * e_plm, "PLM {e_plm} PLM-C {e_plmc}");
+        // K larger than the texel count is handled (K-means stops at the distinct texels).
+        let big = fit(ModelKind::PlmC, 1000);
+        assert!(mae(&btf, &big) < 1.1 * e_plm);
+        // Round trip through the file keeps the reconstruction.
+        let bytes = format::to_bytes(&plmc).unwrap();
+        let back = format::from_bytes(&bytes, Path::new("m.plmc")).unwrap();
+        assert_eq!(back, plmc);
+    }
+
+    #[test]
+    fn constant_data_do_not_break_plmc() {
+        let lights = DirectionSet::ubo2003();
+        let v = DirectionSet::from_angles_deg(vec![(0.0, 0.0)]);
+        let btf = RawBtf::from_f32(
+            v,
+            lights,
+            4,
+            4,
+            StoredEncoding::Srgb8,
+            &vec![0.25; 81 * 16 * 3],
+        )
+        .unwrap();
+        let o = FitOptions {
+            clusters: 256,
+            ..FitOptions::default()
+        };
+        let m = fit_model(&btf, &o, None, &|_, _| {}).unwrap().model;
+        let mut r = Vec::new();
+        m.reconstruct_view(0, &mut r);
+        assert!(r.iter().all(|&x| (x - 0.25).abs() < 2e-3), "{:?}", &r[..3]);
+        let zero = RawBtf::from_f32(
+            btf.views().clone(),
+            btf.lights().clone(),
+            4,
+            4,
+            StoredEncoding::Linear,
+            &vec![0.0; 81 * 48],
+        )
+        .unwrap();
+        let m = fit_model(&zero, &o, None, &|_, _| {}).unwrap().model;
+        m.reconstruct_view(0, &mut r);
+        assert!(r.iter().all(|&x| x == 0.0));
+    }
+
+    #[test]
+    fn killed_fits_resume_from_parts() {
+        let btf = synth(3, 6, 2);
+        let dir = tempfile::tempdir().unwrap();
+        let parts = parts_dir(&dir.path().join("m.plmc"));
+        let o = FitOptions {
+            clusters: 8,
+            ..FitOptions::default()
+        };
+        let first = fit_model(&btf, &o, Some(&parts), &|_, _| {}).unwrap();
+        assert_eq!(first.resumed_views, 0);
+        // Simulate a kill: one view missing, one part corrupt; the rest are reused.
+        std::fs::remove_file(parts.join("view00001.part")).unwrap();
+        let p2 = parts.join("view00002.part");
+        let mut b = std::fs::read(&p2).unwrap();
+        let last = b.len() - 30;
+        b[last] ^= 0xff;
+        std::fs::write(&p2, b).unwrap();
+        let fitted = AtomicUsize::new(0);
+        let second = fit_model(&btf, &o, Some(&parts), &|_, s| {
+            if s == Stage::Lm {
+                fitted.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .unwrap();
+        assert_eq!(second.resumed_views, 1);
+        assert_eq!(fitted.into_inner(), 2);
+        assert_eq!(second.model, first.model);
+        // Parts of a fit with other options are not reused.
+        let other = FitOptions { seed: 9, ..o };
+        assert_eq!(
+            fit_model(&btf, &other, Some(&parts), &|_, _| {})
+                .unwrap()
+                .resumed_views,
+            0
+        );
+    }
 }
