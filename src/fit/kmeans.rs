@@ -24,7 +24,7 @@ fn dist2(a: &[f32], b: &[f32]) -> f32 {
 /// features never seed two clusters, so constant data give one cluster and `k > n` is fine.
 /// Empty clusters during iteration are re-seeded at the points farthest from their centres.
 pub fn kmeans(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
-    let n = if dim == 0 { 0 } else { data.len() / dim };
+    let n = data.len().checked_div(dim).unwrap_or(0);
     if n == 0 || k == 0 {
         return KMeans {
             k: 0,

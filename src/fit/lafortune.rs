@@ -217,7 +217,7 @@ impl LobeFitter {
                 *p = q;
                 cur = next;
                 lambda = (lambda * 0.2).max(1e-9);
-                if gain < 1e-7 || cur.sse <= 1e-14 * scale {
+                if gain < 1e-6 || cur.sse <= 1e-14 * scale {
                     break;
                 }
             } else {

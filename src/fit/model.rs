@@ -332,7 +332,7 @@ mod tests {
         let mut rng = Pcg32::new(1, 1);
         for _ in 0..2000 {
             let th = rng.next_f32() * 3.0;
-            let ph = rng.next_f32() * 6.28;
+            let ph = rng.next_f32() * std::f32::consts::TAU;
             let l: Lobe = [
                 rng.next_f32() * 5.0,
                 th.sin() * ph.cos(),

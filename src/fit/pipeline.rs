@@ -505,7 +505,7 @@ mod tests {
         let types: Vec<[Lobe; 3]> = (0..6)
             .map(|_| {
                 let th = rng.next_f32() * 0.6;
-                let ph = rng.next_f32() * 6.28;
+                let ph = rng.next_f32() * std::f32::consts::TAU;
                 let n = 1.0 + rng.next_f32() * 8.0;
                 std::array::from_fn(|_| {
                     [

@@ -64,7 +64,7 @@ pub fn fit_pairs(x: &[f32], y: &[f32]) -> Poly {
     let lo = x.iter().copied().fold(f32::INFINITY, f32::min) as f64;
     let hi = x.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
     let scale = hi.abs().max(lo.abs());
-    if n == 0 || !(scale > 0.0) || hi - lo <= 1e-9 * scale {
+    if n == 0 || scale.is_nan() || scale <= 0.0 || hi - lo <= 1e-9 * scale {
         // A constant model image carries no ordering: map everything to the mean.
         return [mean_y as f32, 0.0, 0.0, 0.0, 0.0];
     }
@@ -124,9 +124,7 @@ fn monotone(b: &[f64; 5], degree: usize, lo: f64, hi: f64) -> bool {
 fn solve_moments(mom: &[f64; 9], rhs: &[f64; 5], size: usize) -> Option<[f64; 5]> {
     let mut a = [[0.0f64; 6]; 5];
     for r in 0..size {
-        for c in 0..size {
-            a[r][c] = mom[r + c];
-        }
+        a[r][..size].copy_from_slice(&mom[r..r + size]);
         a[r][5] = rhs[r];
     }
     let norm = mom[0].abs().max(1e-300);
