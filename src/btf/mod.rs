@@ -3,6 +3,7 @@
 
 pub mod cache;
 pub mod directions;
+pub mod format;
 pub mod raw;
 pub mod ubo2003;
 pub mod ubo2014;

@@ -7,6 +7,9 @@ pub mod render;
 
 use clap::{Parser, Subcommand};
 
+pub mod eval;
+pub mod fit;
+
 /// btfpt: a path tracer for measured BTF materials (raw and PLM-C).
 #[derive(Parser, Debug)]
 #[command(name = "btfpt", version, about)]
@@ -25,6 +28,10 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Merge partial renders (crop windows, sample ranges) into one image.
     Merge(merge::MergeArgs),
+    /// Fit LM / PLM / PLM-C to a measured BTF and write a .plmc model.
+    Fit(fit::FitArgs),
+    /// Evaluate a .plmc model (and LM/PLM/PLM-C/PCA refits) against the measured BTF.
+    Eval(eval::EvalArgs),
 }
 
 /// Runs one subcommand.
@@ -34,5 +41,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Convert(a) => convert::run(a),
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Fit(a) => fit::run(a),
+        Command::Eval(a) => eval::run(a),
     }
 }
