@@ -1,6 +1,7 @@
 //! Measured BTF data: direction sets and their interpolation, the raw BTF in memory, its file
 //! formats, the measurement simulator, and (later) the PLM-C evaluation core.
 
+pub mod delaunay;
 pub mod directions;
 pub mod raw;
 pub mod ubo2003;
