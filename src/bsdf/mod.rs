@@ -5,10 +5,12 @@
 //! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
+pub mod btf;
 pub mod contracts_tmp;
 pub mod diffuse;
 pub mod texture;
 
+pub use btf::{BtfBsdf, BtfMaterial};
 pub use contracts_tmp::{Conductor, Dielectric, RoughConductor, ThinDielectric, TwoSided};
 pub use diffuse::Diffuse;
 pub use texture::Texture;
@@ -70,6 +72,8 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     ThinDielectric(ThinDielectric),
     TwoSided(TwoSided),
+    /// Measured BTF (raw data), DESIGN §2.
+    Btf(BtfBsdf),
 }
 
 impl Bsdf {
@@ -77,6 +81,7 @@ impl Bsdf {
     pub fn flags(&self) -> BsdfFlags {
         match self {
             Bsdf::Diffuse(b) => b.flags(),
+            Bsdf::Btf(b) => b.flags(),
             _ => todo!("implemented by the bsdf helper"),
         }
     }
@@ -85,6 +90,7 @@ impl Bsdf {
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         match self {
             Bsdf::Diffuse(b) => b.eval(si, wo),
+            Bsdf::Btf(b) => b.eval(si, wo),
             _ => todo!("implemented by the bsdf helper"),
         }
     }
@@ -93,6 +99,7 @@ impl Bsdf {
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         match self {
             Bsdf::Diffuse(b) => b.pdf(si, wo),
+            Bsdf::Btf(b) => b.pdf(si, wo),
             _ => todo!("implemented by the bsdf helper"),
         }
     }
@@ -107,6 +114,7 @@ impl Bsdf {
     ) -> Option<(BsdfSample, Spectrum)> {
         match self {
             Bsdf::Diffuse(b) => b.sample(si, sample1, sample2),
+            Bsdf::Btf(b) => b.sample(si, sample1, sample2),
             _ => todo!("implemented by the bsdf helper"),
         }
     }
