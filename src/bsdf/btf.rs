@@ -4,9 +4,10 @@
 //! Sampling: at load, per measured view, a piecewise-constant density over the light triangulation
 //! on the unit disk, proportional to the texel-averaged luminance of B / cos θ_l (so a Lambertian
 //! table gives exactly cosine sampling); for a query the tables of the 3 views of wi are blended
-//! with their interpolation weights, and a cosine lobe is always mixed in (one-sample MIS mixture)
-//! so the weight f·cos/pdf ≤ max B / (COSINE_FRACTION · cos θ) stays bounded and directions beyond
-//! the outermost measured ring are covered.
+//! with their interpolation weights, and uniform hemisphere sampling is always mixed in (one-sample
+//! MIS mixture). The defensive part is uniform rather than cosine because the DESIGN extrapolation
+//! holds B constant beyond the outermost measured ring (B does not fall like cos θ there), so
+//! only a pdf that stays positive at the horizon bounds the weight: f·cos/pdf ≤ 2 B / DEFENSIVE_FRACTION.
 //!
 //! Memory: the material reads the BTF only through `RawBtf::data()` (f16, `[view][light][row][col]
 //! [rgb]`) and its dimensions; a 256² × 81 × 81 material is 2.6 GB, so it must be kept once per
@@ -18,14 +19,14 @@ use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
-use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
+use crate::math::{INV_PI, INV_TWO_PI, Spectrum, Vec2, Vec3, warp};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Probability of the cosine component of the sampling mixture (the defensive part).
-pub const COSINE_FRACTION: f32 = 0.2;
+/// Probability of the uniform-hemisphere component of the sampling mixture (the defensive part).
+pub const DEFENSIVE_FRACTION: f32 = 0.2;
 /// Lower bound on cos θ_l when turning B into a density over the disk (avoids blow-up at grazing
 /// measured lights of arbitrary direction sets).
 const MIN_COS: f32 = 0.05;
@@ -58,7 +59,11 @@ impl BtfMaterial {
             .lights()
             .interpolator()
             .map_err(|e| Error::Invalid(format!("BTF light directions: {e}")))?;
-        let (nv, nl, nt) = (btf.views().len(), btf.lights().len(), lights.num_triangles());
+        let (nv, nl, nt) = (
+            btf.views().len(),
+            btf.lights().len(),
+            lights.num_triangles(),
+        );
         let (w, h) = (btf.width(), btf.height());
         let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
         let data = btf.data();
@@ -172,7 +177,7 @@ impl BtfMaterial {
             let v = vi[k] as usize;
             d += vw[k]
                 * if !self.table_ok[v] {
-                    INV_PI // black view: its share is cosine sampled
+                    INV_PI // black view: its share is cosine sampled (uniform on the disk)
                 } else if inside {
                     self.tri_density[v * nt + t]
                 } else {
@@ -248,7 +253,7 @@ impl BtfBsdf {
     fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
         let table = self.material.table_density(vi, vw, [wo.x, wo.y]);
         // Disk-area density × cos θ = solid-angle density.
-        wo.z * (COSINE_FRACTION * INV_PI + (1.0 - COSINE_FRACTION) * table)
+        DEFENSIVE_FRACTION * INV_TWO_PI + (1.0 - DEFENSIVE_FRACTION) * wo.z * table
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -263,11 +268,11 @@ impl BtfBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.views.lookup(si.wi);
-        let wo = if sample1 < COSINE_FRACTION {
-            warp::square_to_cosine_hemisphere(sample2)
+        let wo = if sample1 < DEFENSIVE_FRACTION {
+            warp::square_to_uniform_hemisphere(sample2)
         } else {
             // Choose one of the 3 views by its weight, then a triangle of its table.
-            let mut u = (sample1 - COSINE_FRACTION) / (1.0 - COSINE_FRACTION);
+            let mut u = (sample1 - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION);
             let last = (0..3).rev().find(|&k| vw[k] > 0.0).unwrap_or(0);
             let mut k = 0;
             while k < last && (vw[k] == 0.0 || u >= vw[k]) {
@@ -305,5 +310,372 @@ impl BtfBsdf {
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
         Some((s, weight))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::btf::{DirectionSet, StoredEncoding};
+    use crate::math::{Pcg32, frame::from_spherical};
+    use std::sync::OnceLock;
+
+    /// A BTF tabulated from `f(view, light, column, row)` on the UBO2003 directions.
+    fn table(w: usize, h: usize, f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3]) -> RawBtf {
+        let set = DirectionSet::ubo2003();
+        let mut data = Vec::with_capacity(81 * 81 * w * h * 3);
+        for &v in &set.dirs {
+            for &l in &set.dirs {
+                for y in 0..h {
+                    for x in 0..w {
+                        data.extend_from_slice(&f(v, l, x, y));
+                    }
+                }
+            }
+        }
+        RawBtf::from_f32(set.clone(), set, w, h, StoredEncoding::Linear, &data).unwrap()
+    }
+
+    /// A glossy, spatially varying table: B = cos θ_l (0.1 + 3 max(0, r·l)^8) · texel tint.
+    fn glossy_fn(v: Vec3, l: Vec3, x: usize, y: usize) -> [f32; 3] {
+        let r = Vec3::new(-v.x, -v.y, v.z);
+        let lobe = 0.1 + 3.0 * r.dot(l).max(0.0).powi(30);
+        let tint = 1.0 + 0.1 * (x + 2 * y) as f32;
+        let b = l.z * lobe * tint;
+        [b, 0.8 * b, 0.6 * b]
+    }
+
+    fn glossy() -> &'static BtfBsdf {
+        static M: OnceLock<BtfBsdf> = OnceLock::new();
+        M.get_or_init(|| {
+            let m = BtfMaterial::new(Arc::new(table(4, 4, glossy_fn))).unwrap();
+            BtfBsdf::new(Arc::new(m), 1.0).unwrap()
+        })
+    }
+
+    fn lambert() -> &'static BtfBsdf {
+        static M: OnceLock<BtfBsdf> = OnceLock::new();
+        M.get_or_init(|| {
+            let m = BtfMaterial::new(Arc::new(table(2, 2, |_, l, _, _| [l.z; 3]))).unwrap();
+            BtfBsdf::new(Arc::new(m), 1.0).unwrap()
+        })
+    }
+
+    fn si(wi: Vec3) -> SurfaceInteraction {
+        SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
+    }
+
+    fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+        from_spherical(theta_deg.to_radians(), phi_deg.to_radians())
+    }
+
+    #[test]
+    fn eval_is_the_table_over_pi_at_measured_directions_and_texels() {
+        let b = glossy();
+        let btf = b.material().btf();
+        let set = DirectionSet::ubo2003();
+        for (vi, li, x, y) in [(0, 0, 0, 0), (5, 40, 1, 2), (80, 17, 3, 3), (33, 80, 2, 1)] {
+            let mut s = si(set.dirs[vi]);
+            s.uv = Vec2::new((x as f32 + 0.5) / 4.0, (y as f32 + 0.5) / 4.0);
+            let want = Spectrum::from(btf.texel(vi, li, x, y)) * INV_PI;
+            assert_eq!(b.eval(&s, set.dirs[li]), want, "view {vi} light {li}");
+        }
+        // Texel addressing: frac(u·uv_scale), negative u wraps, u = 1 wraps to column 0.
+        assert_eq!(b.texel(Vec2::new(-0.125, 0.99)), (3, 3));
+        assert_eq!(b.texel(Vec2::new(1.0, 0.25)), (0, 1));
+        let tiled = BtfBsdf::new(b.material().clone(), 2.0).unwrap();
+        assert_eq!(tiled.texel(Vec2::new(0.3, 0.55)), (2, 0));
+        assert!(BtfBsdf::new(b.material().clone(), f32::NAN).is_err());
+    }
+
+    #[test]
+    fn one_sided() {
+        let b = glossy();
+        let up = dir(30.0, 10.0);
+        let down = Vec3::new(up.x, up.y, -up.z);
+        assert_eq!(b.eval(&si(up), down), Spectrum::ZERO);
+        assert_eq!(b.eval(&si(down), up), Spectrum::ZERO);
+        assert_eq!(b.pdf(&si(down), up), 0.0);
+        assert_eq!(b.pdf(&si(up), down), 0.0);
+        assert!(b.sample(&si(down), 0.5, Vec2::splat(0.5)).is_none());
+        assert!(b.eval(&si(up), up).max_element() > 0.0);
+    }
+
+    #[test]
+    fn sample_weight_and_pdf_are_consistent_with_eval() {
+        let b = glossy();
+        let mut rng = Pcg32::new(3, 4);
+        for _ in 0..2000 {
+            let wi = warp::square_to_uniform_hemisphere(rng.next_2d());
+            let s = si(wi);
+            let Some((smp, weight)) = b.sample(&s, rng.next_f32(), rng.next_2d()) else {
+                continue;
+            };
+            let pdf = b.pdf(&s, smp.wo);
+            assert!((smp.pdf - pdf).abs() <= 1e-4 * pdf, "{} vs {pdf}", smp.pdf);
+            let want = b.eval(&s, smp.wo) / pdf;
+            assert!((weight - want).length() <= 1e-4 * want.length() + 1e-7);
+            // Defensive mixture: weight ≤ 2 B / fraction, B ≤ 3.1 · 1.3 for this table.
+            assert!(weight.max_element() <= 2.0 * 3.1 * 1.3 / DEFENSIVE_FRACTION);
+        }
+    }
+
+    // ---- compact chi-square harness (the bsdf helper's src/bsdf/chi2.rs was not on main) ----
+
+    fn ln_gamma(x: f64) -> f64 {
+        // Lanczos approximation (g = 7, n = 9), |error| < 1e-13 for x > 0.
+        const C: [f64; 9] = [
+            0.999_999_999_999_809_9,
+            676.520_368_121_885_1,
+            -1_259.139_216_722_402_8,
+            771.323_428_777_653_1,
+            -176.615_029_162_140_6,
+            12.507_343_278_686_905,
+            -0.138_571_095_265_720_12,
+            9.984_369_578_019_572e-6,
+            1.505_632_735_149_311_6e-7,
+        ];
+        let x = x - 1.0;
+        let mut a = C[0];
+        let t = x + 7.5;
+        for (i, &c) in C.iter().enumerate().skip(1) {
+            a += c / (x + i as f64);
+        }
+        0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
+    }
+
+    /// Regularised upper incomplete gamma Q(a, x): the chi-square survival function is Q(k/2, χ²/2).
+    fn gamma_q(a: f64, x: f64) -> f64 {
+        if x <= 0.0 {
+            return 1.0;
+        }
+        let front = (-x + a * x.ln() - ln_gamma(a)).exp();
+        if x < a + 1.0 {
+            let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
+            for _ in 0..10_000 {
+                ap += 1.0;
+                term *= x / ap;
+                sum += term;
+                if term.abs() < sum.abs() * 1e-15 {
+                    break;
+                }
+            }
+            1.0 - sum * front
+        } else {
+            // Lentz's continued fraction.
+            let tiny = 1e-300;
+            let mut b = x + 1.0 - a;
+            let mut c = 1.0 / tiny;
+            let mut d = 1.0 / b;
+            let mut h = d;
+            for i in 1..10_000 {
+                let an = -(i as f64) * (i as f64 - a);
+                b += 2.0;
+                d = an * d + b;
+                d = if d.abs() < tiny { tiny } else { d };
+                c = b + an / c;
+                c = if c.abs() < tiny { tiny } else { c };
+                d = 1.0 / d;
+                let del = d * c;
+                h *= del;
+                if (del - 1.0).abs() < 1e-15 {
+                    break;
+                }
+            }
+            front * h
+        }
+    }
+
+    /// Chi-square test of a direction sampler against its pdf over (cos θ, φ) bins of the upper
+    /// hemisphere (equal solid angle), pdf integrated per bin on a 24 × 24 midpoint sub-grid,
+    /// bins with expectation < 5 pooled. Returns (p-value, ∫ pdf dω over the hemisphere).
+    fn chi2(
+        sample: impl Fn(&mut Pcg32) -> Option<Vec3>,
+        pdf: impl Fn(Vec3) -> f32,
+        n: usize,
+        seed: u64,
+    ) -> (f64, f64) {
+        const NT: usize = 10;
+        const NP: usize = 20;
+        const SUB: usize = 24;
+        let mut obs = vec![0f64; NT * NP];
+        let mut rng = Pcg32::new(seed, 11);
+        for _ in 0..n {
+            if let Some(w) = sample(&mut rng) {
+                if w.z > 0.0 {
+                    let (_, phi) = crate::math::frame::to_spherical(w);
+                    let i = ((w.z * NT as f32) as usize).min(NT - 1);
+                    let j = ((phi / (2.0 * std::f32::consts::PI) * NP as f32) as usize).min(NP - 1);
+                    obs[i * NP + j] += 1.0;
+                }
+            }
+        }
+        let (dc, dp) = (
+            1.0 / (NT * SUB) as f64,
+            2.0 * std::f64::consts::PI / (NP * SUB) as f64,
+        );
+        let mut exp = vec![0f64; NT * NP];
+        for i in 0..NT * SUB {
+            let c = (i as f64 + 0.5) * dc;
+            let s = (1.0 - c * c).max(0.0).sqrt();
+            for j in 0..NP * SUB {
+                let p = (j as f64 + 0.5) * dp;
+                let w = Vec3::new((s * p.cos()) as f32, (s * p.sin()) as f32, c as f32);
+                exp[(i / SUB) * NP + j / SUB] += pdf(w) as f64 * dc * dp;
+            }
+        }
+        let integral: f64 = exp.iter().sum();
+        let mut bins: Vec<(f64, f64)> = exp
+            .iter()
+            .zip(&obs)
+            .map(|(&e, &o)| (e * n as f64, o))
+            .collect();
+        bins.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (mut pe, mut po, mut stat, mut k) = (0.0, 0.0, 0.0, 0usize);
+        for (e, o) in bins {
+            if e < 5.0 {
+                pe += e;
+                po += o;
+                continue;
+            }
+            stat += (o - e) * (o - e) / e;
+            k += 1;
+        }
+        if pe > 0.0 {
+            stat += (po - pe) * (po - pe) / pe.max(1e-9);
+            k += 1;
+        }
+        (gamma_q((k - 1) as f64 / 2.0, stat / 2.0), integral)
+    }
+
+    fn test_views() -> Vec<Vec3> {
+        vec![
+            dir(0.0, 0.0),
+            dir(45.0, 20.0),  // a measured view
+            dir(37.0, 101.0), // between views
+            dir(68.0, 250.0), // between the outer rings
+            dir(82.0, 33.0),  // beyond the outermost ring
+        ]
+    }
+
+    #[test]
+    fn chi2_sampling_matches_pdf() {
+        let views = test_views();
+        let tests = 2 * views.len();
+        let alpha = 1.0 - 0.99f64.powf(1.0 / tests as f64); // Šidák-corrected 0.01
+        for (m, name) in [(glossy(), "glossy"), (lambert(), "lambert")] {
+            for &wi in &views {
+                let s = si(wi);
+                let (p, integral) = chi2(
+                    |r| m.sample(&s, r.next_f32(), r.next_2d()).map(|x| x.0.wo),
+                    |w| m.pdf(&s, w),
+                    100_000,
+                    7,
+                );
+                assert!(
+                    (integral - 1.0).abs() < 5e-3,
+                    "{name} {wi}: ∫pdf = {integral}"
+                );
+                assert!(p > alpha, "{name} wi = {wi}: p = {p:e}");
+            }
+        }
+    }
+
+    #[test]
+    fn chi2_rejects_a_wrong_pdf() {
+        // Cosine samples checked against the glossy mixture pdf must fail.
+        let s = si(dir(45.0, 20.0));
+        let (p, _) = chi2(
+            |r| Some(warp::square_to_cosine_hemisphere(r.next_2d())),
+            |w| glossy().pdf(&s, w),
+            100_000,
+            9,
+        );
+        assert!(p < 1e-6, "p = {p}");
+    }
+
+    /// ∫ eval dω over the hemisphere by a fine midpoint rule in (cos θ, φ).
+    fn albedo_quadrature(b: &BtfBsdf, s: &SurfaceInteraction) -> Spectrum {
+        let (nt, np) = (200, 400);
+        let mut acc = Spectrum::ZERO;
+        for i in 0..nt {
+            let c = (i as f32 + 0.5) / nt as f32;
+            for j in 0..np {
+                let p = (j as f32 + 0.5) / np as f32 * 2.0 * std::f32::consts::PI;
+                let st = (1.0 - c * c).sqrt();
+                acc += b.eval(s, Vec3::new(st * p.cos(), st * p.sin(), c));
+            }
+        }
+        acc * (2.0 * std::f32::consts::PI / (nt * np) as f32)
+    }
+
+    /// Mean and standard error of the sample weights (first channel) with `n` samples.
+    fn weight_stats(sample: impl Fn(f32, Vec2) -> Option<f32>, n: usize, seed: u64) -> (f64, f64) {
+        let mut rng = Pcg32::new(seed, 5);
+        let (mut s1, mut s2) = (0f64, 0f64);
+        for _ in 0..n {
+            let w = sample(rng.next_f32(), rng.next_2d()).unwrap_or(0.0) as f64;
+            s1 += w;
+            s2 += w * w;
+        }
+        let mean = s1 / n as f64;
+        let var = (s2 / n as f64 - mean * mean).max(0.0);
+        (mean, (var / n as f64).sqrt())
+    }
+
+    #[test]
+    fn white_lambertian_table_furnace() {
+        // B = cos θ_l at the 81 directions: the directional albedo is 1 up to the interpolation
+        // error (cos θ interpolated linearly on the disk: below 1 inside the hull, held at
+        // cos 75° beyond the outer ring: above 1) — a few percent.
+        let b = lambert();
+        for wi in test_views() {
+            let s = si(wi);
+            let quad = albedo_quadrature(b, &s).x as f64;
+            let (mean, se) = weight_stats(|u1, u2| b.sample(&s, u1, u2).map(|x| x.1.x), 20_000, 1);
+            assert!(
+                (mean - quad).abs() < 4.0 * se + 2e-3,
+                "IS {mean} ± {se} vs quadrature {quad}"
+            );
+            assert!((quad - 1.0).abs() < 0.06, "albedo {quad}");
+            eprintln!(
+                "wi {wi}: albedo {quad:.4}, weight std {:.3}",
+                se * (20_000f64).sqrt()
+            );
+        }
+    }
+
+    #[test]
+    fn tabulated_sampling_beats_cosine_on_a_glossy_table() {
+        let b = glossy();
+        for wi in [dir(30.0, 40.0), dir(60.0, 200.0)] {
+            let s = si(wi);
+            let quad = albedo_quadrature(b, &s).x as f64;
+            let n = 20_000;
+            let (m_is, se_is) = weight_stats(|u1, u2| b.sample(&s, u1, u2).map(|x| x.1.x), n, 2);
+            let (m_cos, se_cos) = weight_stats(
+                |_, u2| {
+                    let wo = warp::square_to_cosine_hemisphere(u2);
+                    let pdf = warp::square_to_cosine_hemisphere_pdf(wo);
+                    (pdf > 0.0).then(|| b.eval(&s, wo).x / pdf)
+                },
+                n,
+                3,
+            );
+            assert!(
+                (m_is - quad).abs() < 4.0 * se_is + 2e-3,
+                "IS {m_is} ± {se_is} vs {quad}"
+            );
+            assert!(
+                (m_cos - quad).abs() < 4.0 * se_cos + 2e-3,
+                "cos {m_cos} ± {se_cos} vs {quad}"
+            );
+            // Variance ratio of the estimators (same n).
+            eprintln!("wi {wi}: albedo {quad:.4}, se cosine {se_cos:.5} tabulated {se_is:.5}");
+            assert!(
+                se_cos > 1.5 * se_is,
+                "cosine se {se_cos} vs tabulated {se_is}"
+            );
+        }
     }
 }
