@@ -461,4 +461,31 @@ mod interp_tests {
             }
         }
     }
+
+    #[test]
+    fn grid_candidate_lists_are_short() {
+        // Performance guard: the pruned candidate lists of cells inside the disk stay small.
+        for (_, ip) in standard() {
+            let g = ip.grid as usize;
+            let (mut total, mut cells, mut longest) = (0usize, 0usize, 0usize);
+            for cy in 0..g {
+                for cx in 0..g {
+                    let x = -1.0 + (cx as f32 + 0.5) * 2.0 / g as f32;
+                    let y = -1.0 + (cy as f32 + 0.5) * 2.0 / g as f32;
+                    if x * x + y * y <= 1.0 {
+                        let k = cy * g + cx;
+                        let n = (ip.cell_start[k + 1] - ip.cell_start[k]) as usize;
+                        total += n;
+                        cells += 1;
+                        longest = longest.max(n);
+                    }
+                }
+            }
+            let mean = total as f32 / cells as f32;
+            assert!(
+                mean < 5.0 && longest <= 16,
+                "mean {mean}, longest {longest}"
+            );
+        }
+    }
 }
