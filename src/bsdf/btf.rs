@@ -299,7 +299,7 @@ impl BtfBsdf {
             return None;
         }
         let pdf = self.pdf_with_views(vi, vw, wo);
-        if !(pdf > 0.0) {
+        if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
         let weight = self.eval(si, wo) / pdf;
@@ -501,13 +501,11 @@ mod tests {
         let mut obs = vec![0f64; NT * NP];
         let mut rng = Pcg32::new(seed, 11);
         for _ in 0..n {
-            if let Some(w) = sample(&mut rng) {
-                if w.z > 0.0 {
-                    let (_, phi) = crate::math::frame::to_spherical(w);
-                    let i = ((w.z * NT as f32) as usize).min(NT - 1);
-                    let j = ((phi / (2.0 * std::f32::consts::PI) * NP as f32) as usize).min(NP - 1);
-                    obs[i * NP + j] += 1.0;
-                }
+            if let Some(w) = sample(&mut rng).filter(|w| w.z > 0.0) {
+                let (_, phi) = crate::math::frame::to_spherical(w);
+                let i = ((w.z * NT as f32) as usize).min(NT - 1);
+                let j = ((phi / (2.0 * std::f32::consts::PI) * NP as f32) as usize).min(NP - 1);
+                obs[i * NP + j] += 1.0;
             }
         }
         let (dc, dp) = (

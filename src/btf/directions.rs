@@ -134,7 +134,7 @@ pub struct DirectionInterp {
 
 impl DirectionInterp {
     fn new(set: &DirectionSet) -> Result<Self> {
-        if let Some(i) = set.dirs.iter().position(|d| !(d.z >= -1e-6)) {
+        if let Some(i) = set.dirs.iter().position(|d| d.z.is_nan() || d.z < -1e-6) {
             return Err(Error::Invalid(format!(
                 "direction {i} (θ = {}°) is below the horizon",
                 set.angles_deg[i].0
