@@ -4,7 +4,9 @@
 //! Sampling: at load, per measured view, a piecewise-constant density over the light triangulation
 //! on the unit disk, proportional to the texel-averaged luminance of B / cos θ_l (so a Lambertian
 //! table gives exactly cosine sampling); for a query the tables of the 3 views of wi are blended
-//! with their interpolation weights, and uniform hemisphere sampling is always mixed in (one-sample
+//! with their interpolation weights; the grazing band beyond the measured hull (where the DESIGN
+//! rule holds B at its outer-ring values) gets its own uniform component weighted by its estimated
+//! share of ∫ B dω; uniform hemisphere sampling is always mixed in (one-sample
 //! MIS mixture). The defensive part is uniform rather than cosine because the DESIGN extrapolation
 //! holds B constant beyond the outermost measured ring (B does not fall like cos θ there), so
 //! only a pdf that stays positive at the horizon bounds the weight: f·cos/pdf ≤ 2 B / DEFENSIVE_FRACTION.
@@ -46,6 +48,11 @@ pub struct BtfMaterial {
     tri_density: Vec<f32>,
     /// Per view: false if the table is empty (black view); cosine sampling is used instead.
     table_ok: Vec<bool>,
+    /// Per view: probability of the triangle table (vs the grazing band) in the tabulated part.
+    table_prob: Vec<f32>,
+    /// Grazing band beyond the measured hull: directions with cos θ < `band_cos`, sampled
+    /// uniformly in solid angle (B is held constant there by the extrapolation rule); 0 = none.
+    band_cos: f32,
 }
 
 impl BtfMaterial {
@@ -68,8 +75,8 @@ impl BtfMaterial {
         let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
         let data = btf.data();
         let light_cos: Vec<f32> = btf.lights().dirs.iter().map(|d| d.z).collect();
-        // g(view, light) = texel-averaged luminance of B / cos θ_l (≥ 0).
-        let g: Vec<f32> = (0..nv * nl)
+        // Texel-averaged luminance of B per (view, light).
+        let lum: Vec<f32> = (0..nv * nl)
             .into_par_iter()
             .map(|vl| {
                 let mut sum = Spectrum::ZERO;
@@ -86,14 +93,20 @@ impl BtfMaterial {
                         count += 1;
                     }
                 }
-                let lum = luminance(sum / count as f32);
-                let v = lum / light_cos[vl % nl].max(MIN_COS);
-                if v.is_finite() { v.max(0.0) } else { 0.0 }
+                let l = luminance(sum / count as f32);
+                if l.is_finite() { l.max(0.0) } else { 0.0 }
             })
             .collect();
+        // g = B / cos θ_l: the density over the disk that makes the solid-angle pdf ∝ B.
+        let g: Vec<f32> = (0..nv * nl)
+            .map(|vl| lum[vl] / light_cos[vl % nl].max(MIN_COS))
+            .collect();
+        let (band_cos, hull) = grazing_band(&lights);
+        let band_solid_angle = 2.0 * std::f64::consts::PI * band_cos as f64;
         let mut tri_cdf = vec![0f32; nv * nt];
         let mut tri_density = vec![0f32; nv * nt];
         let mut table_ok = vec![false; nv];
+        let mut table_prob = vec![1f32; nv];
         for v in 0..nv {
             let gv = &g[v * nl..(v + 1) * nl];
             let mut total = 0f64;
@@ -104,8 +117,19 @@ impl BtfMaterial {
                 total += mean * lights.triangle_area(t) as f64;
                 tri_cdf[v * nt + t] = total as f32;
             }
-            if total > 0.0 && total.is_finite() {
+            // ∫ B dω over the band ≈ mean B of the hull directions × the band's solid angle.
+            let band = if hull.is_empty() {
+                0.0
+            } else {
+                let lv = &lum[v * nl..(v + 1) * nl];
+                hull.iter().map(|&i| lv[i as usize] as f64).sum::<f64>() / hull.len() as f64
+                    * band_solid_angle
+            };
+            if total + band > 0.0 && (total + band).is_finite() {
                 table_ok[v] = true;
+                table_prob[v] = (total / (total + band)) as f32;
+            }
+            if total > 0.0 && total.is_finite() {
                 for t in 0..nt {
                     tri_cdf[v * nt + t] = (tri_cdf[v * nt + t] as f64 / total) as f32;
                     tri_density[v * nt + t] = (tri_density[v * nt + t] as f64 / total) as f32;
@@ -120,6 +144,8 @@ impl BtfMaterial {
             tri_cdf,
             tri_density,
             table_ok,
+            table_prob,
+            band_cos,
         })
     }
 
@@ -163,11 +189,14 @@ impl BtfMaterial {
         Spectrum::from(acc)
     }
 
-    /// Density over the unit disk of the blended light tables at disk point `q` (0 off the hull).
+    /// Solid-angle density of the tabulated part of the mixture (blended over the 3 views) at
+    /// the upper-hemisphere direction `wo`.
     #[inline]
-    fn table_density(&self, vi: [u32; 3], vw: [f32; 3], q: [f32; 2]) -> f32 {
-        let (t, bw) = self.lights.locate(q);
+    fn tabulated_pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        let (t, bw) = self.lights.locate([wo.x, wo.y]);
         let inside = bw[0].min(bw[1]).min(bw[2]) >= -1e-6;
+        let in_band = wo.z < self.band_cos;
+        let band_pdf = 1.0 / (2.0 * std::f32::consts::PI * self.band_cos.max(f32::MIN_POSITIVE));
         let nt = self.lights.num_triangles();
         let mut d = 0.0;
         for k in 0..3 {
@@ -177,15 +206,55 @@ impl BtfMaterial {
             let v = vi[k] as usize;
             d += vw[k]
                 * if !self.table_ok[v] {
-                    INV_PI // black view: its share is cosine sampled (uniform on the disk)
-                } else if inside {
-                    self.tri_density[v * nt + t]
+                    wo.z * INV_PI // black view: its share is cosine sampled
                 } else {
-                    0.0
+                    let p = self.table_prob[v];
+                    let tri = if inside {
+                        wo.z * self.tri_density[v * nt + t]
+                    } else {
+                        0.0
+                    };
+                    let band = if in_band { band_pdf } else { 0.0 };
+                    p * tri + (1.0 - p) * band
                 };
         }
         d
     }
+}
+
+/// The grazing band not covered by the light triangulation: (cos θ of the largest circle around
+/// the normal inside the hull, indices of the hull directions). (0, []) when the hull does not
+/// contain the normal with some margin (then only the defensive part covers the rim).
+fn grazing_band(lights: &DirectionInterp) -> (f32, Vec<u32>) {
+    let mut edges = std::collections::HashSet::new();
+    for t in 0..lights.num_triangles() {
+        let v = lights.triangle(t);
+        for e in 0..3 {
+            edges.insert((v[e], v[(e + 1) % 3], t, e));
+        }
+    }
+    let directed: std::collections::HashSet<(u32, u32)> =
+        edges.iter().map(|&(a, b, _, _)| (a, b)).collect();
+    let mut hull = Vec::new();
+    let mut r_min = f32::INFINITY;
+    for &(a, b, t, e) in &edges {
+        if directed.contains(&(b, a)) {
+            continue;
+        }
+        hull.push(a);
+        let p = lights.triangle_disk(t);
+        let (pa, pb) = (p[e], p[(e + 1) % 3]);
+        // Signed distance of the origin to the edge line, > 0 inside (edges are counter-clockwise).
+        let d = [pb[0] - pa[0], pb[1] - pa[1]];
+        let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        let dist = (d[0] * (0.0 - pa[1]) - d[1] * (0.0 - pa[0])) / len;
+        r_min = r_min.min(dist);
+    }
+    if !(r_min > 0.5) {
+        return (0.0, Vec::new());
+    }
+    hull.sort_unstable();
+    ((1.0 - r_min.min(1.0) * r_min.min(1.0)).sqrt(), hull)
 }
 
 /// A BTF material instance: shared data + its uv tiling.
@@ -251,9 +320,8 @@ impl BtfBsdf {
 
     #[inline]
     fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        let table = self.material.table_density(vi, vw, [wo.x, wo.y]);
-        // Disk-area density × cos θ = solid-angle density.
-        DEFENSIVE_FRACTION * INV_TWO_PI + (1.0 - DEFENSIVE_FRACTION) * wo.z * table
+        DEFENSIVE_FRACTION * INV_TWO_PI
+            + (1.0 - DEFENSIVE_FRACTION) * self.material.tabulated_pdf(vi, vw, wo)
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -283,7 +351,14 @@ impl BtfBsdf {
             let v = vi[k] as usize;
             if !m.table_ok[v] {
                 warp::square_to_cosine_hemisphere(sample2)
+            } else if u >= m.table_prob[v] {
+                // Grazing band, uniform in solid angle.
+                let z = m.band_cos * sample2.x;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
+                Vec3::new(r * cp, r * sp, z)
             } else {
+                let u = u / m.table_prob[v];
                 let nt = m.lights.num_triangles();
                 let cdf = &m.tri_cdf[v * nt..(v + 1) * nt];
                 let t = cdf.partition_point(|&c| c <= u).min(nt - 1);
