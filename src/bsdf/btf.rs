@@ -37,7 +37,6 @@ const TABLE_TEXELS: usize = 64;
 
 /// A loaded BTF with its direction interpolators and sampling tables; shared (`Arc`) by every
 /// [`BtfBsdf`] that uses the same file.
-#[derive(Debug)]
 pub struct BtfMaterial {
     btf: Arc<RawBtf>,
     views: DirectionInterp,
@@ -257,6 +256,20 @@ fn grazing_band(lights: &DirectionInterp) -> (f32, Vec<u32>) {
     ((1.0 - r_min.min(1.0) * r_min.min(1.0)).sqrt(), hull)
 }
 
+/// A summary only: the measured data can be gigabytes.
+impl std::fmt::Debug for BtfMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("BtfMaterial")
+            .field("views", &self.btf.views().len())
+            .field("lights", &self.btf.lights().len())
+            .field("width", &self.btf.width())
+            .field("height", &self.btf.height())
+            .field("light_triangles", &self.lights.num_triangles())
+            .field("band_cos", &self.band_cos)
+            .finish_non_exhaustive()
+    }
+}
+
 /// A BTF material instance: shared data + its uv tiling.
 #[derive(Clone, Debug)]
 pub struct BtfBsdf {
@@ -461,6 +474,8 @@ mod tests {
         let tiled = BtfBsdf::new(b.material().clone(), 2.0).unwrap();
         assert_eq!(tiled.texel(Vec2::new(0.3, 0.55)), (2, 0));
         assert!(BtfBsdf::new(b.material().clone(), f32::NAN).is_err());
+        let dbg = format!("{b:?}");
+        assert!(dbg.contains("views: 81") && dbg.len() < 400, "{dbg}");
     }
 
     #[test]

@@ -117,6 +117,11 @@ impl TriGeom {
 /// smallest barycentric weight is largest (the containing one inside the hull), clamp negative
 /// weights to 0 and renormalise (which extrapolates beyond the outermost ring).
 ///
+/// Beyond the hull the rule is discontinuous where the winning triangle changes: just outside the
+/// 75° ring of UBO2003, at φ between two outer directions, it switches from blending the two outer
+/// directions of the hull edge to the single nearer one, and in UBO2014 it can even pick an inner
+/// 67.5° direction at θ ≈ 80°. Inside the hull it is continuous and reproduces linear functions.
+///
 /// Lookup is O(1): a uniform grid over [−1, 1]² lists per cell every triangle that can win the
 /// rule somewhere in the cell (bounds of the concave min-weight function over the cell's corners),
 /// so a query tests a handful of triangles and never allocates.
