@@ -163,6 +163,18 @@ impl BtfMaterial {
     #[inline]
     pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> Spectrum {
         let (vi, vw) = self.views.lookup(wi);
+        self.eval_b_with_views(vi, vw, wo, x, y)
+    }
+
+    #[inline]
+    fn eval_b_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        x: usize,
+        y: usize,
+    ) -> Spectrum {
         let (li, lw) = self.lights.lookup(wo);
         let (w, h, nl) = (self.btf.width(), self.btf.height(), self.btf.lights().len());
         let data = self.btf.data();
@@ -331,6 +343,19 @@ impl BtfBsdf {
         self.pdf_with_views(vi, vw, wo)
     }
 
+    /// `(eval, pdf)` sharing the view lookup (what emitter sampling with MIS needs).
+    #[inline]
+    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let m = &*self.material;
+        let (vi, vw) = m.views.lookup(si.wi);
+        let (x, y) = self.texel(si.uv);
+        let f = m.eval_b_with_views(vi, vw, wo, x, y) * INV_PI;
+        (f, self.pdf_with_views(vi, vw, wo))
+    }
+
     #[inline]
     fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
         DEFENSIVE_FRACTION * INV_TWO_PI
@@ -390,7 +415,8 @@ impl BtfBsdf {
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let weight = self.eval(si, wo) / pdf;
+        let (x, y) = self.texel(si.uv);
+        let weight = m.eval_b_with_views(vi, vw, wo, x, y) * (INV_PI / pdf);
         let s = BsdfSample {
             wo,
             pdf,
@@ -502,138 +528,13 @@ mod tests {
                 continue;
             };
             let pdf = b.pdf(&s, smp.wo);
+            assert_eq!(b.eval_pdf(&s, smp.wo), (b.eval(&s, smp.wo), pdf));
             assert!((smp.pdf - pdf).abs() <= 1e-4 * pdf, "{} vs {pdf}", smp.pdf);
             let want = b.eval(&s, smp.wo) / pdf;
             assert!((weight - want).length() <= 1e-4 * want.length() + 1e-7);
             // Defensive mixture: weight ≤ 2 B / fraction, B ≤ 3.1 · 1.3 for this table.
             assert!(weight.max_element() <= 2.0 * 3.1 * 1.3 / DEFENSIVE_FRACTION);
         }
-    }
-
-    // ---- compact chi-square harness (the bsdf helper's src/bsdf/chi2.rs was not on main) ----
-
-    fn ln_gamma(x: f64) -> f64 {
-        // Lanczos approximation (g = 7, n = 9), |error| < 1e-13 for x > 0.
-        const C: [f64; 9] = [
-            0.999_999_999_999_809_9,
-            676.520_368_121_885_1,
-            -1_259.139_216_722_402_8,
-            771.323_428_777_653_1,
-            -176.615_029_162_140_6,
-            12.507_343_278_686_905,
-            -0.138_571_095_265_720_12,
-            9.984_369_578_019_572e-6,
-            1.505_632_735_149_311_6e-7,
-        ];
-        let x = x - 1.0;
-        let mut a = C[0];
-        let t = x + 7.5;
-        for (i, &c) in C.iter().enumerate().skip(1) {
-            a += c / (x + i as f64);
-        }
-        0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-    }
-
-    /// Regularised upper incomplete gamma Q(a, x): the chi-square survival function is Q(k/2, χ²/2).
-    fn gamma_q(a: f64, x: f64) -> f64 {
-        if x <= 0.0 {
-            return 1.0;
-        }
-        let front = (-x + a * x.ln() - ln_gamma(a)).exp();
-        if x < a + 1.0 {
-            let (mut sum, mut term, mut ap) = (1.0 / a, 1.0 / a, a);
-            for _ in 0..10_000 {
-                ap += 1.0;
-                term *= x / ap;
-                sum += term;
-                if term.abs() < sum.abs() * 1e-15 {
-                    break;
-                }
-            }
-            1.0 - sum * front
-        } else {
-            // Lentz's continued fraction.
-            let tiny = 1e-300;
-            let mut b = x + 1.0 - a;
-            let mut c = 1.0 / tiny;
-            let mut d = 1.0 / b;
-            let mut h = d;
-            for i in 1..10_000 {
-                let an = -(i as f64) * (i as f64 - a);
-                b += 2.0;
-                d = an * d + b;
-                d = if d.abs() < tiny { tiny } else { d };
-                c = b + an / c;
-                c = if c.abs() < tiny { tiny } else { c };
-                d = 1.0 / d;
-                let del = d * c;
-                h *= del;
-                if (del - 1.0).abs() < 1e-15 {
-                    break;
-                }
-            }
-            front * h
-        }
-    }
-
-    /// Chi-square test of a direction sampler against its pdf over (cos θ, φ) bins of the upper
-    /// hemisphere (equal solid angle), pdf integrated per bin on a 24 × 24 midpoint sub-grid,
-    /// bins with expectation < 5 pooled. Returns (p-value, ∫ pdf dω over the hemisphere).
-    fn chi2(
-        sample: impl Fn(&mut Pcg32) -> Option<Vec3>,
-        pdf: impl Fn(Vec3) -> f32,
-        n: usize,
-        seed: u64,
-    ) -> (f64, f64) {
-        const NT: usize = 10;
-        const NP: usize = 20;
-        const SUB: usize = 24;
-        let mut obs = vec![0f64; NT * NP];
-        let mut rng = Pcg32::new(seed, 11);
-        for _ in 0..n {
-            if let Some(w) = sample(&mut rng).filter(|w| w.z > 0.0) {
-                let (_, phi) = crate::math::frame::to_spherical(w);
-                let i = ((w.z * NT as f32) as usize).min(NT - 1);
-                let j = ((phi / (2.0 * std::f32::consts::PI) * NP as f32) as usize).min(NP - 1);
-                obs[i * NP + j] += 1.0;
-            }
-        }
-        let (dc, dp) = (
-            1.0 / (NT * SUB) as f64,
-            2.0 * std::f64::consts::PI / (NP * SUB) as f64,
-        );
-        let mut exp = vec![0f64; NT * NP];
-        for i in 0..NT * SUB {
-            let c = (i as f64 + 0.5) * dc;
-            let s = (1.0 - c * c).max(0.0).sqrt();
-            for j in 0..NP * SUB {
-                let p = (j as f64 + 0.5) * dp;
-                let w = Vec3::new((s * p.cos()) as f32, (s * p.sin()) as f32, c as f32);
-                exp[(i / SUB) * NP + j / SUB] += pdf(w) as f64 * dc * dp;
-            }
-        }
-        let integral: f64 = exp.iter().sum();
-        let mut bins: Vec<(f64, f64)> = exp
-            .iter()
-            .zip(&obs)
-            .map(|(&e, &o)| (e * n as f64, o))
-            .collect();
-        bins.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let (mut pe, mut po, mut stat, mut k) = (0.0, 0.0, 0.0, 0usize);
-        for (e, o) in bins {
-            if e < 5.0 {
-                pe += e;
-                po += o;
-                continue;
-            }
-            stat += (o - e) * (o - e) / e;
-            k += 1;
-        }
-        if pe > 0.0 {
-            stat += (po - pe) * (po - pe) / pe.max(1e-9);
-            k += 1;
-        }
-        (gamma_q((k - 1) as f64 / 2.0, stat / 2.0), integral)
     }
 
     fn test_views() -> Vec<Vec3> {
@@ -648,38 +549,34 @@ mod tests {
 
     #[test]
     fn chi2_sampling_matches_pdf() {
+        use crate::bsdf::chi2::Chi2Test;
         let views = test_views();
-        let tests = 2 * views.len();
-        let alpha = 1.0 - 0.99f64.powf(1.0 / tests as f64); // Šidák-corrected 0.01
+        let t = Chi2Test {
+            cos_theta_res: 20,
+            phi_res: 40,
+            sample_count: 200_000,
+            test_count: 2 * views.len(),
+            ..Default::default()
+        };
         for (m, name) in [(glossy(), "glossy"), (lambert(), "lambert")] {
             for &wi in &views {
                 let s = si(wi);
-                let (p, integral) = chi2(
-                    |r| m.sample(&s, r.next_f32(), r.next_2d()).map(|x| x.0.wo),
+                let mut lobe = Pcg32::new(17, 3);
+                let out = t.run(
+                    |u1, u2| {
+                        let s1 = lobe.next_f32();
+                        m.sample(&s, s1, Vec2::new(u1, u2)).map(|x| x.0.wo)
+                    },
                     |w| m.pdf(&s, w),
-                    100_000,
-                    7,
                 );
+                assert!(out.passed, "{name} wi = {wi}: {}", out.message);
                 assert!(
-                    (integral - 1.0).abs() < 5e-3,
-                    "{name} {wi}: ∫pdf = {integral}"
+                    (out.pdf_integral - 1.0).abs() < 5e-3,
+                    "{name} {wi}: {}",
+                    out.pdf_integral
                 );
-                assert!(p > alpha, "{name} wi = {wi}: p = {p:e}");
             }
         }
-    }
-
-    #[test]
-    fn chi2_rejects_a_wrong_pdf() {
-        // Cosine samples checked against the glossy mixture pdf must fail.
-        let s = si(dir(45.0, 20.0));
-        let (p, _) = chi2(
-            |r| Some(warp::square_to_cosine_hemisphere(r.next_2d())),
-            |w| glossy().pdf(&s, w),
-            100_000,
-            9,
-        );
-        assert!(p < 1e-6, "p = {p}");
     }
 
     /// ∫ eval dω over the hemisphere by a fine midpoint rule in (cos θ, φ).

@@ -6,14 +6,31 @@
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
 pub mod btf;
-pub mod contracts_tmp;
+#[cfg(test)]
+pub(crate) mod chi2;
+pub mod conductor;
+pub mod dielectric;
 pub mod diffuse;
+pub mod fresnel;
+pub mod microfacet;
+pub mod roughconductor;
 pub mod texture;
+pub mod thindielectric;
+pub mod twosided;
+
+#[cfg(test)]
+mod golden;
+#[cfg(test)]
+mod tests;
 
 pub use btf::{BtfBsdf, BtfMaterial};
-pub use contracts_tmp::{Conductor, Dielectric, RoughConductor, ThinDielectric, TwoSided};
+pub use conductor::Conductor;
+pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use roughconductor::RoughConductor;
 pub use texture::Texture;
+pub use thindielectric::ThinDielectric;
+pub use twosided::TwoSided;
 
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -81,8 +98,12 @@ impl Bsdf {
     pub fn flags(&self) -> BsdfFlags {
         match self {
             Bsdf::Diffuse(b) => b.flags(),
+            Bsdf::Conductor(b) => b.flags(),
+            Bsdf::RoughConductor(b) => b.flags(),
+            Bsdf::Dielectric(b) => b.flags(),
+            Bsdf::ThinDielectric(b) => b.flags(),
+            Bsdf::TwoSided(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
-            _ => todo!("implemented by the bsdf helper"),
         }
     }
 
@@ -90,8 +111,12 @@ impl Bsdf {
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         match self {
             Bsdf::Diffuse(b) => b.eval(si, wo),
+            Bsdf::Conductor(b) => b.eval(si, wo),
+            Bsdf::RoughConductor(b) => b.eval(si, wo),
+            Bsdf::Dielectric(b) => b.eval(si, wo),
+            Bsdf::ThinDielectric(b) => b.eval(si, wo),
+            Bsdf::TwoSided(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
-            _ => todo!("implemented by the bsdf helper"),
         }
     }
 
@@ -99,8 +124,23 @@ impl Bsdf {
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         match self {
             Bsdf::Diffuse(b) => b.pdf(si, wo),
+            Bsdf::Conductor(b) => b.pdf(si, wo),
+            Bsdf::RoughConductor(b) => b.pdf(si, wo),
+            Bsdf::Dielectric(b) => b.pdf(si, wo),
+            Bsdf::ThinDielectric(b) => b.pdf(si, wo),
+            Bsdf::TwoSided(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
-            _ => todo!("implemented by the bsdf helper"),
+        }
+    }
+
+    /// `(eval, pdf)` in one call (Mitsuba `eval_pdf`): what emitter sampling with MIS needs.
+    /// Models that share work between the two override it; the rest call both.
+    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        match self {
+            Bsdf::RoughConductor(b) => b.eval_pdf(si, wo),
+            Bsdf::TwoSided(b) => b.eval_pdf(si, wo),
+            Bsdf::Btf(b) => b.eval_pdf(si, wo),
+            _ => (self.eval(si, wo), self.pdf(si, wo)),
         }
     }
 
@@ -114,8 +154,12 @@ impl Bsdf {
     ) -> Option<(BsdfSample, Spectrum)> {
         match self {
             Bsdf::Diffuse(b) => b.sample(si, sample1, sample2),
+            Bsdf::Conductor(b) => b.sample(si, sample1, sample2),
+            Bsdf::RoughConductor(b) => b.sample(si, sample1, sample2),
+            Bsdf::Dielectric(b) => b.sample(si, sample1, sample2),
+            Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
+            Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
-            _ => todo!("implemented by the bsdf helper"),
         }
     }
 }

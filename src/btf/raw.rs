@@ -27,7 +27,33 @@ pub trait BtfSource: Sync {
     fn load_view(&self, view: usize) -> Result<Vec<f32>>;
 }
 
-/// A whole BTF in memory as f16, laid out `[view][light][row][column][rgb]`.
+/// Where the f16 values of a [`RawBtf`] live: owned memory, or a read-only memory map of a
+/// `.btfc` cache (so a multi-GB material opens without copying).
+#[derive(Clone, Debug)]
+enum Storage {
+    Owned(Vec<f16>),
+    Mapped {
+        map: std::sync::Arc<memmap2::Mmap>,
+        /// Byte offset of the first value in the map (even, so the cast to f16 is aligned).
+        offset: usize,
+        /// Number of f16 values.
+        len: usize,
+    },
+}
+
+impl Storage {
+    #[inline]
+    fn as_slice(&self) -> &[f16] {
+        match self {
+            Storage::Owned(v) => v,
+            Storage::Mapped { map, offset, len } => {
+                bytemuck::cast_slice(&map[*offset..*offset + 2 * *len])
+            }
+        }
+    }
+}
+
+/// A whole BTF as f16, laid out `[view][light][row][column][rgb]` (in memory or memory-mapped).
 #[derive(Clone, Debug)]
 pub struct RawBtf {
     views: DirectionSet,
@@ -35,7 +61,7 @@ pub struct RawBtf {
     width: usize,
     height: usize,
     encoding: StoredEncoding,
-    data: Vec<f16>,
+    data: Storage,
 }
 
 impl RawBtf {
@@ -66,7 +92,39 @@ impl RawBtf {
             width,
             height,
             encoding,
-            data,
+            data: Storage::Owned(data),
+        })
+    }
+
+    /// Wraps `len` little-endian f16 values starting at byte `offset` of a memory map (used by the
+    /// `.btfc` cache). Fails unless the range lies inside the map, is 2-byte aligned, and `len`
+    /// matches the dimensions. Only available on little-endian hosts (the file is little-endian).
+    #[cfg(target_endian = "little")]
+    pub(crate) fn from_mapped(
+        views: DirectionSet,
+        lights: DirectionSet,
+        width: usize,
+        height: usize,
+        encoding: StoredEncoding,
+        map: std::sync::Arc<memmap2::Mmap>,
+        offset: usize,
+    ) -> Result<Self> {
+        let len = views.len() * lights.len() * width * height * 3;
+        let end = len.checked_mul(2).and_then(|b| b.checked_add(offset));
+        let aligned = (map.as_ptr() as usize + offset).is_multiple_of(std::mem::align_of::<f16>());
+        if width == 0 || height == 0 || !aligned || end.is_none_or(|e| e > map.len()) {
+            return Err(Error::Invalid(format!(
+                "mapped BTF data of {len} values at byte {offset} does not fit a map of {} bytes",
+                map.len()
+            )));
+        }
+        Ok(RawBtf {
+            views,
+            lights,
+            width,
+            height,
+            encoding,
+            data: Storage::Mapped { map, offset, len },
         })
     }
 
@@ -87,16 +145,24 @@ impl RawBtf {
     #[inline]
     pub fn texel(&self, view: usize, light: usize, x: usize, y: usize) -> [f32; 3] {
         let i = 3 * (((view * self.lights.len() + light) * self.height + y) * self.width + x);
-        [
-            self.data[i].to_f32(),
-            self.data[i + 1].to_f32(),
-            self.data[i + 2].to_f32(),
-        ]
+        let d = self.data.as_slice();
+        [d[i].to_f32(), d[i + 1].to_f32(), d[i + 2].to_f32()]
     }
 
     /// The raw f16 values, `[view][light][row][column][rgb]`.
     pub fn data(&self) -> &[f16] {
-        &self.data
+        self.data.as_slice()
+    }
+
+    /// True if the values are memory-mapped from a `.btfc` cache rather than owned.
+    pub fn is_mapped(&self) -> bool {
+        matches!(self.data, Storage::Mapped { .. })
+    }
+
+    /// The f16 values of one view, `[light][row][column][rgb]`.
+    pub fn view_data(&self, view: usize) -> &[f16] {
+        let n = self.lights.len() * self.height * self.width * 3;
+        &self.data()[view * n..(view + 1) * n]
     }
 }
 
@@ -123,10 +189,6 @@ impl BtfSource for RawBtf {
                 self.views.len()
             )));
         }
-        let n = self.lights.len() * self.height * self.width * 3;
-        Ok(self.data[view * n..(view + 1) * n]
-            .iter()
-            .map(|v| v.to_f32())
-            .collect())
+        Ok(self.view_data(view).iter().map(|v| v.to_f32()).collect())
     }
 }

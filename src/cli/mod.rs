@@ -1,5 +1,8 @@
 //! Subcommands, one file each.
 
+pub mod convert;
+pub mod info;
+
 use clap::{Parser, Subcommand};
 
 /// btfpt: a path tracer for measured BTF materials (raw and PLM-C).
@@ -11,9 +14,17 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Summarise a BTF: format, directions, size, encoding, value range, memory.
+    Info(info::InfoArgs),
+    /// Convert a BTF to a `.btfc` cache or a UBO2003 image folder.
+    Convert(convert::ConvertArgs),
+}
 
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {}
+    match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::Convert(a) => convert::run(a),
+    }
 }

@@ -1,0 +1,61 @@
+//! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
+
+use super::fresnel::{fresnel_conductor_rgb, reflect};
+use super::{BsdfFlags, BsdfSample, Texture};
+use crate::geometry::SurfaceInteraction;
+use crate::math::{Spectrum, Vec2, Vec3};
+
+/// Smooth conductor (Mitsuba `conductor`): Fresnel of complex IOR eta + i·k per RGB channel.
+/// Mitsuba's `material="none"` (ideal mirror) is eta = 0, k = 1.
+#[derive(Clone, Debug)]
+pub struct Conductor {
+    /// Real part of the relative IOR per channel.
+    pub eta: Spectrum,
+    /// Extinction coefficient (imaginary part of the IOR) per channel.
+    pub k: Spectrum,
+    /// Multiplier on the reflectance (Mitsuba default 1).
+    pub specular_reflectance: Texture,
+}
+
+impl Conductor {
+    /// Delta reflection only.
+    pub fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::DELTA_REFLECTION;
+        if self.specular_reflectance.is_spatially_varying() {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// Always 0: a delta lobe has no density that `eval` could see.
+    pub fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
+        Spectrum::ZERO
+    }
+
+    /// Always 0 (delta lobe).
+    pub fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
+        0.0
+    }
+
+    /// The mirror direction with weight F(cos θ_i) · specular_reflectance; None from below.
+    pub fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        _sample1: f32,
+        _sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        let cos_theta_i = si.wi.z;
+        if cos_theta_i <= 0.0 {
+            return None;
+        }
+        let bs = BsdfSample {
+            wo: reflect(si.wi),
+            pdf: 1.0,
+            eta: 1.0,
+            sampled: BsdfFlags::DELTA_REFLECTION,
+        };
+        let f = fresnel_conductor_rgb(cos_theta_i, self.eta, self.k);
+        Some((bs, self.specular_reflectance.eval(si.uv) * f))
+    }
+}

@@ -1,0 +1,184 @@
+//! Fresnel equations and mirror/refraction helpers in the local frame (Mitsuba 3 `fresnel.h`).
+
+use crate::math::{Spectrum, Vec3};
+
+/// Result of the dielectric Fresnel equations for one incident cosine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FresnelDielectric {
+    /// Unpolarised reflectance in [0, 1] (1 under total internal reflection).
+    pub r: f32,
+    /// Signed cosine of the transmitted direction (opposite side of `cos_theta_i`; 0 under TIR).
+    pub cos_theta_t: f32,
+    /// Relative IOR along the direction of travel (η if arriving from outside, 1/η from inside).
+    pub eta_it: f32,
+    /// 1 / `eta_it`: the scale applied to the tangential components when refracting.
+    pub eta_ti: f32,
+}
+
+/// Unpolarised Fresnel reflectance at a dielectric interface of relative IOR `eta` = η_int/η_ext;
+/// `cos_theta_i` < 0 means the ray arrives from the inside. Same special cases as Mitsuba:
+/// index matched → r = 0, grazing (cos = 0) → r = 1.
+#[inline]
+pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> FresnelDielectric {
+    let outside = cos_theta_i >= 0.0;
+    let rcp_eta = 1.0 / eta;
+    let (eta_it, eta_ti) = if outside {
+        (eta, rcp_eta)
+    } else {
+        (rcp_eta, eta)
+    };
+
+    // Snell: cos²θ_t = 1 − sin²θ_i · (η_i/η_t)².
+    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
+    let cos_i = cos_theta_i.abs();
+    let cos_t = cos_theta_t_sqr.max(0.0).sqrt();
+
+    let index_matched = eta == 1.0;
+    let r = if index_matched {
+        0.0
+    } else if cos_i == 0.0 {
+        1.0
+    } else {
+        let a_s = (cos_i - eta_it * cos_t) / (cos_i + eta_it * cos_t);
+        let a_p = (cos_t - eta_it * cos_i) / (cos_t + eta_it * cos_i);
+        0.5 * (a_s * a_s + a_p * a_p)
+    };
+
+    // The transmitted direction lies on the other side of the interface.
+    let cos_theta_t = if cos_theta_i >= 0.0 { -cos_t } else { cos_t };
+    FresnelDielectric {
+        r,
+        cos_theta_t,
+        eta_it,
+        eta_ti,
+    }
+}
+
+/// Unpolarised Fresnel reflectance of a conductor with complex IOR `eta + i k`, light arriving
+/// from outside (`cos_theta_i` ≥ 0). `eta = 0, k = 1` gives a perfect mirror (Mitsuba `none`).
+#[inline]
+pub fn fresnel_conductor(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
+    // After K. D. Moeller, "Optics" (1988), as used by Mitsuba 3.
+    let c2 = cos_theta_i * cos_theta_i;
+    let s2 = 1.0 - c2;
+    let s4 = s2 * s2;
+
+    let temp_1 = eta * eta - k * k - s2;
+    let a2_pb2 = (temp_1 * temp_1 + 4.0 * k * k * eta * eta).max(0.0).sqrt();
+    let a = (0.5 * (a2_pb2 + temp_1)).max(0.0).sqrt();
+
+    let term_1 = a2_pb2 + c2;
+    let term_2 = 2.0 * cos_theta_i * a;
+    let r_s = (term_1 - term_2) / (term_1 + term_2);
+
+    let term_3 = a2_pb2 * c2 + s4;
+    let term_4 = term_2 * s2;
+    let r_p = r_s * (term_3 - term_4) / (term_3 + term_4);
+
+    0.5 * (r_s + r_p)
+}
+
+/// Per-channel [`fresnel_conductor`] for RGB `eta` and `k`.
+#[inline]
+pub fn fresnel_conductor_rgb(cos_theta_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
+    Spectrum::new(
+        fresnel_conductor(cos_theta_i, eta.x, k.x),
+        fresnel_conductor(cos_theta_i, eta.y, k.y),
+        fresnel_conductor(cos_theta_i, eta.z, k.z),
+    )
+}
+
+/// Mirror reflection about the local normal (0, 0, 1).
+#[inline]
+pub fn reflect(wi: Vec3) -> Vec3 {
+    Vec3::new(-wi.x, -wi.y, wi.z)
+}
+
+/// Mirror reflection of `wi` about the unit vector `m`.
+#[inline]
+pub fn reflect_about(wi: Vec3, m: Vec3) -> Vec3 {
+    m * (2.0 * wi.dot(m)) - wi
+}
+
+/// Refraction through the local interface, with `cos_theta_t`/`eta_ti` from [`fresnel_dielectric`].
+#[inline]
+pub fn refract(wi: Vec3, cos_theta_t: f32, eta_ti: f32) -> Vec3 {
+    Vec3::new(-eta_ti * wi.x, -eta_ti * wi.y, cos_theta_t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dielectric_normal_incidence_brewster_and_tir() {
+        let eta = 1.5f32;
+        let f = fresnel_dielectric(1.0, eta);
+        let r0 = ((eta - 1.0) / (eta + 1.0)).powi(2);
+        assert!((f.r - r0).abs() < 1e-6, "{} vs {}", f.r, r0);
+        assert_eq!(f.cos_theta_t, -1.0);
+        assert_eq!((f.eta_it, f.eta_ti), (eta, 1.0 / eta));
+
+        // Brewster angle: p-polarised reflectance vanishes, so r = r_s / 2.
+        let theta_b = eta.atan();
+        let f = fresnel_dielectric(theta_b.cos(), eta);
+        let ci = theta_b.cos();
+        let ct = (1.0 - (1.0 - ci * ci) / (eta * eta)).sqrt();
+        let rs = ((ci - eta * ct) / (ci + eta * ct)).powi(2);
+        assert!((f.r - 0.5 * rs).abs() < 1e-6);
+
+        // From inside beyond the critical angle: total internal reflection.
+        let crit = (1.0 / eta).asin();
+        let f = fresnel_dielectric(-(crit + 0.05).cos(), eta);
+        assert_eq!(f.r, 1.0);
+        assert_eq!(f.cos_theta_t, 0.0);
+        // Index matched: nothing reflects.
+        assert_eq!(fresnel_dielectric(0.3, 1.0).r, 0.0);
+    }
+
+    #[test]
+    fn dielectric_is_reciprocal_and_refraction_obeys_snell() {
+        // Stokes relations: R is the same for the refracted ray travelling back.
+        for &eta in &[1.33f32, 1.5, 2.4, 0.7] {
+            for i in 1..20 {
+                let ci = i as f32 / 20.0;
+                let f = fresnel_dielectric(ci, eta);
+                if f.r >= 1.0 {
+                    continue;
+                }
+                let back = fresnel_dielectric(f.cos_theta_t, eta);
+                assert!((f.r - back.r).abs() < 2e-5, "eta {eta} cos {ci}");
+                assert!((back.cos_theta_t - ci).abs() < 2e-5);
+                let wi = Vec3::new((1.0 - ci * ci).sqrt(), 0.0, ci);
+                let wt = refract(wi, f.cos_theta_t, f.eta_ti);
+                assert!((wt.length() - 1.0).abs() < 1e-5);
+                // η_i sin θ_i = η_t sin θ_t (η_ext = 1 outside).
+                assert!((wi.x - eta * (-wt.x)).abs() < 1e-5);
+            }
+        }
+    }
+
+    #[test]
+    fn conductor_limits() {
+        // Mitsuba's `none` material (eta 0, k 1) is a perfect mirror at every angle.
+        for i in 0..=10 {
+            let c = i as f32 / 10.0;
+            assert!((fresnel_conductor(c, 0.0, 1.0) - 1.0).abs() < 1e-6);
+            // Large extinction → mirror.
+            assert!(fresnel_conductor(c.max(0.05), 1.0, 1e3) > 0.999);
+        }
+        // k = 0 reduces to the dielectric formula.
+        for i in 1..=10 {
+            let c = i as f32 / 10.0;
+            let a = fresnel_conductor(c, 1.5, 0.0);
+            let b = fresnel_dielectric(c, 1.5).r;
+            assert!((a - b).abs() < 1e-5, "{c}: {a} vs {b}");
+        }
+        // Normal incidence: ((n−1)² + k²) / ((n+1)² + k²).
+        let (n, k) = (0.2f32, 3.9f32);
+        let r0 = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+        assert!((fresnel_conductor(1.0, n, k) - r0).abs() < 1e-5);
+        // Grazing incidence reflects everything.
+        assert!((fresnel_conductor(0.0, n, k) - 1.0).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,96 @@
+"""Regenerates mitsuba3_golden.txt: eval/pdf/sample of Mitsuba 3's own BSDF plugins (scalar_rgb)
+at fixed directions and random numbers, the reference that src/bsdf/golden.rs tests against.
+
+    python -m venv /tmp/mts && /tmp/mts/bin/pip install mitsuba
+    /tmp/mts/bin/python src/bsdf/golden/mitsuba_golden.py > src/bsdf/golden/mitsuba3_golden.txt
+
+Line formats (whitespace separated, one case per line):
+    bsdf <id> <name>                                      (configuration, see CONFIGS / golden.rs)
+    eval <id> wix wiy wiz wox woy woz  r g b  pdf
+    sample <id> wix wiy wiz s1 u1 u2  ok wox woy woz pdf eta type  r g b
+(type = Mitsuba 3 BSDFFlags: 1 null, 2 diffuse refl., 8 glossy refl., 32 delta refl.,
+ 64 delta transm.; ok = 1 if the sample has pdf > 0 and a non-zero weight)
+"""
+import math
+import random
+
+import mitsuba as mi
+
+mi.set_variant("scalar_rgb")
+
+GOLD_ETA = [0.143, 0.374, 1.442]
+GOLD_K = [3.983, 2.385, 1.603]
+
+
+def rgb(v):
+    return {"type": "rgb", "value": v}
+
+
+def rough(au, av, vis):
+    return {"type": "roughconductor", "distribution": "ggx", "alpha_u": au, "alpha_v": av,
+            "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K), "sample_visible": vis,
+            "specular_reflectance": rgb([0.9, 0.8, 0.7])}
+
+
+# Names must match golden.rs.
+CONFIGS = {
+    "diffuse": {"type": "diffuse", "reflectance": rgb([0.2, 0.5, 0.8])},
+    "rough_iso_vis": rough(0.3, 0.3, True),
+    "rough_aniso_vis": rough(0.5, 0.1, True),
+    "rough_aniso_novis": rough(0.12, 0.45, False),
+    "rough_iso_novis": rough(0.2, 0.2, False),
+    "conductor_gold": {"type": "conductor", "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K),
+                       "specular_reflectance": rgb([1.0, 0.9, 0.8])},
+    "conductor_none": {"type": "conductor", "material": "none"},
+    "dielectric": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0},
+    "dielectric_tinted": {"type": "dielectric", "int_ior": 1.33, "ext_ior": 1.0,
+                          "specular_reflectance": rgb([0.5, 0.6, 0.7]),
+                          "specular_transmittance": rgb([0.9, 0.3, 0.4])},
+    "thindielectric": {"type": "thindielectric", "int_ior": 1.5, "ext_ior": 1.0,
+                       "specular_transmittance": rgb([0.9, 0.8, 0.7])},
+    "twosided_rough": {"type": "twosided", "a": rough(0.3, 0.1, True),
+                       "b": {"type": "diffuse", "reflectance": rgb([0.3, 0.2, 0.1])}},
+}
+
+
+def direction(theta, phi):
+    return mi.Vector3f(math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi),
+                       math.cos(theta))
+
+
+def fmt(x):
+    return "%.9g" % float(x)
+
+
+def main():
+    rng = random.Random(1234)
+    ctx = mi.BSDFContext()
+    for cid, (name, desc) in enumerate(CONFIGS.items()):
+        bsdf = mi.load_dict(desc)
+        print("bsdf", cid, name)
+        thetas_i = [0.0, 0.4, 1.1, 1.5, 2.0, 2.9]
+        for ti in thetas_i:
+            wi = direction(ti, 0.7)
+            si = mi.SurfaceInteraction3f()
+            si.wi = wi
+            si.uv = mi.Point2f(0.3, 0.6)
+            for _ in range(4):
+                wo = direction(rng.uniform(0, math.pi), rng.uniform(0, 2 * math.pi))
+                v = bsdf.eval(ctx, si, wo)
+                p = bsdf.pdf(ctx, si, wo)
+                print("eval", cid, *map(fmt, [*wi, *wo, *v, p]))
+            # The exact mirror direction too (peak of the glossy lobe).
+            wo = mi.Vector3f(-wi.x, -wi.y, wi.z)
+            v = bsdf.eval(ctx, si, wo)
+            p = bsdf.pdf(ctx, si, wo)
+            print("eval", cid, *map(fmt, [*wi, *wo, *v, p]))
+            for _ in range(4):
+                s1, u1, u2 = rng.random(), rng.random(), rng.random()
+                bs, w = bsdf.sample(ctx, si, s1, mi.Point2f(u1, u2))
+                ok = int(bs.pdf > 0 and max(w) > 0)
+                print("sample", cid, *map(fmt, [*wi, s1, u1, u2]), ok,
+                      *map(fmt, [*bs.wo, bs.pdf, bs.eta]), int(bs.sampled_type), *map(fmt, w))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,58 @@
+//! `btfpt convert IN OUT`: rewrites a BTF as a `.btfc` cache (streamed one view at a time) or as
+//! a flat UBO2003 image folder.
+
+use anyhow::Context;
+use btfpt::btf::{self, ubo2003::ImageKind};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Image encoding of a UBO2003 output folder.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Images {
+    /// 8-bit sRGB PNG.
+    Png8,
+    /// 16-bit sRGB PNG.
+    Png16,
+    /// 32-bit float linear EXR.
+    Exr,
+}
+
+/// Arguments of `btfpt convert`.
+#[derive(clap::Args, Debug)]
+pub struct ConvertArgs {
+    /// Input BTF: UBO2003 folder, UBO2014 `.btf` or `.btfc`.
+    pub input: PathBuf,
+    /// Output: a `.btfc` file, or otherwise a folder to write UBO2003 images into.
+    pub output: PathBuf,
+    /// Image encoding when the output is a UBO2003 folder.
+    #[arg(long, value_enum, default_value = "exr")]
+    pub images: Images,
+}
+
+/// Converts one BTF.
+pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    let is_cache = args
+        .output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("btfc"));
+    if is_cache {
+        let src = btf::open(&args.input)
+            .with_context(|| format!("cannot open {}", args.input.display()))?;
+        btf::cache::write_cache(src.as_ref(), &args.output)?;
+    } else {
+        let raw = btf::load_raw(&args.input)?;
+        let kind = match args.images {
+            Images::Png8 => ImageKind::Png8,
+            Images::Png16 => ImageKind::Png16,
+            Images::Exr => ImageKind::Exr,
+        };
+        btf::ubo2003::write_folder(&raw, &args.output, kind)?;
+    }
+    println!(
+        "wrote {} in {:.2} s",
+        args.output.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

@@ -1,0 +1,437 @@
+//! Stanford PLY meshes, hand-written reader: `ascii 1.0` and `binary_little_endian 1.0`
+//! (big endian is rejected with a clear error). Vertex `x y z`, optional `nx ny nz` and uv
+//! (`u v`, `s t`, `texture_u texture_v`, `texture_s texture_t`); faces from the `vertex_indices`
+//! (or `vertex_index`) list, polygons fan-triangulated; other elements and properties skipped.
+
+use super::shapes::LocalMesh;
+use crate::math::{Vec2, Vec3};
+use crate::{Error, Result};
+use std::path::Path;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ty {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Ty {
+    fn parse(s: &str) -> Option<Ty> {
+        Some(match s {
+            "char" | "int8" => Ty::I8,
+            "uchar" | "uint8" => Ty::U8,
+            "short" | "int16" => Ty::I16,
+            "ushort" | "uint16" => Ty::U16,
+            "int" | "int32" => Ty::I32,
+            "uint" | "uint32" => Ty::U32,
+            "float" | "float32" => Ty::F32,
+            "double" | "float64" => Ty::F64,
+            _ => return None,
+        })
+    }
+    fn size(self) -> usize {
+        match self {
+            Ty::I8 | Ty::U8 => 1,
+            Ty::I16 | Ty::U16 => 2,
+            Ty::I32 | Ty::U32 | Ty::F32 => 4,
+            Ty::F64 => 8,
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Property {
+    name: String,
+    ty: Ty,
+    /// For list properties: the type of the count.
+    list_count: Option<Ty>,
+}
+
+#[derive(Debug)]
+struct Element {
+    name: String,
+    count: usize,
+    props: Vec<Property>,
+}
+
+/// Reads values either from ASCII tokens (with line numbers) or little-endian bytes.
+enum Source<'a> {
+    Ascii {
+        tokens: Vec<(usize, &'a str)>,
+        pos: usize,
+    },
+    Binary {
+        data: &'a [u8],
+        pos: usize,
+    },
+}
+
+impl Source<'_> {
+    fn read(&mut self, ty: Ty, path: &Path, what: &dyn Fn() -> String) -> Result<f64> {
+        match self {
+            Source::Ascii { tokens, pos } => {
+                let Some(&(line, tok)) = tokens.get(*pos) else {
+                    return Err(Error::format(
+                        path,
+                        format!("unexpected end of file in {}", what()),
+                    ));
+                };
+                *pos += 1;
+                let v: f64 = tok.parse().map_err(|_| {
+                    Error::format(
+                        path,
+                        format!("line {line}: cannot parse \"{tok}\" in {}", what()),
+                    )
+                })?;
+                if !v.is_finite() {
+                    return Err(Error::format(
+                        path,
+                        format!("line {line}: non-finite value \"{tok}\" in {}", what()),
+                    ));
+                }
+                if !matches!(ty, Ty::F32 | Ty::F64) && v.fract() != 0.0 {
+                    return Err(Error::format(
+                        path,
+                        format!("line {line}: \"{tok}\" is not an integer in {}", what()),
+                    ));
+                }
+                Ok(v)
+            }
+            Source::Binary { data, pos } => {
+                let n = ty.size();
+                let Some(b) = data.get(*pos..*pos + n) else {
+                    return Err(Error::format(
+                        path,
+                        format!("unexpected end of file in {}", what()),
+                    ));
+                };
+                *pos += n;
+                let v = match ty {
+                    Ty::I8 => b[0] as i8 as f64,
+                    Ty::U8 => b[0] as f64,
+                    Ty::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+                    Ty::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+                    Ty::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Ty::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Ty::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    Ty::F64 => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
+                };
+                if !v.is_finite() {
+                    return Err(Error::format(
+                        path,
+                        format!("non-finite value in {}", what()),
+                    ));
+                }
+                Ok(v)
+            }
+        }
+    }
+}
+
+/// Loads a PLY file into object space; `flip_tex_coords` (Mitsuba default false for PLY) flips v.
+pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    // Header: ASCII lines up to and including "end_header\n".
+    let marker = b"end_header";
+    let hend = bytes
+        .windows(marker.len())
+        .position(|w| w == marker)
+        .ok_or_else(|| Error::format(path, "not a PLY file (no end_header)"))?;
+    let mut body = hend + marker.len();
+    while body < bytes.len() && bytes[body] != b'\n' {
+        body += 1;
+    }
+    body += 1;
+    let header = String::from_utf8_lossy(&bytes[..hend]);
+    let mut lines = header.lines().enumerate();
+    match lines.next() {
+        Some((_, l)) if l.trim() == "ply" => {}
+        _ => return Err(Error::format(path, "not a PLY file (missing 'ply' magic)")),
+    }
+    let mut ascii = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for (ln, line) in lines {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        let bad = |m: &str| Error::format(path, format!("line {}: {m}", ln + 1));
+        match t.first().copied() {
+            None | Some("comment") | Some("obj_info") => {}
+            Some("format") => {
+                ascii = Some(match t.get(1).copied() {
+                    Some("ascii") => true,
+                    Some("binary_little_endian") => false,
+                    Some("binary_big_endian") => {
+                        return Err(bad(
+                            "binary_big_endian PLY files are not supported (convert to binary_little_endian or ascii)",
+                        ));
+                    }
+                    _ => return Err(bad("unknown PLY format")),
+                });
+                if t.get(2).copied() != Some("1.0") {
+                    return Err(bad("unsupported PLY version (expected 1.0)"));
+                }
+            }
+            Some("element") => {
+                let (Some(name), Some(count)) = (t.get(1), t.get(2)) else {
+                    return Err(bad("malformed element line"));
+                };
+                let count = count.parse().map_err(|_| bad("malformed element count"))?;
+                elements.push(Element {
+                    name: name.to_string(),
+                    count,
+                    props: Vec::new(),
+                });
+            }
+            Some("property") => {
+                let el = elements
+                    .last_mut()
+                    .ok_or_else(|| bad("property before any element"))?;
+                let p = if t.get(1) == Some(&"list") {
+                    let (Some(c), Some(i), Some(n)) = (t.get(2), t.get(3), t.get(4)) else {
+                        return Err(bad("malformed list property"));
+                    };
+                    Property {
+                        name: n.to_string(),
+                        ty: Ty::parse(i).ok_or_else(|| bad("unknown property type"))?,
+                        list_count: Some(Ty::parse(c).ok_or_else(|| bad("unknown property type"))?),
+                    }
+                } else {
+                    let (Some(ty), Some(n)) = (t.get(1), t.get(2)) else {
+                        return Err(bad("malformed property"));
+                    };
+                    Property {
+                        name: n.to_string(),
+                        ty: Ty::parse(ty)
+                            .ok_or_else(|| bad(&format!("unknown property type '{ty}'")))?,
+                        list_count: None,
+                    }
+                };
+                el.props.push(p);
+            }
+            Some(other) => return Err(bad(&format!("unknown header keyword '{other}'"))),
+        }
+    }
+    let ascii = ascii.ok_or_else(|| Error::format(path, "PLY header has no format line"))?;
+    let header_lines = String::from_utf8_lossy(&bytes[..body.min(bytes.len())])
+        .lines()
+        .count();
+    let data = &bytes[body.min(bytes.len())..];
+    let text;
+    let mut src = if ascii {
+        text = String::from_utf8_lossy(data);
+        let tokens = text
+            .lines()
+            .enumerate()
+            .flat_map(|(i, l)| l.split_whitespace().map(move |t| (header_lines + i + 1, t)))
+            .collect();
+        Source::Ascii { tokens, pos: 0 }
+    } else {
+        Source::Binary { data, pos: 0 }
+    };
+
+    let mut out = LocalMesh::default();
+    let mut saw_vertex = false;
+    for el in &elements {
+        let find = |n: &[&str]| {
+            el.props
+                .iter()
+                .position(|p| n.contains(&p.name.as_str()) && p.list_count.is_none())
+        };
+        let (ix, iy, iz) = (find(&["x"]), find(&["y"]), find(&["z"]));
+        let (inx, iny, inz) = (find(&["nx"]), find(&["ny"]), find(&["nz"]));
+        let iu = find(&["u", "s", "texture_u", "texture_s"]);
+        let iv = find(&["v", "t", "texture_v", "texture_t"]);
+        let is_vertex = el.name == "vertex";
+        let is_face = el.name == "face";
+        if is_vertex {
+            if ix.is_none() || iy.is_none() || iz.is_none() {
+                return Err(Error::format(path, "vertex element lacks x, y, z"));
+            }
+            saw_vertex = true;
+        }
+        let has_n = inx.is_some() && iny.is_some() && inz.is_some();
+        let has_uv = iu.is_some() && iv.is_some();
+        let face_list = el.props.iter().position(|p| {
+            p.list_count.is_some() && (p.name == "vertex_indices" || p.name == "vertex_index")
+        });
+        if is_face && face_list.is_none() {
+            return Err(Error::format(
+                path,
+                "face element lacks a vertex_indices list",
+            ));
+        }
+        let mut vals = vec![0.0f64; el.props.len()];
+        let mut poly: Vec<u32> = Vec::new();
+        for k in 0..el.count {
+            for (pi, p) in el.props.iter().enumerate() {
+                let what = || format!("element '{}' #{k}, property '{}'", el.name, p.name);
+                if let Some(ct) = p.list_count {
+                    let n = src.read(ct, path, &what)?;
+                    if n < 0.0 {
+                        return Err(Error::format(
+                            path,
+                            format!("negative list length in {}", what()),
+                        ));
+                    }
+                    let is_idx = Some(pi) == face_list && is_face;
+                    if is_idx {
+                        poly.clear();
+                    }
+                    for _ in 0..n as usize {
+                        let v = src.read(p.ty, path, &what)?;
+                        if is_idx {
+                            if v < 0.0 || v > u32::MAX as f64 {
+                                return Err(Error::format(
+                                    path,
+                                    format!("bad vertex index {v} in {}", what()),
+                                ));
+                            }
+                            poly.push(v as u32);
+                        }
+                    }
+                } else {
+                    vals[pi] = src.read(p.ty, path, &what)?;
+                }
+            }
+            if is_vertex {
+                let g = |i: Option<usize>| i.map(|i| vals[i] as f32).unwrap_or(0.0);
+                let p = Vec3::new(g(ix), g(iy), g(iz));
+                if !p.is_finite() {
+                    return Err(Error::format(
+                        path,
+                        format!("vertex #{k} does not fit in f32"),
+                    ));
+                }
+                out.positions.push(p);
+                if has_n {
+                    out.normals.push(Vec3::new(g(inx), g(iny), g(inz)));
+                }
+                if has_uv {
+                    let uv = Vec2::new(g(iu), g(iv));
+                    out.uvs.push(if flip_tex_coords {
+                        Vec2::new(uv.x, 1.0 - uv.y)
+                    } else {
+                        uv
+                    });
+                }
+            } else if is_face {
+                if poly.len() < 3 {
+                    return Err(Error::format(
+                        path,
+                        format!("face #{k} has fewer than 3 vertices"),
+                    ));
+                }
+                for i in 1..poly.len() - 1 {
+                    out.indices.push([poly[0], poly[i], poly[i + 1]]);
+                }
+            }
+        }
+    }
+    if !saw_vertex {
+        return Err(Error::format(path, "PLY file has no vertex element"));
+    }
+    let n = out.positions.len();
+    if let Some((f, _)) = out
+        .indices
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|&i| i as usize >= n))
+    {
+        return Err(Error::format(
+            path,
+            format!("face #{f} references a vertex beyond the {n} vertices"),
+        ));
+    }
+    if out.indices.is_empty() {
+        return Err(Error::format(path, "PLY file contains no faces"));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    /// Writes a binary little-endian PLY quad (float xyz, nx ny nz, u v; uchar/int face list).
+    pub(crate) fn write_binary_quad(path: &Path) {
+        let mut b = b"ply\nformat binary_little_endian 1.0\ncomment test\nelement vertex 4\n\
+property float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\n\
+property float nz\nproperty float u\nproperty float v\nelement face 1\n\
+property list uchar int vertex_indices\nend_header\n"
+            .to_vec();
+        for (x, y) in [(0.0f32, 0.0f32), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            for v in [x, y, 0.0, 0.0, 0.0, 1.0, x, y] {
+                b.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        b.push(4);
+        for i in [0i32, 1, 2, 3] {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+        std::fs::write(path, b).unwrap();
+    }
+
+    #[test]
+    fn binary_quad_with_normals_and_uvs() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("q.ply");
+        write_binary_quad(&p);
+        let m = load(&p, false).unwrap();
+        assert_eq!(m.positions.len(), 4);
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
+        assert_eq!(m.normals[2], Vec3::Z);
+        assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
+        let f = load(&p, true).unwrap();
+        assert_eq!(f.uvs[1], Vec2::new(1.0, 1.0));
+    }
+
+    #[test]
+    fn ascii_triangle_skips_unknown_elements() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.ply");
+        std::fs::write(
+            &p,
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             property uchar red\nelement face 1\nproperty list uchar uint vertex_index\n\
+             element edge 1\nproperty int a\nproperty int b\nend_header\n\
+             0 0 0 255\n1 0 0 0\n0 1 0 7\n3 0 1 2\n0 1\n",
+        )
+        .unwrap();
+        let m = load(&p, false).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+        assert!(m.normals.is_empty() && m.uvs.is_empty());
+    }
+
+    #[test]
+    fn errors_name_file_and_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("bad.ply");
+        std::fs::write(
+            &p,
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n",
+        )
+        .unwrap();
+        let e = load(&p, false).unwrap_err().to_string();
+        assert!(e.contains("bad.ply") && e.contains("line 11"), "{e}");
+        let be = dir.path().join("be.ply");
+        std::fs::write(&be, "ply\nformat binary_big_endian 1.0\nend_header\n").unwrap();
+        let e = load(&be, false).unwrap_err().to_string();
+        assert!(e.contains("be.ply") && e.contains("big_endian"), "{e}");
+        let tr = dir.path().join("trunc.ply");
+        let mut b = std::fs::read({
+            let q = dir.path().join("q.ply");
+            write_binary_quad(&q);
+            q
+        })
+        .unwrap();
+        b.truncate(b.len() - 3);
+        std::fs::write(&tr, b).unwrap();
+        let e = load(&tr, false).unwrap_err().to_string();
+        assert!(e.contains("trunc.ply") && e.contains("end of file"), "{e}");
+    }
+}

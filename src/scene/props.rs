@@ -1,0 +1,724 @@
+//! The Mitsuba XML document with `$name` substitution applied, and a typed property bag per plugin
+//! element that remembers line numbers and which properties were queried (Mitsuba errors on
+//! properties a plugin never looked at, and so do we).
+
+use crate::math::{Mat4, Vec3};
+use crate::{Error, Result};
+use roxmltree::{Document, Node, NodeId};
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Elements that denote plugin objects (everything else is a property or a transform op).
+pub(crate) const OBJECT_TAGS: &[&str] = &[
+    "scene",
+    "integrator",
+    "sensor",
+    "film",
+    "rfilter",
+    "sampler",
+    "shape",
+    "bsdf",
+    "texture",
+    "emitter",
+];
+
+/// A parsed Mitsuba XML document: substituted attribute values, the id table and line lookup.
+pub(crate) struct XmlDoc<'a> {
+    pub file: PathBuf,
+    pub dir: PathBuf,
+    pub doc: &'a Document<'a>,
+    /// Attribute values after `$name` substitution, per element.
+    attrs: HashMap<NodeId, Vec<(String, String)>>,
+    /// Every object element with an `id` attribute.
+    pub ids: HashMap<String, NodeId>,
+}
+
+impl<'a> XmlDoc<'a> {
+    /// Runs the substitution pass in document order (as Mitsuba does: a `<default>` only applies
+    /// to the elements after it; `defines` win over defaults) and collects ids.
+    pub fn new(file: &Path, doc: &'a Document<'a>, defines: &[(String, String)]) -> Result<Self> {
+        let dir = file.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut x = XmlDoc {
+            file: file.to_path_buf(),
+            dir,
+            doc,
+            attrs: HashMap::new(),
+            ids: HashMap::new(),
+        };
+        // (name, value, used)
+        let mut params: Vec<(String, String, bool)> = Vec::new();
+        for (name, value) in defines {
+            if name.is_empty() {
+                return Err(Error::Invalid(format!(
+                    "{}: empty parameter name in define '={value}'",
+                    file.display()
+                )));
+            }
+            params.retain(|p| &p.0 != name);
+            params.push((name.clone(), value.clone(), false));
+        }
+        for node in doc.root_element().descendants() {
+            if !node.is_element() {
+                continue;
+            }
+            // Longest names first, so that `$ab` is not replaced by the value of `$a` + "b".
+            params.sort_by_key(|p| std::cmp::Reverse(p.0.len()));
+            let mut values = Vec::new();
+            for a in node.attributes() {
+                let mut v = a.value().to_string();
+                if !params.is_empty() && v.contains('$') {
+                    for p in params.iter_mut() {
+                        let pat = format!("${}", p.0);
+                        if v.contains(&pat) {
+                            v = v.replace(&pat, &p.1);
+                            p.2 = true;
+                        }
+                    }
+                    if v.contains('$') {
+                        return Err(x.err(
+                            node,
+                            format!(
+                                "undefined parameter(s) in attribute {}=\"{}\"",
+                                a.name(),
+                                a.value()
+                            ),
+                        ));
+                    }
+                }
+                values.push((a.name().to_string(), v));
+            }
+            if node.tag_name().name() == "default" {
+                let get = |n: &str| values.iter().find(|(k, _)| k == n).map(|(_, v)| v.clone());
+                for (k, _) in &values {
+                    if k != "name" && k != "value" {
+                        return Err(
+                            x.err(node, format!("unexpected attribute \"{k}\" in <default>"))
+                        );
+                    }
+                }
+                let (Some(name), Some(value)) = (get("name"), get("value")) else {
+                    return Err(x.err(node, "<default> needs both \"name\" and \"value\""));
+                };
+                if name.is_empty() {
+                    return Err(x.err(node, "<default>: name must be non-empty"));
+                }
+                if !params.iter().any(|p| p.0 == name) {
+                    params.push((name, value, true));
+                }
+            }
+            if OBJECT_TAGS.contains(&node.tag_name().name())
+                && let Some((_, id)) = values.iter().find(|(k, _)| k == "id")
+            {
+                if id.starts_with('_') {
+                    return Err(x.err(
+                        node,
+                        format!("invalid id \"{id}\": leading underscores are reserved"),
+                    ));
+                }
+                if let Some(prev) = x.ids.get(id) {
+                    let prev_line = x.line(doc.get_node(*prev).unwrap_or(node));
+                    return Err(x.err(
+                        node,
+                        format!(
+                            "<{}> has duplicate id \"{id}\" (previous was at line {prev_line})",
+                            node.tag_name().name()
+                        ),
+                    ));
+                }
+                x.ids.insert(id.clone(), node.id());
+            }
+            x.attrs.insert(node.id(), values);
+        }
+        if let Some(p) = params.iter().find(|p| !p.2) {
+            return Err(Error::Invalid(format!(
+                "{}: unused parameter \"{}\" (given with -D, but the scene has no ${} in it)",
+                file.display(),
+                p.0,
+                p.0
+            )));
+        }
+        Ok(x)
+    }
+
+    /// 1-based line of an element.
+    pub fn line(&self, node: Node) -> u32 {
+        self.doc.text_pos_at(node.range().start).row
+    }
+
+    /// A scene error at `node`.
+    pub fn err(&self, node: Node, msg: impl Into<String>) -> Error {
+        Error::Scene {
+            file: self.file.clone(),
+            line: self.line(node),
+            msg: msg.into(),
+        }
+    }
+
+    /// The substituted value of attribute `name`.
+    pub fn attr(&self, node: Node, name: &str) -> Option<&str> {
+        self.attrs
+            .get(&node.id())
+            .and_then(|v| v.iter().find(|(k, _)| k == name))
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// A required attribute.
+    pub fn req_attr(&self, node: Node, name: &str) -> Result<&str> {
+        self.attr(node, name).ok_or_else(|| {
+            self.err(
+                node,
+                format!(
+                    "missing attribute \"{name}\" in element <{}>",
+                    node.tag_name().name()
+                ),
+            )
+        })
+    }
+
+    /// Errors if the element has an attribute outside `allowed`.
+    pub fn check_attrs(&self, node: Node, allowed: &[&str]) -> Result<()> {
+        if let Some(v) = self.attrs.get(&node.id()) {
+            for (k, _) in v {
+                if !allowed.contains(&k.as_str()) {
+                    return Err(self.err(
+                        node,
+                        format!(
+                            "unexpected attribute \"{k}\" in element <{}>",
+                            node.tag_name().name()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Resolves a path attribute relative to the scene file's folder.
+    pub fn resolve(&self, p: &str) -> PathBuf {
+        let p = Path::new(p);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.dir.join(p)
+        }
+    }
+
+    /// Parses a finite float attribute value.
+    pub fn parse_f32(&self, node: Node, s: &str) -> Result<f32> {
+        let v: f64 = s.trim().parse().map_err(|_| {
+            self.err(
+                node,
+                format!("could not parse floating point value \"{s}\""),
+            )
+        })?;
+        if !v.is_finite() || !(v as f32).is_finite() {
+            return Err(self.err(
+                node,
+                format!("non-finite value \"{s}\" (NaN/Inf are not allowed)"),
+            ));
+        }
+        Ok(v as f32)
+    }
+
+    /// Splits a list of numbers separated by commas and/or whitespace, as Mitsuba's tokenizer does.
+    pub fn parse_list(&self, node: Node, s: &str) -> Result<Vec<f32>> {
+        s.split(|c: char| c == ',' || c.is_whitespace())
+            .filter(|t| !t.is_empty())
+            .map(|t| self.parse_f32(node, t))
+            .collect()
+    }
+
+    /// `x`/`y`/`z` attributes (or a `value` holding 1 or 3 numbers), missing components = `default`.
+    pub fn parse_xyz(&self, node: Node, default: f32) -> Result<Vec3> {
+        if let Some(v) = self.attr(node, "value") {
+            if self.attr(node, "x").is_some()
+                || self.attr(node, "y").is_some()
+                || self.attr(node, "z").is_some()
+            {
+                return Err(self.err(node, "can't mix \"value\" and \"x\"/\"y\"/\"z\" attributes"));
+            }
+            let l = self.parse_list(node, v)?;
+            return match l.len() {
+                1 => Ok(Vec3::splat(l[0])),
+                3 => Ok(Vec3::new(l[0], l[1], l[2])),
+                _ => Err(self.err(
+                    node,
+                    "\"value\" attribute must have exactly 1 or 3 elements",
+                )),
+            };
+        }
+        let mut out = Vec3::splat(default);
+        for (i, k) in ["x", "y", "z"].iter().enumerate() {
+            if let Some(s) = self.attr(node, k) {
+                out[i] = self.parse_f32(node, s)?;
+            }
+        }
+        Ok(out)
+    }
+
+    /// A named 3-vector attribute such as `origin="0, 0, 1"`.
+    pub fn parse_vec3_attr(&self, node: Node, name: &str) -> Result<Vec3> {
+        let s = self.req_attr(node, name)?;
+        let l = self.parse_list(node, s)?;
+        if l.len() != 3 {
+            return Err(self.err(
+                node,
+                format!("\"{name}\" attribute must have exactly 3 elements"),
+            ));
+        }
+        Ok(Vec3::new(l[0], l[1], l[2]))
+    }
+
+    /// The element an object-position node denotes: itself, or the target of a `<ref>`.
+    pub fn deref(&self, node: Node<'a, 'a>) -> Result<Node<'a, 'a>> {
+        if node.tag_name().name() != "ref" {
+            return Ok(node);
+        }
+        self.check_attrs(node, &["id", "name"])?;
+        let id = self.req_attr(node, "id")?;
+        let target = self
+            .ids
+            .get(id)
+            .and_then(|nid| self.doc.get_node(*nid))
+            .ok_or_else(|| self.err(node, format!("reference to unknown object \"{id}\"")))?;
+        Ok(target)
+    }
+}
+
+/// A typed property value as written in the XML.
+#[derive(Clone, Debug)]
+pub(crate) enum Value {
+    Float(f32),
+    Integer(i64),
+    Boolean(bool),
+    String(String),
+    Rgb(Vec3),
+    /// A constant `<spectrum value="x">`.
+    Spectrum(f32),
+    Point(Vec3),
+    Vector(Vec3),
+    Transform(Mat4),
+}
+
+impl Value {
+    fn kind(&self) -> &'static str {
+        match self {
+            Value::Float(_) => "float",
+            Value::Integer(_) => "integer",
+            Value::Boolean(_) => "boolean",
+            Value::String(_) => "string",
+            Value::Rgb(_) => "rgb",
+            Value::Spectrum(_) => "spectrum",
+            Value::Point(_) => "point",
+            Value::Vector(_) => "vector",
+            Value::Transform(_) => "transform",
+        }
+    }
+}
+
+struct Prop<'a> {
+    name: String,
+    value: Value,
+    node: Node<'a, 'a>,
+    used: Cell<bool>,
+}
+
+/// A nested object (or the target of a `<ref>`) inside a plugin element.
+pub(crate) struct Child<'a> {
+    /// The `name` attribute, if any.
+    pub name: Option<String>,
+    /// The object element itself (a `<ref>` already resolved).
+    pub node: Node<'a, 'a>,
+    /// The element as written (the `<ref>` for references), for messages.
+    pub at: Node<'a, 'a>,
+    used: Cell<bool>,
+}
+
+impl Child<'_> {
+    /// The object's tag: bsdf, texture, emitter, ...
+    pub fn tag(&self) -> &str {
+        self.node.tag_name().name()
+    }
+}
+
+/// The properties and nested objects of one plugin element, with query tracking.
+pub(crate) struct Props<'a, 'x> {
+    pub x: &'x XmlDoc<'a>,
+    pub node: Node<'a, 'a>,
+    /// Element tag (bsdf, shape, ...) and `type` attribute.
+    pub tag: String,
+    pub ty: String,
+    props: Vec<Prop<'a>>,
+    children: Vec<Child<'a>>,
+}
+
+impl<'a, 'x> Props<'a, 'x> {
+    /// Parses the children of a plugin element.
+    pub fn parse(x: &'x XmlDoc<'a>, node: Node<'a, 'a>) -> Result<Self> {
+        let tag = node.tag_name().name().to_string();
+        x.check_attrs(node, &["type", "id", "name"])?;
+        let ty = x.req_attr(node, "type")?.to_string();
+        let mut props: Vec<Prop<'a>> = Vec::new();
+        let mut children = Vec::new();
+        for ch in node.children() {
+            if !ch.is_element() {
+                if ch.is_text() && !ch.text().unwrap_or("").trim().is_empty() {
+                    return Err(x.err(ch, format!("unexpected text content in <{tag}>")));
+                }
+                continue;
+            }
+            let ctag = ch.tag_name().name();
+            if OBJECT_TAGS.contains(&ctag) || ctag == "ref" {
+                let target = x.deref(ch)?;
+                if target == node {
+                    return Err(x.err(ch, "an object cannot reference itself"));
+                }
+                if ctag != "ref" {
+                    x.check_attrs(ch, &["type", "id", "name"])?;
+                    x.req_attr(ch, "type")?;
+                }
+                children.push(Child {
+                    name: x.attr(ch, "name").map(str::to_string),
+                    node: target,
+                    at: ch,
+                    used: Cell::new(false),
+                });
+                continue;
+            }
+            if ctag == "default" {
+                continue; // handled by the substitution pass
+            }
+            let value = match ctag {
+                "float" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    Value::Float(x.parse_f32(ch, x.req_attr(ch, "value")?)?)
+                }
+                "integer" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    let s = x.req_attr(ch, "value")?;
+                    Value::Integer(
+                        s.trim().parse().map_err(|_| {
+                            x.err(ch, format!("could not parse integer value \"{s}\""))
+                        })?,
+                    )
+                }
+                "boolean" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    let s = x.req_attr(ch, "value")?;
+                    match s.trim().to_ascii_lowercase().as_str() {
+                        "true" => Value::Boolean(true),
+                        "false" => Value::Boolean(false),
+                        _ => {
+                            return Err(x.err(
+                                ch,
+                                format!("could not parse boolean value \"{s}\" -- must be \"true\" or \"false\""),
+                            ));
+                        }
+                    }
+                }
+                "string" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    Value::String(x.req_attr(ch, "value")?.to_string())
+                }
+                "rgb" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    let l = x.parse_list(ch, x.req_attr(ch, "value")?)?;
+                    match l.len() {
+                        1 => Value::Rgb(Vec3::splat(l[0])),
+                        3 => Value::Rgb(Vec3::new(l[0], l[1], l[2])),
+                        _ => return Err(x.err(ch, "'rgb' tag requires one or three values")),
+                    }
+                }
+                "spectrum" => {
+                    x.check_attrs(ch, &["name", "value"])?;
+                    let s = x.req_attr(ch, "value")?;
+                    let l: Vec<&str> = s
+                        .split(|c: char| c == ',' || c.is_whitespace())
+                        .filter(|t| !t.is_empty())
+                        .collect();
+                    if l.len() != 1 || l[0].contains(':') {
+                        return Err(x.err(
+                            ch,
+                            "only constant <spectrum value=\"x\"> is supported (btfpt renders in RGB): use <rgb>",
+                        ));
+                    }
+                    Value::Spectrum(x.parse_f32(ch, l[0])?)
+                }
+                "point" | "vector" => {
+                    x.check_attrs(ch, &["name", "value", "x", "y", "z"])?;
+                    let v = x.parse_xyz(ch, 0.0)?;
+                    if ctag == "point" {
+                        Value::Point(v)
+                    } else {
+                        Value::Vector(v)
+                    }
+                }
+                "transform" => {
+                    x.check_attrs(ch, &["name"])?;
+                    Value::Transform(super::transform::parse_transform(x, ch)?)
+                }
+                "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
+                    return Err(x.err(ch, format!("<{ctag}> can only occur inside a <transform>")));
+                }
+                "include" | "alias" | "path" => {
+                    return Err(x.err(ch, format!("<{ctag}> is not supported by btfpt")));
+                }
+                other => return Err(x.err(ch, format!("unexpected element <{other}> in <{tag}>"))),
+            };
+            let name = x.req_attr(ch, "name")?.to_string();
+            if let Some(prev) = props.iter().find(|p| p.name == name) {
+                return Err(x.err(
+                    ch,
+                    format!(
+                        "property \"{name}\" was specified multiple times (also at line {})",
+                        x.line(prev.node)
+                    ),
+                ));
+            }
+            props.push(Prop {
+                name,
+                value,
+                node: ch,
+                used: Cell::new(false),
+            });
+        }
+        Ok(Props {
+            x,
+            node,
+            tag,
+            ty,
+            props,
+            children,
+        })
+    }
+
+    /// A scene error at this plugin element.
+    pub fn err(&self, msg: impl Into<String>) -> Error {
+        self.x.err(
+            self.node,
+            format!("{} \"{}\": {}", self.tag, self.ty, msg.into()),
+        )
+    }
+
+    fn err_at(&self, node: Node, msg: impl Into<String>) -> Error {
+        self.x.err(
+            node,
+            format!("{} \"{}\": {}", self.tag, self.ty, msg.into()),
+        )
+    }
+
+    /// True if a property of that name exists (does not mark it queried).
+    pub fn has(&self, name: &str) -> bool {
+        self.props.iter().any(|p| p.name == name)
+            || self
+                .children
+                .iter()
+                .any(|c| c.name.as_deref() == Some(name))
+    }
+
+    fn get(&self, name: &str) -> Option<&Prop<'a>> {
+        let p = self.props.iter().find(|p| p.name == name)?;
+        p.used.set(true);
+        Some(p)
+    }
+
+    fn wrong_type(&self, p: &Prop, expected: &str) -> Error {
+        self.err_at(
+            p.node,
+            format!(
+                "property \"{}\" has the wrong type (expected {expected}, got {})",
+                p.name,
+                p.value.kind()
+            ),
+        )
+    }
+
+    /// A float (an integer is accepted too).
+    pub fn float_opt(&self, name: &str) -> Result<Option<f32>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match p.value {
+                Value::Float(v) => Ok(Some(v)),
+                Value::Integer(v) => Ok(Some(v as f32)),
+                _ => Err(self.wrong_type(p, "float")),
+            },
+        }
+    }
+
+    /// A float with a default.
+    pub fn float(&self, name: &str, default: f32) -> Result<f32> {
+        Ok(self.float_opt(name)?.unwrap_or(default))
+    }
+
+    /// An integer with a default.
+    pub fn int(&self, name: &str, default: i64) -> Result<i64> {
+        match self.get(name) {
+            None => Ok(default),
+            Some(p) => match p.value {
+                Value::Integer(v) => Ok(v),
+                _ => Err(self.wrong_type(p, "integer")),
+            },
+        }
+    }
+
+    /// A boolean with a default.
+    pub fn bool(&self, name: &str, default: bool) -> Result<bool> {
+        match self.get(name) {
+            None => Ok(default),
+            Some(p) => match p.value {
+                Value::Boolean(v) => Ok(v),
+                _ => Err(self.wrong_type(p, "boolean")),
+            },
+        }
+    }
+
+    /// A string, if present.
+    pub fn string_opt(&self, name: &str) -> Result<Option<String>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match &p.value {
+                Value::String(v) => Ok(Some(v.clone())),
+                _ => Err(self.wrong_type(p, "string")),
+            },
+        }
+    }
+
+    /// A string with a default.
+    pub fn string(&self, name: &str, default: &str) -> Result<String> {
+        Ok(self
+            .string_opt(name)?
+            .unwrap_or_else(|| default.to_string()))
+    }
+
+    /// A required string.
+    pub fn string_req(&self, name: &str) -> Result<String> {
+        self.string_opt(name)?
+            .ok_or_else(|| self.err(format!("missing required property \"{name}\"")))
+    }
+
+    /// A float or a string (for named IORs).
+    pub fn float_or_string(&self, name: &str) -> Result<Option<std::result::Result<f32, String>>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match &p.value {
+                Value::Float(v) => Ok(Some(Ok(*v))),
+                Value::Integer(v) => Ok(Some(Ok(*v as f32))),
+                Value::String(s) => Ok(Some(Err(s.clone()))),
+                _ => Err(self.wrong_type(p, "float or string")),
+            },
+        }
+    }
+
+    /// A colour given as `rgb`, `float` or constant `spectrum` (nested textures are not looked at).
+    pub fn color_opt(&self, name: &str) -> Result<Option<Vec3>> {
+        match self.get(name) {
+            None => {
+                if let Some(c) = self
+                    .children
+                    .iter()
+                    .find(|c| c.name.as_deref() == Some(name))
+                {
+                    c.used.set(true);
+                    return Err(self.err_at(
+                        c.at,
+                        format!(
+                            "property \"{name}\" must be a constant (rgb/float), not a nested <{}>",
+                            c.tag()
+                        ),
+                    ));
+                }
+                Ok(None)
+            }
+            Some(p) => match p.value {
+                Value::Rgb(v) => Ok(Some(v)),
+                Value::Float(v) | Value::Spectrum(v) => Ok(Some(Vec3::splat(v))),
+                Value::Integer(v) => Ok(Some(Vec3::splat(v as f32))),
+                _ => Err(self.wrong_type(p, "rgb or float")),
+            },
+        }
+    }
+
+    /// A colour with a default.
+    pub fn color(&self, name: &str, default: Vec3) -> Result<Vec3> {
+        Ok(self.color_opt(name)?.unwrap_or(default))
+    }
+
+    /// A point or vector.
+    pub fn vec3_opt(&self, name: &str) -> Result<Option<Vec3>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match p.value {
+                Value::Point(v) | Value::Vector(v) => Ok(Some(v)),
+                _ => Err(self.wrong_type(p, "point or vector")),
+            },
+        }
+    }
+
+    /// A transform, if present.
+    pub fn transform_opt(&self, name: &str) -> Result<Option<Mat4>> {
+        match self.get(name) {
+            None => Ok(None),
+            Some(p) => match p.value {
+                Value::Transform(m) => Ok(Some(m)),
+                _ => Err(self.wrong_type(p, "transform")),
+            },
+        }
+    }
+
+    /// The nested object named `name` (as a `name` attribute), marking it used.
+    pub fn child_named(&self, name: &str) -> Option<&Child<'a>> {
+        let c = self
+            .children
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name))?;
+        c.used.set(true);
+        Some(c)
+    }
+
+    /// All nested objects with tag `tag`, marking them used.
+    pub fn children_tagged(&self, tag: &str) -> Vec<&Child<'a>> {
+        let v: Vec<&Child<'a>> = self.children.iter().filter(|c| c.tag() == tag).collect();
+        for c in &v {
+            c.used.set(true);
+        }
+        v
+    }
+
+    /// At most one nested object with tag `tag`.
+    pub fn single_child(&self, tag: &str) -> Result<Option<&Child<'a>>> {
+        let v = self.children_tagged(tag);
+        if v.len() > 1 {
+            return Err(self.err_at(v[1].at, format!("more than one nested <{tag}>")));
+        }
+        Ok(v.first().copied())
+    }
+
+    /// Errors on any property or nested object the plugin never looked at (Mitsuba semantics).
+    pub fn finish(&self) -> Result<()> {
+        if let Some(p) = self.props.iter().find(|p| !p.used.get()) {
+            return Err(self.err_at(
+                p.node,
+                format!(
+                    "unreferenced property \"{}\" ({}) in {} plugin of type \"{}\"",
+                    p.name,
+                    p.value.kind(),
+                    self.tag,
+                    self.ty
+                ),
+            ));
+        }
+        if let Some(c) = self.children.iter().find(|c| !c.used.get()) {
+            return Err(self.err_at(
+                c.at,
+                format!(
+                    "unreferenced nested <{}> in {} plugin of type \"{}\"",
+                    c.tag(),
+                    self.tag,
+                    self.ty
+                ),
+            ));
+        }
+        Ok(())
+    }
+}

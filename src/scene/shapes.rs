@@ -1,0 +1,528 @@
+//! Built-in shapes (Mitsuba `rectangle`, `cube`, `sphere`, `disk`) as triangle meshes with
+//! Mitsuba's exact uv parameterisations, and the common step that turns any object-space mesh into
+//! a world-space [`Mesh`] (transform, normals, degenerate triangles, flips).
+
+use super::transform::{normal_matrix, xf_point};
+use crate::geometry::Mesh;
+use crate::math::{Mat4, Vec2, Vec3};
+
+/// Sphere tessellation: rings in θ (pole to pole) and segments in φ.
+pub const SPHERE_RINGS: usize = 128;
+/// Sphere tessellation: segments in φ.
+pub const SPHERE_SEGMENTS: usize = 256;
+/// Disk tessellation: segments in φ and rings in r.
+pub const DISK_SEGMENTS: usize = 256;
+/// Disk tessellation: rings in r.
+pub const DISK_RINGS: usize = 16;
+
+/// An object-space triangle mesh before it is placed in the world.
+#[derive(Clone, Debug, Default)]
+pub struct LocalMesh {
+    /// Object-space vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Empty, or one (not necessarily unit) normal per vertex.
+    pub normals: Vec<Vec3>,
+    /// Empty, or one uv per vertex.
+    pub uvs: Vec<Vec2>,
+    /// Triangles (counter-clockwise = front, geometric normal (p1 − p0) × (p2 − p0)).
+    pub indices: Vec<[u32; 3]>,
+}
+
+/// How [`to_world`] treats normals.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MeshOptions {
+    /// Mitsuba `face_normals`: drop vertex normals, shade with the geometric normal.
+    pub face_normals: bool,
+    /// Mitsuba `flip_normals`: reverse the winding and negate vertex normals.
+    pub flip_normals: bool,
+    /// Compute angle-weighted vertex normals when the file has none (Mitsuba's OBJ/PLY behaviour).
+    pub recompute_normals: bool,
+    /// Analytic shapes: keep the winding consistent with the transformed normals when `to_world`
+    /// mirrors (Mitsuba's analytic shapes take their normal from the inverse transpose).
+    pub keep_orientation: bool,
+}
+
+/// Places `local` in the world with `m`. Errors (as a message for the caller to locate) on
+/// non-finite data, out-of-range indices and singular transforms. Zero-area triangles are dropped.
+pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, String> {
+    let LocalMesh {
+        positions,
+        normals,
+        uvs,
+        mut indices,
+    } = local;
+    let nm = normal_matrix(m).ok_or("to_world is singular (zero scale?)")?;
+    let n = positions.len();
+    if !normals.is_empty() && normals.len() != n {
+        return Err(format!("{} normals for {n} vertices", normals.len()));
+    }
+    if !uvs.is_empty() && uvs.len() != n {
+        return Err(format!(
+            "{} texture coordinates for {n} vertices",
+            uvs.len()
+        ));
+    }
+    let mut pos = Vec::with_capacity(n);
+    for (i, p) in positions.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(format!("vertex {i} has a non-finite position {p:?}"));
+        }
+        let w = xf_point(m, *p);
+        if !w.is_finite() {
+            return Err(format!("vertex {i} is not finite after to_world ({w:?})"));
+        }
+        pos.push(w);
+    }
+    if let Some((i, uv)) = uvs.iter().enumerate().find(|(_, uv)| !uv.is_finite()) {
+        return Err(format!(
+            "vertex {i} has a non-finite texture coordinate {uv:?}"
+        ));
+    }
+    let mut nrm = Vec::new();
+    if !opts.face_normals && !normals.is_empty() {
+        nrm.reserve(n);
+        for (i, v) in normals.iter().enumerate() {
+            let w = (nm * *v).normalize();
+            if !w.is_finite() {
+                return Err(format!("vertex {i} has a zero or non-finite normal {v:?}"));
+            }
+            nrm.push(w);
+        }
+    }
+    for (f, t) in indices.iter().enumerate() {
+        if t.iter().any(|&i| i as usize >= n) {
+            return Err(format!(
+                "triangle {f} references a vertex beyond the {n} vertices"
+            ));
+        }
+    }
+    indices.retain(|t| {
+        let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
+        let area2 = (b - a).cross(c - a).length();
+        area2 > 0.0 && area2.is_finite()
+    });
+    if opts.keep_orientation && nrm.len() == n {
+        // Make the geometric normal agree with the (inverse-transpose) shading normal.
+        for t in indices.iter_mut() {
+            let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
+            let g = (b - a).cross(c - a);
+            let s = nrm[t[0] as usize] + nrm[t[1] as usize] + nrm[t[2] as usize];
+            if g.dot(s) < 0.0 {
+                t.swap(1, 2);
+            }
+        }
+    }
+    if nrm.is_empty() && !opts.face_normals && opts.recompute_normals {
+        nrm = angle_weighted_normals(&pos, &indices);
+    }
+    if opts.flip_normals {
+        for t in indices.iter_mut() {
+            t.swap(1, 2);
+        }
+        for v in nrm.iter_mut() {
+            *v = -*v;
+        }
+    }
+    Ok(Mesh {
+        name: String::new(),
+        positions: pos,
+        normals: nrm,
+        uvs,
+        indices,
+        bsdf: 0,
+        emitter: None,
+    })
+}
+
+/// Mitsuba's `recompute_vertex_normals`: face normals weighted by the corner angle.
+pub fn angle_weighted_normals(pos: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut acc = vec![Vec3::ZERO; pos.len()];
+    for t in indices {
+        let v = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+        let n = (v[1] - v[0]).cross(v[2] - v[0]);
+        let len = n.length();
+        if len == 0.0 || !len.is_finite() {
+            continue;
+        }
+        let n = n / len;
+        for i in 0..3 {
+            let d0 = (v[(i + 1) % 3] - v[i]).normalize();
+            let d1 = (v[(i + 2) % 3] - v[i]).normalize();
+            let angle = d0.dot(d1).clamp(-1.0, 1.0).acos();
+            if angle.is_finite() {
+                acc[t[i] as usize] += n * angle;
+            }
+        }
+    }
+    acc.into_iter()
+        .map(|n| {
+            let l = n.length();
+            if l > 0.0 && l.is_finite() {
+                n / l
+            } else {
+                Vec3::X
+            }
+        })
+        .collect()
+}
+
+/// Mitsuba `rectangle`: [-1, 1]² in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
+pub fn rectangle() -> LocalMesh {
+    let p = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)];
+    LocalMesh {
+        positions: p.iter().map(|&(x, y)| Vec3::new(x, y, 0.0)).collect(),
+        normals: vec![Vec3::Z; 4],
+        uvs: p
+            .iter()
+            .map(|&(x, y)| Vec2::new((x + 1.0) * 0.5, (y + 1.0) * 0.5))
+            .collect(),
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+    }
+}
+
+/// Mitsuba `cube`: [-1, 1]³, 24 vertices, every face mapped to [0, 1]² (Mitsuba's exact tables).
+pub fn cube() -> LocalMesh {
+    const P: [[f32; 3]; 24] = [
+        [1., -1., -1.],
+        [1., -1., 1.],
+        [-1., -1., 1.],
+        [-1., -1., -1.],
+        [1., 1., -1.],
+        [-1., 1., -1.],
+        [-1., 1., 1.],
+        [1., 1., 1.],
+        [1., -1., -1.],
+        [1., 1., -1.],
+        [1., 1., 1.],
+        [1., -1., 1.],
+        [1., -1., 1.],
+        [1., 1., 1.],
+        [-1., 1., 1.],
+        [-1., -1., 1.],
+        [-1., -1., 1.],
+        [-1., 1., 1.],
+        [-1., 1., -1.],
+        [-1., -1., -1.],
+        [1., 1., -1.],
+        [1., -1., -1.],
+        [-1., -1., -1.],
+        [-1., 1., -1.],
+    ];
+    const N: [[f32; 3]; 6] = [
+        [0., -1., 0.],
+        [0., 1., 0.],
+        [1., 0., 0.],
+        [0., 0., 1.],
+        [-1., 0., 0.],
+        [0., 0., -1.],
+    ];
+    const UV: [[f32; 2]; 4] = [[0., 1.], [1., 1.], [1., 0.], [0., 0.]];
+    let mut m = LocalMesh::default();
+    for (i, p) in P.iter().enumerate() {
+        m.positions.push(Vec3::from(*p));
+        m.normals.push(Vec3::from(N[i / 4]));
+        m.uvs.push(Vec2::from(UV[i % 4]));
+    }
+    for f in 0..6u32 {
+        let b = 4 * f;
+        m.indices.push([b, b + 1, b + 2]);
+        m.indices.push([b + 3, b, b + 2]);
+    }
+    m
+}
+
+/// Mitsuba `sphere` (unit, at the origin): uv = (φ/2π, θ/π) with θ from +z and φ = atan2(y, x)
+/// in [0, 2π); smooth normals; a seam of duplicated vertices at φ = 0 and per-segment pole vertices.
+pub fn sphere(rings: usize, segments: usize) -> LocalMesh {
+    let mut m = LocalMesh::default();
+    let row = segments + 1;
+    for i in 0..=rings {
+        let theta = std::f32::consts::PI * i as f32 / rings as f32;
+        let v = i as f32 / rings as f32;
+        for j in 0..=segments {
+            let pole = i == 0 || i == rings;
+            let u = if pole {
+                (j as f32 + 0.5).min(segments as f32) / segments as f32
+            } else {
+                j as f32 / segments as f32
+            };
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / segments as f32;
+            let (st, ct) = theta.sin_cos();
+            let (sp, cp) = phi.sin_cos();
+            let p = if pole {
+                Vec3::new(0.0, 0.0, ct.signum())
+            } else {
+                Vec3::new(st * cp, st * sp, ct)
+            };
+            m.positions.push(p);
+            m.normals.push(p);
+            m.uvs.push(Vec2::new(u, v));
+        }
+    }
+    for i in 0..rings {
+        for j in 0..segments {
+            let v00 = (i * row + j) as u32;
+            let v01 = (i * row + j + 1) as u32;
+            let v10 = ((i + 1) * row + j) as u32;
+            let v11 = ((i + 1) * row + j + 1) as u32;
+            if i + 1 == rings {
+                // South pole: the pole vertex of this segment carries u = (j + ½)/segments.
+                m.indices.push([v00, v10, v01]);
+                continue;
+            }
+            m.indices.push([v00, v10, v11]);
+            if i != 0 {
+                m.indices.push([v00, v11, v01]);
+            }
+        }
+    }
+    m
+}
+
+/// Mitsuba `disk` (unit radius, z = 0, normal +z): uv = (r, φ/2π) with φ in [0, 2π).
+pub fn disk(rings: usize, segments: usize) -> LocalMesh {
+    let mut m = LocalMesh::default();
+    // Per-segment centre vertices (the angle is undefined at r = 0).
+    for j in 0..segments {
+        m.positions.push(Vec3::ZERO);
+        m.uvs
+            .push(Vec2::new(0.0, (j as f32 + 0.5) / segments as f32));
+    }
+    let row = segments + 1;
+    for i in 1..=rings {
+        let r = i as f32 / rings as f32;
+        for j in 0..=segments {
+            let v = j as f32 / segments as f32;
+            let (sp, cp) = (2.0 * std::f32::consts::PI * v).sin_cos();
+            m.positions.push(Vec3::new(r * cp, r * sp, 0.0));
+            m.uvs.push(Vec2::new(r, v));
+        }
+    }
+    let ring = |i: usize, j: usize| (segments + (i - 1) * row + j) as u32;
+    for j in 0..segments {
+        m.indices.push([j as u32, ring(1, j), ring(1, j + 1)]);
+    }
+    for i in 1..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (
+                ring(i, j),
+                ring(i + 1, j),
+                ring(i + 1, j + 1),
+                ring(i, j + 1),
+            );
+            m.indices.push([a, b, c]);
+            m.indices.push([a, c, d]);
+        }
+    }
+    m.normals = vec![Vec3::Z; m.positions.len()];
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::PI;
+
+    fn geo_normal(m: &Mesh, t: usize) -> Vec3 {
+        let [a, b, c] = m.indices[t];
+        let (p0, p1, p2) = (
+            m.positions[a as usize],
+            m.positions[b as usize],
+            m.positions[c as usize],
+        );
+        (p1 - p0).cross(p2 - p0).normalize()
+    }
+
+    /// ∂p/∂u of a triangle from its uvs.
+    fn dpdu(m: &Mesh, t: usize) -> Vec3 {
+        let [a, b, c] = m.indices[t].map(|i| i as usize);
+        let (dp1, dp2) = (
+            m.positions[b] - m.positions[a],
+            m.positions[c] - m.positions[a],
+        );
+        let (du1, du2) = (m.uvs[b] - m.uvs[a], m.uvs[c] - m.uvs[a]);
+        let det = du1.x * du2.y - du1.y * du2.x;
+        (dp1 * du2.y - dp2 * du1.y) / det
+    }
+
+    #[test]
+    fn rectangle_uv_and_tangent_follow_mitsuba() {
+        let xf = Mat4::from_translation(Vec3::new(0.0, 0.0, 1.0))
+            * Mat4::from_rotation_x(0.3)
+            * Mat4::from_scale(Vec3::new(2.0, 3.0, 1.0));
+        let m = to_world(rectangle(), &xf, MeshOptions::default()).unwrap();
+        for t in 0..2 {
+            let expect = xf.transform_vector3(Vec3::new(2.0, 0.0, 0.0));
+            assert!((dpdu(&m, t) - expect).length() < 1e-5);
+            let n = xf.transform_vector3(Vec3::Z).normalize();
+            assert!((geo_normal(&m, t) - n).length() < 1e-5);
+        }
+        // corner (x, y) = (1, -1) has uv (1, 0)
+        let i = m
+            .positions
+            .iter()
+            .position(|p| (*p - xf_point(&xf, Vec3::new(1.0, -1.0, 0.0))).length() < 1e-5)
+            .unwrap();
+        assert_eq!(m.uvs[i], Vec2::new(1.0, 0.0));
+        assert!((m.area() - 4.0 * 6.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn mirrored_rectangle_keeps_inverse_transpose_normal() {
+        let xf = Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+        let opts = MeshOptions {
+            keep_orientation: true,
+            ..Default::default()
+        };
+        let m = to_world(rectangle(), &xf, opts).unwrap();
+        for t in 0..2 {
+            assert!((geo_normal(&m, t) - Vec3::Z).length() < 1e-6);
+        }
+        let f = to_world(
+            rectangle(),
+            &Mat4::IDENTITY,
+            MeshOptions {
+                flip_normals: true,
+                ..opts
+            },
+        )
+        .unwrap();
+        assert!((geo_normal(&f, 0) + Vec3::Z).length() < 1e-6);
+        assert!((f.normals[0] + Vec3::Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn cube_faces_point_outward_with_unit_uvs() {
+        let m = to_world(cube(), &Mat4::IDENTITY, MeshOptions::default()).unwrap();
+        assert_eq!(m.indices.len(), 12);
+        for t in 0..12 {
+            let [a, b, c] = m.indices[t].map(|i| i as usize);
+            let centre = (m.positions[a] + m.positions[b] + m.positions[c]) / 3.0;
+            assert!(
+                geo_normal(&m, t).dot(centre) > 0.0,
+                "triangle {t} points inward"
+            );
+            assert!((m.normals[a] - geo_normal(&m, t)).length() < 1e-6);
+        }
+        assert!(m.uvs.iter().all(|uv| uv.x == 0.0 || uv.x == 1.0));
+        assert!((m.area() - 24.0).abs() < 1e-4);
+    }
+
+    #[test]
+    fn sphere_uv_normals_and_area() {
+        let xf =
+            Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)) * Mat4::from_scale(Vec3::splat(2.0));
+        let m = to_world(
+            sphere(SPHERE_RINGS, SPHERE_SEGMENTS),
+            &xf,
+            MeshOptions {
+                keep_orientation: true,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        // Area converges to 4πr² from below (inscribed polyhedron).
+        let rel = m.area() / (4.0 * PI * 4.0);
+        assert!(rel < 1.0 && rel > 0.9995, "{rel}");
+        for (i, p) in m.positions.iter().enumerate() {
+            let d = (*p - c) / 2.0;
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            assert!((m.normals[i] - d).length() < 1e-4);
+            let theta = d.z.clamp(-1.0, 1.0).acos();
+            assert!((m.uvs[i].y - theta / PI).abs() < 1e-4);
+            if d.z.abs() < 0.999 {
+                let mut phi = d.y.atan2(d.x);
+                if phi < 0.0 {
+                    phi += 2.0 * PI;
+                }
+                let u = m.uvs[i].x;
+                // the seam duplicates φ = 0 as u = 1
+                assert!(
+                    (u - phi / (2.0 * PI)).abs() < 1e-4 || (u - 1.0).abs() < 1e-6 && phi < 1e-3
+                );
+            }
+        }
+        for t in (0..m.indices.len()).step_by(97) {
+            let [a, b, cc] = m.indices[t].map(|i| i as usize);
+            let centre = (m.positions[a] + m.positions[b] + m.positions[cc]) / 3.0;
+            assert!(geo_normal(&m, t).dot(centre - c) > 0.0);
+            // ∂p/∂u points along +φ: (−sin φ, cos φ, 0) in the sphere's frame
+            let d = dpdu(&m, t);
+            let e = Vec3::Z.cross(centre - c);
+            assert!(d.dot(e) > 0.0);
+        }
+    }
+
+    #[test]
+    fn disk_uv_is_radius_and_angle() {
+        let m = to_world(
+            disk(DISK_RINGS, DISK_SEGMENTS),
+            &Mat4::IDENTITY,
+            MeshOptions::default(),
+        )
+        .unwrap();
+        let rel = m.area() / PI;
+        assert!(rel < 1.0 && rel > 0.999, "{rel}");
+        for (p, uv) in m.positions.iter().zip(&m.uvs) {
+            assert!((uv.x - p.truncate().length()).abs() < 1e-5);
+            if uv.x > 0.0 && uv.y < 1.0 {
+                let mut phi = p.y.atan2(p.x);
+                if phi < -1e-6 {
+                    phi += 2.0 * PI;
+                }
+                assert!((uv.y - phi / (2.0 * PI)).abs() < 1e-4, "{uv:?} {p:?}");
+            }
+        }
+        for t in 0..m.indices.len() {
+            assert!((geo_normal(&m, t) - Vec3::Z).length() < 1e-4);
+        }
+        // ∂p/∂u is radial on the disk (Mitsuba: dp_du = (cos φ, sin φ, 0))
+        let t = m.indices.len() - 1;
+        let [a, b, c] = m.indices[t].map(|i| i as usize);
+        let centre = (m.positions[a] + m.positions[b] + m.positions[c]) / 3.0;
+        assert!(dpdu(&m, t).normalize().dot(centre.normalize()) > 0.99);
+    }
+
+    #[test]
+    fn degenerate_triangles_dropped_and_nan_rejected() {
+        let mut l = rectangle();
+        l.indices.push([0, 0, 1]);
+        let m = to_world(l.clone(), &Mat4::IDENTITY, MeshOptions::default()).unwrap();
+        assert_eq!(m.indices.len(), 2);
+        l.positions[1].x = f32::NAN;
+        assert!(
+            to_world(l, &Mat4::IDENTITY, MeshOptions::default())
+                .unwrap_err()
+                .contains("vertex 1")
+        );
+        let singular = Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0));
+        assert!(to_world(rectangle(), &singular, MeshOptions::default()).is_err());
+    }
+
+    #[test]
+    fn recomputed_normals_are_angle_weighted() {
+        // A tent of two faces: the ridge vertices average the two face normals.
+        let l = LocalMesh {
+            positions: vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(0.0, 1.0, 0.0),
+                Vec3::new(1.0, 0.0, -1.0),
+                Vec3::new(-1.0, 0.0, -1.0),
+            ],
+            indices: vec![[0, 2, 1], [0, 1, 3]],
+            ..Default::default()
+        };
+        let opts = MeshOptions {
+            recompute_normals: true,
+            ..Default::default()
+        };
+        let m = to_world(l, &Mat4::IDENTITY, opts).unwrap();
+        assert!(
+            (m.normals[0] - Vec3::Z).length() < 1e-5,
+            "{:?}",
+            m.normals[0]
+        );
+        assert!((m.normals[2] - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-5);
+    }
+}

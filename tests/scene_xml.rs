@@ -1,0 +1,611 @@
+//! Mitsuba XML scenes written by the tests themselves, parsed into the expected `Scene`, plus the
+//! error cases (each message must name the file and the line).
+
+use btfpt::bsdf::{Bsdf, Texture};
+use btfpt::io::{RgbImage, write_exr, write_png_srgb};
+use btfpt::math::{Mat4, Vec2, Vec3};
+use btfpt::scene::{self, Emitter, Scene};
+use std::path::{Path, PathBuf};
+
+const SENSOR: &str = r#"
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <film type="hdrfilm"><rfilter type="box"/></film>
+    </sensor>"#;
+
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn scene_with(dir: &Path, body: &str) -> PathBuf {
+    write(
+        dir,
+        "s.xml",
+        &format!("<scene version=\"3.0.0\">\n{SENSOR}\n{body}\n</scene>\n"),
+    )
+}
+
+fn load(p: &Path) -> Scene {
+    match scene::load(p, &[]) {
+        Ok(s) => s,
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// Asserts that loading fails with a message naming the file, the line and containing `needle`.
+fn expect_err(p: &Path, defines: &[(String, String)], line: u32, needle: &str) {
+    let e = match scene::load(p, defines) {
+        Ok(_) => panic!("expected an error containing {needle:?}"),
+        Err(e) => e.to_string(),
+    };
+    let fname = p.file_name().unwrap().to_str().unwrap();
+    assert!(e.contains(fname), "no file name in: {e}");
+    assert!(
+        e.contains(&format!(":{line}:")),
+        "expected line {line} in: {e}"
+    );
+    assert!(e.contains(needle), "expected {needle:?} in: {e}");
+}
+
+fn close(a: Vec3, b: Vec3) -> bool {
+    (a - b).length() < 1e-4
+}
+
+#[test]
+fn full_scene_parses_into_expected_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // textures and meshes written by the test
+    let mut tex = RgbImage::new(2, 1);
+    tex.set(0, 0, [1.0, 0.0, 0.0]);
+    tex.set(1, 0, [0.0, 0.0, 1.0]);
+    write_png_srgb(&d.join("tex.png"), &tex).unwrap();
+    let mut env = RgbImage::new(4, 2);
+    env.set(3, 1, [2.0, 3.0, 4.0]);
+    write_exr(&d.join("env.exr"), &env).unwrap();
+    write(
+        d,
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 0.25\nf 1/1 2/2 3/3\n",
+    );
+    write(
+        d,
+        "tri.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+         element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    );
+    let xml = r#"<?xml version="1.0"?>
+<scene version="3.0.0">
+    <default name="spp" value="16"/>
+    <default name="res" value="64"/>
+    <default name="alpha" value="0.2"/>
+    <integrator type="path">
+        <integer name="max_depth" value="3"/>
+        <boolean name="hide_emitters" value="true"/>
+    </integrator>
+    <sensor type="perspective">
+        <float name="fov" value="30"/>
+        <string name="fov_axis" value="y"/>
+        <float name="near_clip" value="0.1"/>
+        <transform name="to_world">
+            <lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/>
+        </transform>
+        <sampler type="independent"><integer name="sample_count" value="$spp"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="$res"/>
+            <integer name="height" value="32"/>
+            <integer name="crop_offset_x" value="8"/>
+            <integer name="crop_width" value="16"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+    <bsdf type="diffuse" id="tex">
+        <texture type="bitmap" name="reflectance"><string name="filename" value="tex.png"/></texture>
+    </bsdf>
+    <bsdf type="twosided" id="two"><ref id="tex"/></bsdf>
+    <bsdf type="roughconductor" id="metal">
+        <string name="distribution" value="ggx"/>
+        <float name="alpha_u" value="$alpha"/>
+        <float name="alpha_v" value="0.3"/>
+        <rgb name="eta" value="0.2, 0.9, 1.1"/>
+        <rgb name="k" value="3.9 2.4 2.2"/>
+    </bsdf>
+    <shape type="obj" id="o">
+        <string name="filename" value="tri.obj"/>
+        <transform name="to_world"><translate x="1"/><scale value="2"/></transform>
+        <ref id="two"/>
+    </shape>
+    <shape type="ply">
+        <string name="filename" value="tri.ply"/>
+        <ref name="bsdf" id="metal"/>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><rotate x="1" angle="90"/></transform>
+        <emitter type="area"><rgb name="radiance" value="1, 2, 3"/></emitter>
+    </shape>
+    <shape type="cube"><bsdf type="dielectric"><string name="int_ior" value="water"/></bsdf></shape>
+    <shape type="sphere">
+        <point name="center" x="0" y="1" z="0"/><float name="radius" value="0.5"/>
+        <bsdf type="thindielectric"><float name="int_ior" value="1.6"/><float name="ext_ior" value="1.2"/></bsdf>
+    </shape>
+    <shape type="disk"><bsdf type="conductor"/></shape>
+    <emitter type="point"><point name="position" value="1 2 3"/><rgb name="intensity" value="5"/></emitter>
+    <emitter type="spot">
+        <transform name="to_world"><translate value="0 4 0"/></transform>
+        <float name="cutoff_angle" value="40"/>
+    </emitter>
+    <emitter type="directional"><vector name="direction" x="0" y="-2" z="0"/></emitter>
+    <emitter type="constant"><float name="radiance" value="0.25"/></emitter>
+    <emitter type="envmap"><string name="filename" value="env.exr"/><float name="scale" value="2"/></emitter>
+</scene>
+"#;
+    let p = write(d, "full.xml", xml);
+    let s = scene::load(&p, &[("res".into(), "48".into())]).unwrap();
+    assert_eq!(s.spp, 16);
+    assert_eq!(s.integrator.max_depth, 3);
+    assert_eq!(s.integrator.rr_depth, 5);
+    assert!(s.integrator.hide_emitters);
+    let c = &s.camera;
+    assert_eq!(
+        (c.width, c.height),
+        (48, 32),
+        "define must override the default"
+    );
+    assert_eq!(c.crop, Some([8, 0, 16, 32]));
+    assert_eq!(c.image_size(), (16, 32));
+    // fov 30° along y with aspect 1.5 → horizontal fov
+    let expect = 2.0 * ((15f32).to_radians().tan() * 1.5).atan();
+    assert!((c.fov_x_deg.to_radians() - expect).abs() < 1e-5);
+    assert!((c.near_clip - 0.1).abs() < 1e-7 && c.far_clip == 1e4);
+    assert!(close(
+        c.to_world.transform_point3(Vec3::ZERO),
+        Vec3::new(0.0, 0.0, 5.0)
+    ));
+
+    // bsdfs: tex, two, metal (top level, in order), then the nested ones
+    assert_eq!(s.meshes.len(), 6);
+    let b = |i: usize| &s.bsdfs[s.meshes[i].bsdf as usize];
+    match b(0) {
+        Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
+            (Bsdf::Diffuse(f), Bsdf::Diffuse(_)) => match &f.reflectance {
+                Texture::Bitmap(img) => {
+                    assert_eq!((img.width, img.height), (2, 1));
+                    assert!((img.get(0, 0)[0] - 1.0).abs() < 1e-6);
+                }
+                t => panic!("{t:?}"),
+            },
+            o => panic!("{o:?}"),
+        },
+        o => panic!("{o:?}"),
+    }
+    match b(1) {
+        Bsdf::RoughConductor(r) => {
+            assert_eq!((r.alpha_u, r.alpha_v), (0.2, 0.3));
+            assert!(close(r.eta, Vec3::new(0.2, 0.9, 1.1)) && close(r.k, Vec3::new(3.9, 2.4, 2.2)));
+            assert!(r.sample_visible);
+        }
+        o => panic!("{o:?}"),
+    }
+    match b(3) {
+        Bsdf::Dielectric(x) => assert!((x.eta - 1.3330 / 1.00028).abs() < 1e-6),
+        o => panic!("{o:?}"),
+    }
+    match b(4) {
+        Bsdf::ThinDielectric(x) => assert!((x.eta - 1.6 / 1.2).abs() < 1e-6),
+        o => panic!("{o:?}"),
+    }
+    match b(5) {
+        Bsdf::Conductor(x) => {
+            assert_eq!((x.eta, x.k), (Vec3::ZERO, Vec3::ONE));
+            assert!(matches!(x.specular_reflectance, Texture::Constant(v) if v == Vec3::ONE));
+        }
+        o => panic!("{o:?}"),
+    }
+    // the rectangle (no bsdf) gets Mitsuba's default diffuse 0.5
+    match b(2) {
+        Bsdf::Diffuse(x) => {
+            assert!(matches!(x.reflectance, Texture::Constant(v) if v == Vec3::splat(0.5)))
+        }
+        o => panic!("{o:?}"),
+    }
+    assert_eq!(
+        s.meshes[0].bsdf, 1,
+        "ref to a top-level bsdf reuses its index"
+    );
+
+    // OBJ: to_world = scale · translate (document order: translate first), v flipped, smooth
+    // normals recomputed
+    let o = &s.meshes[0];
+    assert_eq!(o.name, "o");
+    let i = o
+        .positions
+        .iter()
+        .position(|p| close(*p, Vec3::new(2.0, 2.0, 0.0)))
+        .unwrap();
+    assert_eq!(o.uvs[i], Vec2::new(0.0, 0.75));
+    assert!(o.normals.iter().all(|n| close(*n, Vec3::Z)));
+    // rectangle rotated +90° about x: normal +z → −y... R_x(90°)·z = (0, −1, 0)
+    let r = &s.meshes[2];
+    assert_eq!(r.emitter, Some(Vec3::new(1.0, 2.0, 3.0)));
+    assert!(
+        r.normals
+            .iter()
+            .all(|n| close(*n, Vec3::new(0.0, -1.0, 0.0)))
+    );
+    // sphere centre/radius
+    let sp = &s.meshes[4];
+    assert!(
+        sp.positions
+            .iter()
+            .all(|p| ((*p - Vec3::Y).length() - 0.5).abs() < 1e-5)
+    );
+
+    assert_eq!(s.emitters.len(), 5);
+    assert!(
+        matches!(s.emitters[0], Emitter::Point { position, intensity }
+        if position == Vec3::new(1.0, 2.0, 3.0) && intensity == Vec3::splat(5.0))
+    );
+    match &s.emitters[1] {
+        Emitter::Spot {
+            to_world,
+            cutoff_angle,
+            beam_width,
+            intensity,
+        } => {
+            assert_eq!((*cutoff_angle, *beam_width), (40.0, 30.0));
+            assert_eq!(*intensity, Vec3::ONE);
+            assert_eq!(*to_world, Mat4::from_translation(Vec3::new(0.0, 4.0, 0.0)));
+        }
+        e => panic!("{e:?}"),
+    }
+    assert!(
+        matches!(s.emitters[2], Emitter::Directional { direction, irradiance }
+        if close(direction, -Vec3::Y) && irradiance == Vec3::ONE)
+    );
+    assert!(
+        matches!(s.emitters[3], Emitter::Constant { radiance } if radiance == Vec3::splat(0.25))
+    );
+    match &s.emitters[4] {
+        Emitter::EnvMap { image, scale, .. } => {
+            assert_eq!(*scale, 2.0);
+            assert_eq!(image.get(3, 1), [2.0, 3.0, 4.0]);
+        }
+        e => panic!("{e:?}"),
+    }
+}
+
+#[test]
+fn defaults_without_integrator_and_sampler() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = load(&scene_with(dir.path(), "<shape type=\"rectangle\"/>"));
+    assert_eq!(s.integrator, Default::default());
+    assert_eq!(s.spp, 4);
+    assert_eq!((s.camera.width, s.camera.height), (768, 576));
+    assert_eq!(s.camera.crop, None);
+    assert_eq!(s.camera.to_world, Mat4::IDENTITY);
+}
+
+#[test]
+fn transforms_compose_in_document_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = r#"<shape type="rectangle">
+        <transform name="to_world">
+            <scale x="2"/>
+            <rotate value="0 0 1" angle="90"/>
+            <translate value="0, 0, 3"/>
+            <matrix value="1 0 0 0  0 1 0 5  0 0 1 0  0 0 0 1"/>
+        </transform></shape>"#;
+    let s = load(&scene_with(dir.path(), body));
+    // local (1, 1, 0) → scale (2, 1, 0) → rot z 90° (−1, 2, 0) → +z 3 → +y 5
+    let m = &s.meshes[0];
+    assert!(
+        m.positions
+            .iter()
+            .any(|p| close(*p, Vec3::new(-1.0, 7.0, 3.0))),
+        "{:?}",
+        m.positions
+    );
+}
+
+#[test]
+fn fov_axes_resolve_to_horizontal_fov() {
+    let dir = tempfile::tempdir().unwrap();
+    let fov = |axis: &str, w: u32, h: u32| {
+        let xml = format!(
+            r#"<scene version="3.0.0"><sensor type="perspective"><float name="fov" value="40"/>
+            <string name="fov_axis" value="{axis}"/>
+            <film type="hdrfilm"><integer name="width" value="{w}"/><integer name="height" value="{h}"/>
+            <rfilter type="box"/></film></sensor></scene>"#
+        );
+        load(&write(dir.path(), "f.xml", &xml)).camera.fov_x_deg as f64
+    };
+    let t = (20f64).to_radians().tan();
+    let y = |a: f64| (2.0 * (t * a).atan()).to_degrees();
+    assert!((fov("x", 200, 100) - 40.0).abs() < 1e-4);
+    assert!((fov("y", 200, 100) - y(2.0)).abs() < 1e-4);
+    assert!((fov("smaller", 200, 100) - y(2.0)).abs() < 1e-4);
+    assert!((fov("larger", 200, 100) - 40.0).abs() < 1e-4);
+    assert!((fov("smaller", 100, 200) - 40.0).abs() < 1e-4);
+    let diag = {
+        let a = 2.0f64;
+        let w = 2.0 * t / (1.0 + 1.0 / (a * a)).sqrt();
+        (2.0 * (w / 2.0).atan()).to_degrees()
+    };
+    assert!((fov("diagonal", 200, 100) - diag).abs() < 1e-4);
+}
+
+#[test]
+fn camera_rays_follow_mitsuba_orientation() {
+    let dir = tempfile::tempdir().unwrap();
+    let xml = r#"<scene version="3.0.0"><sensor type="perspective">
+        <float name="fov" value="90"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="50"/>
+        <rfilter type="box"/></film></sensor></scene>"#;
+    let c = load(&write(dir.path(), "c.xml", xml)).camera;
+    let (o, d, tmin, _) = c.generate_ray(50.0, 25.0);
+    assert!(close(o, Vec3::new(0.0, 0.0, 5.0)) && close(d, -Vec3::Z));
+    assert!((tmin - 0.01).abs() < 1e-6);
+    // The left edge of the image sees world −x (the viewer's left when looking down −z with +y up).
+    let (_, d, _, _) = c.generate_ray(0.0, 25.0);
+    assert!(close(d, Vec3::new(-1.0, 0.0, -1.0).normalize()), "{d:?}");
+    // The top edge sees +y; vertical extent is tan(45°)/aspect.
+    let (_, d, _, _) = c.generate_ray(50.0, 0.0);
+    assert!(close(d, Vec3::new(0.0, 0.5, -1.0).normalize()), "{d:?}");
+}
+
+#[test]
+fn flip_normals_and_face_normals() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "t.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    );
+    let body = r#"<shape type="obj"><string name="filename" value="t.obj"/><boolean name="flip_normals" value="true"/></shape>
+        <shape type="obj"><string name="filename" value="t.obj"/><boolean name="face_normals" value="true"/></shape>
+        <shape type="sphere"><boolean name="flip_normals" value="true"/></shape>"#;
+    let s = load(&scene_with(dir.path(), body));
+    let m = &s.meshes[0];
+    assert!(m.normals.iter().all(|n| close(*n, -Vec3::Z)));
+    let [a, b, c] = m.indices[0].map(|i| m.positions[i as usize]);
+    assert!((b - a).cross(c - a).z < 0.0, "winding must be reversed");
+    assert!(s.meshes[1].normals.is_empty());
+    let sp = &s.meshes[2];
+    assert!(
+        sp.positions
+            .iter()
+            .zip(&sp.normals)
+            .all(|(p, n)| p.dot(*n) < 0.0)
+    );
+}
+
+#[test]
+fn btf_bsdf_routes_to_build_btf() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = r#"<shape type="rectangle">
+        <bsdf type="btf"><string name="filename" value="m.plmc"/><float name="uv_scale" value="4"/></bsdf>
+    </shape>"#;
+    expect_err(
+        &scene_with(dir.path(), body),
+        &[],
+        8,
+        "btf materials are not available in this build",
+    );
+}
+
+#[test]
+fn malformed_xml_names_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "bad.xml",
+        "<scene version=\"3.0.0\">\n<shape type=\"cube\">\n</scene>\n",
+    );
+    expect_err(&p, &[], 3, "malformed XML");
+}
+
+#[test]
+fn missing_mesh_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"obj\">\n<string name=\"filename\" value=\"nope.obj\"/></shape>",
+    );
+    expect_err(&p, &[], 7, "nope.obj");
+}
+
+#[test]
+fn unknown_plugin_property_and_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><bsdf type=\"plastic\"/></shape>",
+    );
+    expect_err(&p, &[], 7, "unsupported bsdf type");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\">\n<float name=\"radius\" value=\"1\"/></shape>",
+    );
+    expect_err(&p, &[], 8, "unreferenced property \"radius\"");
+    let p = scene_with(dir.path(), "<shape type=\"torus\"/>");
+    expect_err(&p, &[], 7, "unsupported shape type");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><colour name=\"x\" value=\"1\"/></shape>",
+    );
+    expect_err(&p, &[], 7, "unexpected element <colour>");
+    let p = scene_with(dir.path(), "<integrator type=\"volpath\"/>");
+    expect_err(&p, &[], 7, "unsupported integrator type");
+    let p = scene_with(dir.path(), "<emitter type=\"area\"/>");
+    expect_err(&p, &[], 7, "must be nested inside a <shape>");
+    let p = scene_with(
+        dir.path(),
+        "<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0.1\"/></bsdf>",
+    );
+    expect_err(&p, &[], 7, "distribution");
+    let p = scene_with(
+        dir.path(),
+        "<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>",
+    );
+    expect_err(&p, &[], 7, "named conductor material");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>",
+    );
+    expect_err(&p, &[], 7, "non-uniform scale");
+    let p = scene_with(dir.path(), "<shape type=\"cube\" colour=\"red\"/>");
+    expect_err(&p, &[], 7, "unexpected attribute \"colour\"");
+    let p = scene_with(dir.path(), "<shape><bsdf type=\"diffuse\"/></shape>");
+    expect_err(&p, &[], 7, "missing attribute \"type\"");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><float name=\"fov\" value=\"$x\"/></shape>",
+    );
+    expect_err(
+        &p,
+        &[("x".into(), "1".into())],
+        7,
+        "unreferenced property \"fov\"",
+    );
+    let p = write(
+        dir.path(),
+        "lum.xml",
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\"><string name=\"pixel_format\" value=\"luminance\"/><rfilter type=\"box\"/></film></sensor></scene>",
+    );
+    expect_err(&p, &[], 3, "pixel_format");
+}
+
+#[test]
+fn nan_transform_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><transform name=\"to_world\">\n<translate x=\"nan\"/></transform></shape>",
+    );
+    expect_err(&p, &[], 8, "non-finite");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><transform name=\"to_world\">\n<lookat origin=\"1,1,1\" target=\"1,1,1\"/></transform></shape>",
+    );
+    expect_err(&p, &[], 8, "invalid lookat");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><transform name=\"to_world\">\n<scale y=\"0\"/></transform></shape>",
+    );
+    expect_err(&p, &[], 7, "singular");
+}
+
+#[test]
+fn missing_rfilter_and_film() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(
+        dir.path(),
+        "nofilter.xml",
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\"/>\n</sensor>\n</scene>",
+    );
+    expect_err(&p, &[], 3, "<rfilter type=\"box\"/>");
+    let p = write(
+        dir.path(),
+        "gauss.xml",
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\">\n<rfilter type=\"gaussian\"/></film>\n</sensor>\n</scene>",
+    );
+    expect_err(&p, &[], 4, "unsupported reconstruction filter");
+    let p = write(
+        dir.path(),
+        "nofilm.xml",
+        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n</scene>",
+    );
+    expect_err(&p, &[], 2, "missing <film>");
+}
+
+#[test]
+fn ids_refs_and_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        "<bsdf type=\"diffuse\" id=\"a\"/>\n<bsdf type=\"diffuse\" id=\"a\"/>",
+    );
+    expect_err(&p, &[], 8, "duplicate id \"a\" (previous was at line 7)");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><ref id=\"missing\"/></shape>",
+    );
+    expect_err(&p, &[], 7, "unknown object \"missing\"");
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"cube\"><float name=\"x\" value=\"$nope\"/></shape>",
+    );
+    expect_err(
+        &p,
+        &[("other".into(), "1".into())],
+        7,
+        "undefined parameter",
+    );
+    let p = scene_with(dir.path(), "<shape type=\"cube\"/>");
+    let e = scene::load(&p, &[("unused".into(), "1".into())])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("s.xml") && e.contains("unused parameter \"unused\""),
+        "{e}"
+    );
+    // a default declared after its use is not yet defined at the use (Mitsuba order)
+    let p = scene_with(
+        dir.path(),
+        "<default name=\"r\" value=\"1\"/><shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
+    );
+    assert!(scene::load(&p, &[]).is_ok());
+    let p = scene_with(
+        dir.path(),
+        "<bsdf type=\"twosided\" id=\"t\"><ref id=\"t2\"/></bsdf><bsdf type=\"twosided\" id=\"t2\"><ref id=\"t\"/></bsdf>",
+    );
+    assert!(scene::load(&p, &[]).is_err());
+}
+
+#[test]
+fn missing_version_and_sensor() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "nv.xml", "<scene>\n</scene>");
+    expect_err(&p, &[], 1, "missing attribute \"version\"");
+    let p = write(
+        dir.path(),
+        "ns.xml",
+        "<scene version=\"3.0.0\">\n<shape type=\"cube\"/>\n</scene>",
+    );
+    expect_err(&p, &[], 1, "no <sensor>");
+}
+
+#[test]
+fn binary_ply_with_uvs_and_degenerate_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+property float z\nproperty float u\nproperty float v\nelement face 2\nproperty list uchar uint vertex_indices\nend_header\n"
+        .to_vec();
+    for (x, y) in [(0.0f32, 0.0f32), (1.0, 0.0), (0.0, 1.0), (2.0, 0.0)] {
+        for v in [x, y, 0.0, x, y] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for face in [[0u32, 1, 2], [0, 1, 3]] {
+        b.push(3);
+        for i in face {
+            b.extend_from_slice(&i.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.path().join("m.ply"), b).unwrap();
+    let s = load(&scene_with(
+        dir.path(),
+        "<shape type=\"ply\"><string name=\"filename\" value=\"m.ply\"/></shape>",
+    ));
+    let m = &s.meshes[0];
+    assert_eq!(m.indices, vec![[0, 1, 2]], "collinear face dropped");
+    assert_eq!(
+        m.uvs[2],
+        Vec2::new(0.0, 1.0),
+        "PLY uvs are not flipped by default"
+    );
+    assert_eq!(m.normals.len(), 4);
+}
