@@ -261,7 +261,7 @@ fn grazing_band(lights: &DirectionInterp) -> (f32, Vec<u32>) {
         let dist = (d[0] * (0.0 - pa[1]) - d[1] * (0.0 - pa[0])) / len;
         r_min = r_min.min(dist);
     }
-    if !(r_min > 0.5) {
+    if r_min.is_nan() || r_min <= 0.5 {
         return (0.0, Vec::new());
     }
     hull.sort_unstable();
