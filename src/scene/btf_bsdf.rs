@@ -23,8 +23,9 @@ pub fn build_btf(
     };
     match model {
         "raw" => {
-            // Errors of the BTF file name that file.
-            let material = shared_raw_material(filename)?;
+            // The message names the BTF file and the problem; the scene error adds where it is used.
+            let material =
+                shared_raw_material(filename).map_err(|e| scene_error(format!("btf: {e}")))?;
             let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
             Ok(Bsdf::Btf(bsdf))
         }
@@ -84,6 +85,9 @@ mod tests {
         let e = build_btf(scene, 7, &missing, 1.0, "raw")
             .unwrap_err()
             .to_string();
-        assert!(e.contains("missing.btfc"), "{e}");
+        assert!(
+            e.contains("scene.xml:7") && e.contains("missing.btfc"),
+            "{e}"
+        );
     }
 }
