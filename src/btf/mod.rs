@@ -2,6 +2,7 @@
 //! formats, the measurement simulator, and (later) the PLM-C evaluation core.
 
 pub mod cache;
+pub mod delaunay;
 pub mod directions;
 pub mod format;
 pub mod raw;
