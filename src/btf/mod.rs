@@ -3,6 +3,7 @@
 
 pub mod directions;
 pub mod raw;
+pub mod synth;
 pub mod ubo2003;
 
 pub use directions::DirectionSet;

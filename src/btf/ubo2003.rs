@@ -19,5 +19,8 @@ pub enum ImageKind {
 pub fn write_folder(btf: &RawBtf, dir: &Path, kind: ImageKind) -> Result<()> {
     // TEMPORARY: replaced by the btf-io helper.
     let _ = (btf, kind);
-    Err(crate::Error::format(dir, "UBO2003 writing not implemented yet"))
+    Err(crate::Error::format(
+        dir,
+        "UBO2003 writing not implemented yet",
+    ))
 }
