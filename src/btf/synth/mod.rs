@@ -13,3 +13,6 @@ pub use brdf::BrdfParams;
 pub use materials::MaterialKind;
 pub use measure::{SynthSettings, measure};
 pub use surface::MicroSurface;
+
+#[cfg(test)]
+mod tests;
