@@ -1,5 +1,7 @@
 //! Subcommands, one file each.
 
+pub mod synth;
+
 use clap::{Parser, Subcommand};
 
 /// btfpt: a path tracer for measured BTF materials (raw and PLM-C).
@@ -11,9 +13,14 @@ pub struct Cli {
 }
 
 #[derive(Subcommand, Debug)]
-pub enum Command {}
+pub enum Command {
+    /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
+    Synth(synth::SynthArgs),
+}
 
 /// Runs one subcommand.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {}
+    match cli.command {
+        Command::Synth(a) => synth::run(a),
+    }
 }

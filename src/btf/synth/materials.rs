@@ -181,9 +181,10 @@ fn seg_dist(p: Vec2, a: Vec2, b: Vec2) -> (f32, f32) {
     ((p - (a + ab * s)).length(), s)
 }
 
-/// Knitted wool (stockinette): every stitch is a V of two yarn legs; a leg is a round tube of
-/// radius ≈ 0.22 stitch with 3-ply twist bumps, over a darker back layer; fibre fuzz as fine noise
-/// and sheen; the fibre tangent follows the leg with a twist angle.
+/// Knitted wool (stockinette): every stitch is a V of two yarn legs; a leg is an oval loop
+/// (≈ 0.62 × 0.27 stitch, tilted ±20° from the wale) of round cross-section with 3-ply twist
+/// ridges, over a darker back layer; fibre fuzz as fine noise plus sheen; the fibre tangent
+/// follows the ply twist.
 fn wool(t: &Tile, x: f32, y: f32) -> (f32, BrdfParams) {
     let (nsx, nsy) = t.reps(8.0);
     let (sw, sh) = (t.w / nsx as f32, t.h / nsy as f32);
@@ -191,8 +192,9 @@ fn wool(t: &Tile, x: f32, y: f32) -> (f32, BrdfParams) {
     let (gx, gy) = (u * nsx as f32, v * nsy as f32);
     let (ci, cj) = (gx.floor(), gy.floor());
     let p = Vec2::new((gx - ci) * sw, (gy - cj) * sh); // texels within the stitch
-    let r = 0.24 * sw;
-    let mut best = (-1.0f32, 0.0f32, 0.0f32, 0u64); // (height, along, leg angle, stitch hash)
+    let (ra, rb) = (0.62 * sh, 0.27 * sw); // leg half-length, half-width
+    let depth = 0.3 * sw; // loop height
+    let mut best = (-1.0f32, 0.0f32, 0u64); // (height, fibre angle, stitch hash)
     for dj in -1..=1 {
         for di in -1..=1 {
             let off = Vec2::new(di as f32 * sw, dj as f32 * sh);
@@ -201,39 +203,40 @@ fn wool(t: &Tile, x: f32, y: f32) -> (f32, BrdfParams) {
                 (cj as i64 + dj as i64).rem_euclid(nsy as i64),
                 t.seed,
             );
-            let jitter = Vec2::new(hash_unit(sid) - 0.5, hash_unit(sid >> 7) - 0.5) * (0.06 * sw);
+            let jitter = Vec2::new(hash_unit(sid) - 0.5, hash_unit(sid >> 7) - 0.5) * (0.05 * sw);
             for leg in 0..2 {
                 let sgn = if leg == 0 { -1.0 } else { 1.0 };
-                // Top-outer to bottom-centre, overlapping the next row like real loops.
-                let a = off + jitter + Vec2::new((0.5 + sgn * 0.30) * sw, -0.15 * sh);
-                let b = off + jitter + Vec2::new((0.5 + sgn * 0.04) * sw, 1.05 * sh);
-                let (d, s) = seg_dist(p, a, b);
-                if d < r {
-                    let prof = (1.0 - (d / r).powi(2)).sqrt();
-                    // Three-ply twist: bumps travelling diagonally across the tube.
-                    let across = d / r * sgn;
-                    let twist = 0.12 * (TAU * (s * 5.0 + 0.5 * across)).sin();
-                    let hgt = r * (0.55 * prof + 0.45 * prof.sqrt()) * (1.0 + twist);
+                let centre = off + jitter + Vec2::new((0.5 + sgn * 0.22) * sw, 0.5 * sh);
+                // Leg axis: top-outer to bottom-centre (a V), ±20° from vertical.
+                let ang = sgn * 20f32.to_radians();
+                let axis = Vec2::new(-ang.sin(), ang.cos());
+                let d = p - centre;
+                let (along, across) = (d.dot(axis) / ra, d.perp_dot(axis) / rb);
+                let rho2 = along * along + across * across;
+                if rho2 < 1.0 {
+                    let prof = (1.0 - rho2).sqrt();
+                    // Three-ply twist ridges crossing the leg diagonally.
+                    let twist = 0.1 * (TAU * (3.0 * along + 1.2 * across)).sin();
+                    let hgt = depth * prof.sqrt() * (1.0 + twist);
                     if hgt > best.0 {
-                        let dir = b - a;
-                        best = (hgt, s, dir.y.atan2(dir.x) + sgn * 0.5, sid);
+                        best = (hgt, axis.y.atan2(axis.x) + sgn * 0.6, sid);
                     }
                 }
             }
         }
     }
-    let fuzz = t.fbm(x, y, 0.75, 3, 11);
-    let back = 0.15 * r + 0.2 * t.fbm(x, y, 2.0, 2, 12);
+    let fuzz = t.fbm(x, y, 1.0, 2, 11);
+    let back = 0.1 * depth + 0.15 * t.fbm(x, y, 2.0, 2, 12);
     let on_yarn = best.0 > back;
-    let height = best.0.max(back) + 0.18 * fuzz;
-    let tint = 1.0 + 0.12 * (hash_unit(best.3) - 0.5) + 0.15 * t.fbm(x, y, 1.0, 2, 13);
+    let height = best.0.max(back) + 0.05 * fuzz;
+    let tint = 1.0 + 0.12 * (hash_unit(best.2) - 0.5) + 0.15 * t.fbm(x, y, 1.0, 2, 13);
     let base = rgb(0.50, 0.10, 0.08) * tint;
     let diffuse = if on_yarn { base } else { base * 0.45 };
     let params = BrdfParams {
         diffuse,
         specular: Vec3::splat(0.03),
         alpha: Vec2::new(0.25, 0.6),
-        tangent_angle: if on_yarn { best.2 } else { 0.0 },
+        tangent_angle: if on_yarn { best.1 } else { 0.0 },
         sheen: rgb(0.35, 0.2, 0.18),
         sheen_roughness: 0.45,
         coat: 0.0,
@@ -315,16 +318,16 @@ fn wood(t: &Tile, x: f32, y: f32) -> (f32, BrdfParams) {
         sheen: Vec3::ZERO,
         sheen_roughness: 0.5,
         coat: 1.0,
-        coat_alpha: 0.04,
+        coat_alpha: 0.07,
     };
     (height, params)
 }
 
-/// Brushed metal foil: crumpled foil (slow wrinkles ≈ 16 texels, 0.6 texel deep) with fine
+/// Brushed metal foil: crumpled foil (wrinkles ≈ 10 texels, ≈ 1.5 texels deep) with fine
 /// brushing scratches along x; aluminium-coloured anisotropic GGX, smooth along the brushing.
 fn foil(t: &Tile, x: f32, y: f32) -> (f32, BrdfParams) {
     let (u, v) = t.uv(x, y);
-    let crumple = 0.6 * t.fbm(x, y, 16.0, 4, 51);
+    let crumple = 1.5 * t.fbm(x, y, 10.0, 4, 51);
     let (sx, _) = t.reps(32.0);
     let (_, sy) = t.reps(0.5);
     let scratch = 0.05 * periodic_noise(u * sx as f32, v * sy as f32, sx, sy, t.seed ^ 52);

@@ -28,6 +28,10 @@ pub struct SynthSettings {
     pub seed: u64,
     /// Trace one BRDF-sampled bounce of inter-reflection (off: direct light only).
     pub interreflection: bool,
+    /// Upper bound on one sample's inter-reflected B per channel (∞ = unbiased). Rare glossy
+    /// grazing bounce paths otherwise leave isolated bright texels at a few samples per texel;
+    /// one Lambertian bounce never exceeds 1 (albedo ≤ 1), so the default 1 only trims those.
+    pub indirect_clamp: f32,
     /// Show an indicatif progress bar on stderr.
     pub progress: bool,
 }
@@ -41,6 +45,7 @@ impl SynthSettings {
             strata: 2,
             seed,
             interreflection: true,
+            indirect_clamp: 1.0,
             progress: false,
         }
     }
@@ -60,6 +65,8 @@ struct Vertex {
     cell: u32,
     /// Path weight multiplying this vertex's direct light.
     weight: Spectrum,
+    /// Clamp of this vertex's contribution to B (per channel; ∞ for camera vertices).
+    clamp: f32,
 }
 
 /// Measures `surface` into a linear RawBtf `[view][light][row][column][rgb]` using the current
@@ -81,6 +88,12 @@ pub fn measure(surface: &MicroSurface, s: &SynthSettings) -> Result<RawBtf> {
                 set.angles_deg.get(k)
             )));
         }
+    }
+    if !(s.indirect_clamp > 0.0) {
+        return Err(Error::Invalid(format!(
+            "synth: indirect clamp must be positive (got {})",
+            s.indirect_clamp
+        )));
     }
     if s.strata == 0 || s.strata > 64 {
         return Err(Error::Invalid(format!(
@@ -131,6 +144,7 @@ fn make_vertex(
     hit: &super::heightfield::HfHit,
     toward: Vec3,
     weight: Spectrum,
+    clamp: f32,
 ) -> Option<Vertex> {
     let p: &BrdfParams = surface.params(hit.cell);
     let (sa, ca) = p.tangent_angle.sin_cos();
@@ -146,6 +160,7 @@ fn make_vertex(
         wo,
         cell: hit.cell as u32,
         weight,
+        clamp,
     })
 }
 
@@ -173,7 +188,7 @@ fn measure_view(surface: &MicroSurface, s: &SynthSettings, view: usize, out: &mu
                 let Some(hit) = hf.intersect(o, -wv) else {
                     continue;
                 };
-                let Some(v1) = make_vertex(surface, &hit, wv, Spectrum::ONE) else {
+                let Some(v1) = make_vertex(surface, &hit, wv, Spectrum::ONE, f32::INFINITY) else {
                     continue;
                 };
                 verts.push(v1);
@@ -189,7 +204,8 @@ fn measure_view(surface: &MicroSurface, s: &SynthSettings, view: usize, out: &mu
                     continue;
                 }
                 if let Some(hit2) = hf.intersect(v1.origin, wb)
-                    && let Some(v2) = make_vertex(surface, &hit2, -wb, weight)
+                    && let Some(v2) =
+                        make_vertex(surface, &hit2, -wb, weight, s.indirect_clamp / PI)
                 {
                     verts.push(v2);
                 }
@@ -214,7 +230,7 @@ fn measure_view(surface: &MicroSurface, s: &SynthSettings, view: usize, out: &mu
                 if f.max_element() <= 0.0 || hf.occluded(v.origin, wl) {
                     continue;
                 }
-                acc += f;
+                acc += f.min(Vec3::splat(v.clamp));
             }
             let b = acc * norm;
             img[3 * t] = f16::from_f32(b.x);

@@ -16,6 +16,7 @@ fn settings(
         strata,
         seed: 7,
         interreflection: inter,
+        indirect_clamp: 1.0,
         progress: false,
     }
 }
