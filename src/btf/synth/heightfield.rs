@@ -72,7 +72,7 @@ impl HeightField {
                 heights.len()
             )));
         }
-        if block == 0 || nx % block != 0 || ny % block != 0 {
+        if block == 0 || !nx.is_multiple_of(block) || !ny.is_multiple_of(block) {
             return Err(Error::Invalid(format!(
                 "height-field block size {block} must divide the grid {nx}×{ny}"
             )));

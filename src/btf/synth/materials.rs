@@ -174,13 +174,6 @@ fn rgb(r: f32, g: f32, b: f32) -> Vec3 {
     Vec3::new(r, g, b)
 }
 
-/// Distance from p to segment ab and the position along it in [0, 1].
-fn seg_dist(p: Vec2, a: Vec2, b: Vec2) -> (f32, f32) {
-    let ab = b - a;
-    let s = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
-    ((p - (a + ab * s)).length(), s)
-}
-
 /// Knitted wool (stockinette): every stitch is a V of two yarn legs; a leg is an oval loop
 /// (≈ 0.62 × 0.27 stitch, tilted ±20° from the wale) of round cross-section with 3-ply twist
 /// ridges, over a darker back layer; fibre fuzz as fine noise plus sheen; the fibre tangent

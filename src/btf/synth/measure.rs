@@ -81,7 +81,7 @@ pub fn measure(surface: &MicroSurface, s: &SynthSettings) -> Result<RawBtf> {
         if let Some(k) = set
             .dirs
             .iter()
-            .position(|d| !(d.z > 1e-3) || !d.is_finite())
+            .position(|d| d.z.is_nan() || d.z <= 1e-3 || !d.is_finite())
         {
             return Err(Error::Invalid(format!(
                 "synth: {name} direction {k} {:?} is not above the reference plane",
@@ -89,7 +89,7 @@ pub fn measure(surface: &MicroSurface, s: &SynthSettings) -> Result<RawBtf> {
             )));
         }
     }
-    if !(s.indirect_clamp > 0.0) {
+    if s.indirect_clamp.is_nan() || s.indirect_clamp <= 0.0 {
         return Err(Error::Invalid(format!(
             "synth: indirect clamp must be positive (got {})",
             s.indirect_clamp
