@@ -65,7 +65,7 @@ fn flat_white_lambertian_gives_cos_theta_l_for_every_view() {
 }
 
 /// V-grooves along y (period 4 texels, 45° walls), seen head-on. With the light across the
-/// grooves at elevation ε above the horizon, the lit wall (cos = cos(45° − ε)... computed below)
+/// grooves at elevation ε above the horizon, the wall facing it (cos_wall = (sin θ + cos θ)/√2)
 /// is shadowed by the opposite wall over a fraction (1 − tan ε)/(1 + tan ε) of its width, so
 /// B̄ = ½ · cos_wall · (1 − that); without cast shadows it would be ½ · cos_wall.
 #[test]
