@@ -6,6 +6,7 @@ pub mod delaunay;
 pub mod directions;
 pub mod format;
 pub mod raw;
+pub mod synth;
 pub mod ubo2003;
 pub mod ubo2014;
 

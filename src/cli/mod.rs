@@ -4,6 +4,7 @@ pub mod convert;
 pub mod info;
 pub mod merge;
 pub mod render;
+pub mod synth;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +33,8 @@ pub enum Command {
     Fit(fit::FitArgs),
     /// Evaluate a .plmc model (and LM/PLM/PLM-C/PCA refits) against the measured BTF.
     Eval(eval::EvalArgs),
+    /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
+    Synth(synth::SynthArgs),
 }
 
 /// Runs one subcommand.
@@ -43,5 +46,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Merge(a) => merge::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Synth(a) => synth::run(a),
     }
 }
