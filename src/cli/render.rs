@@ -181,7 +181,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--threads {t}: must be in 1..=4096");
     }
-    if !(args.checkpoint_interval > 0.0) {
+    if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");
     }
     check_writable(&out)?;
