@@ -1,5 +1,6 @@
 //! Subcommands, one file each.
 
+pub mod compare;
 pub mod convert;
 pub mod info;
 pub mod merge;
@@ -25,6 +26,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Merge partial renders (crop windows, sample ranges) into one image.
     Merge(merge::MergeArgs),
+    /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, z-tests.
+    Compare(compare::CompareArgs),
 }
 
 /// Runs one subcommand.
@@ -34,5 +37,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Convert(a) => convert::run(a),
         Command::Render(a) => render::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
