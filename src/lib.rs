@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod io;
 pub mod light;
 pub mod math;
+pub mod metrics;
 pub mod render;
 pub mod scene;
 

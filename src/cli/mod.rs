@@ -1,5 +1,6 @@
 //! Subcommands, one file each.
 
+pub mod compare;
 pub mod convert;
 pub mod info;
 pub mod merge;
@@ -35,6 +36,8 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
     Synth(synth::SynthArgs),
+    /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, z-tests.
+    Compare(compare::CompareArgs),
 }
 
 /// Runs one subcommand.
@@ -47,5 +50,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => fit::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }
