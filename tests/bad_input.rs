@@ -345,6 +345,20 @@ fn cases(dir: &Path) -> Vec<Case> {
         vec!["flat.ply", "non-zero area"],
     );
     add(
+        "ply-zero-normal",
+        "PLY with zero-length vertex normals",
+        &|d, o| {
+            let p = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0 0\n1 0 0 0 0 0\n0 1 0 0 0 0\n3 0 1 2\n";
+            write(&d.join("zn.ply"), p);
+            let s = write(
+                &d.join("s.xml"),
+                scene(&mesh_shape("ply", "zn.ply", false), "8", "8"),
+            );
+            render(&s, o, &[])
+        },
+        vec!["s.xml", "zero or non-finite normal"],
+    );
+    add(
         "obj-bad-index",
         "OBJ face referring to a missing vertex",
         &|d, o| {
@@ -840,5 +854,49 @@ fn every_bad_input_fails_cleanly() {
         failures.len(),
         cases.len(),
         failures.join("\n")
+    );
+}
+
+/// A scene whose light transport overflows (radiance near f32::MAX on a 1e-7-sized emitter and a
+/// point light): NaN/Inf path contributions arise, are discarded, counted and reported, and the
+/// image stays finite.
+#[test]
+fn nan_and_inf_samples_never_reach_the_film() {
+    let dir = tempfile::tempdir().unwrap();
+    let body = format!(
+        r#"{}
+    <shape type="rectangle"><transform name="to_world"><scale value="1e-7"/><translate z="1"/></transform>
+        <emitter type="area"><rgb name="radiance" value="3e38, 3e38, 3e38"/></emitter></shape>
+    <emitter type="point"><point name="position" x="0" y="0" z="1"/><rgb name="intensity" value="3e38, 3e38, 3e38"/></emitter>"#,
+        rect("")
+    );
+    let s = write(&dir.path().join("overflow.xml"), scene(&body, "16", "16"));
+    let out = dir.path().join("o.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+        .args(os(&[
+            &"render",
+            &s,
+            &"-o",
+            &out,
+            &"--spp",
+            &"16",
+            &"--threads",
+            &"1",
+        ]))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    let n: u64 = err
+        .split(" NaN/Inf samples discarded")
+        .next()
+        .and_then(|h| h.rsplit(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("no discarded-sample count reported: {err}"));
+    assert!(n > 0, "{err}");
+    let img = btfpt::io::read_image(&out).unwrap();
+    assert!(
+        img.data.iter().all(|v| v.is_finite()),
+        "non-finite pixel in the film"
     );
 }
