@@ -97,7 +97,8 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         if let Some(b) = bars.get(i) {
             b.inc(1);
         }
-    })?;
+    })
+    .with_context(|| format!("fitting {}", args.data.display()))?;
     bars.iter().for_each(|b| b.finish());
     format::write(&args.output, &outcome.model)?;
     std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;

@@ -140,6 +140,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: scene file not found", args.scene.display());
     }
     let scene = btfpt::scene::load(&args.scene, &defines)?;
+    if scene.meshes.is_empty() && scene.emitters.is_empty() {
+        bail!(
+            "{}: the scene is empty (no shapes and no emitters), the image would be black",
+            args.scene.display()
+        );
+    }
     let out = args
         .output
         .clone()

@@ -439,6 +439,11 @@ pub fn fit_model(
                 }
             }
             let data = source.load_view(v)?;
+            if let Some(i) = data.iter().position(|x| !x.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "view {v}: measured value #{i} is NaN or infinite; the data must be finite"
+                )));
+            }
             let fit = fit_view(
                 &fitter,
                 source.lights(),
