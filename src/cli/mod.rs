@@ -5,6 +5,7 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod synth;
+pub mod tile_preview;
 
 use clap::{Parser, Subcommand};
 
@@ -35,6 +36,8 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
     Synth(synth::SynthArgs),
+    /// Render a model's seamless tile(s) for one view and light repeated over a grid (sRGB PNG).
+    TilePreview(tile_preview::TilePreviewArgs),
 }
 
 /// Runs one subcommand.
@@ -47,5 +50,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => fit::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::TilePreview(a) => tile_preview::run(a),
     }
 }
