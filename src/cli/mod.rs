@@ -6,6 +6,7 @@ pub mod info;
 pub mod merge;
 pub mod render;
 pub mod synth;
+pub mod tile_preview;
 
 use clap::{Parser, Subcommand};
 
@@ -38,6 +39,8 @@ pub enum Command {
     Synth(synth::SynthArgs),
     /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, z-tests.
     Compare(compare::CompareArgs),
+    /// Render a model's seamless tile(s) for one view and light repeated over a grid (sRGB PNG).
+    TilePreview(tile_preview::TilePreviewArgs),
 }
 
 /// Runs one subcommand.
@@ -51,5 +54,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::TilePreview(a) => tile_preview::run(a),
     }
 }

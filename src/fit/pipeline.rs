@@ -295,6 +295,12 @@ fn fit_polys(
 
 /// A hash of everything that determines a view's fit, so parts of another fit are not reused.
 pub fn fingerprint(source: &dyn BtfSource, opts: &FitOptions) -> u64 {
+    fingerprint_keyed(source, opts, 0)
+}
+
+/// [`fingerprint`] that also covers `key` (a hash of how the source was derived, e.g. the tile
+/// stitch); key 0 gives the plain fingerprint.
+pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) -> u64 {
     use crate::math::rng::mix64;
     let mut h = 0x504c_4d43u64;
     let mut add = |v: u64| h = mix64(h ^ v);
@@ -317,6 +323,9 @@ pub fn fingerprint(source: &dyn BtfSource, opts: &FitOptions) -> u64 {
         add(d.1.to_bits() as u64);
     }
     add(FIT_CODE_VERSION);
+    if key != 0 {
+        add(key);
+    }
     h
 }
 
@@ -404,6 +413,18 @@ pub fn fit_model(
     parts: Option<&Path>,
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
+    fit_model_keyed(source, opts, 0, parts, progress)
+}
+
+/// [`fit_model`] whose part files are keyed by `key` too (see [`fingerprint_keyed`]), for sources
+/// derived from the data (tiles), so parts of another derivation are never reused.
+pub fn fit_model_keyed(
+    source: &dyn BtfSource,
+    opts: &FitOptions,
+    key: u64,
+    parts: Option<&Path>,
+    progress: &(dyn Fn(usize, Stage) + Sync),
+) -> Result<FitOutcome> {
     if opts.kind == ModelKind::PlmC && !(1..=65536).contains(&opts.clusters) {
         return Err(Error::Invalid(format!(
             "--clusters must be in 1..=65536, got {}",
@@ -414,7 +435,7 @@ pub fn fit_model(
         return Err(Error::Invalid("--features must be at least 1".into()));
     }
     let fitter = LobeFitter::new(&source.lights().dirs)?;
-    let fp = fingerprint(source, opts);
+    let fp = fingerprint_keyed(source, opts, key);
     if let Some(dir) = parts {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
