@@ -305,9 +305,10 @@ mod tests {
             (s.material, s.width, s.height, s.seed, s.strata, s.subdiv),
             (MaterialKind::Corduroy, 64, 64, 1, 2, 4)
         );
-        let s = SynthSpec::parse("synth:Wool?size=16x8&seed=7&strata=1&subdiv=2&directions=UBO2014")
-            .unwrap()
-            .unwrap();
+        let s =
+            SynthSpec::parse("synth:Wool?size=16x8&seed=7&strata=1&subdiv=2&directions=UBO2014")
+                .unwrap()
+                .unwrap();
         assert_eq!(
             (s.material, s.width, s.height, s.seed, s.strata, s.subdiv),
             (MaterialKind::Wool, 16, 8, 7, 1, 2)
@@ -346,7 +347,13 @@ mod tests {
     fn synth_source_is_generated_once_per_process() {
         let spec = "synth:leather?size=2&seed=3&strata=1&subdiv=1";
         let a = build(1, spec, 1.0, "raw").unwrap();
-        let b = build(2, " synth:leather?seed=3&size=2x2&subdiv=1&strata=1", 2.0, "raw").unwrap();
+        let b = build(
+            2,
+            " synth:leather?seed=3&size=2x2&subdiv=1&strata=1",
+            2.0,
+            "raw",
+        )
+        .unwrap();
         let (Bsdf::Btf(a), Bsdf::Btf(b)) = (a, b) else {
             panic!("not a BTF bsdf");
         };
@@ -356,7 +363,10 @@ mod tests {
         );
         // Equality with `btfpt synth ... --format exr` output: tests/regression_btf.rs.
         let mine = a.material().btf();
-        assert_eq!((mine.width(), mine.height(), mine.views().len()), (2, 2, 81));
+        assert_eq!(
+            (mine.width(), mine.height(), mine.views().len()),
+            (2, 2, 81)
+        );
         assert!(mine.data().iter().any(|v| v.to_f32() > 0.0));
     }
 }
