@@ -306,6 +306,11 @@ impl BtfBsdf {
         &self.material
     }
 
+    /// Texture-space repetitions per unit of uv (the scene's `uv_scale`).
+    pub fn uv_scale(&self) -> f32 {
+        self.uv_scale
+    }
+
     /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (DESIGN §2).
     #[inline]
     pub fn texel(&self, uv: Vec2) -> (usize, usize) {

@@ -566,7 +566,8 @@ impl<'a, 'x> Builder<'a, 'x> {
                 return super::btf_bsdf::build_btf(
                     &x.file,
                     x.line(node),
-                    &x.resolve(&file),
+                    &file,
+                    &|f| x.resolve(f),
                     uv_scale,
                     &model,
                 );
