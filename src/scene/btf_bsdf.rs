@@ -1,25 +1,38 @@
 //! The single entry point from the scene loaders to measured BTF materials (`<bsdf type="btf">`).
 
-use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
+use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
+use crate::btf::plmc;
 use crate::{Error, Result};
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
 
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` (already
-/// resolved against the scene folder), `uv_scale` (texture repeats per unit uv), `model` ("raw" or
-/// a fitted model name).
+/// resolved against the scene folder), `uv_scale` (texture repeats per unit uv), `model` ("raw",
+/// "lm", "plm" or "plmc"; see [`plmc::resolve_model_file`] for which file each one reads; a
+/// [`with_model_override`] in force replaces it).
 pub fn build_btf(
     file: &Path,
     line: u32,
     filename: &Path,
     uv_scale: f32,
-    model: &str,
+    model_attr: &str,
 ) -> Result<Bsdf> {
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
         msg,
+    };
+    let model = MODEL_OVERRIDE.with(|m| m.borrow().clone());
+    let model = model.as_deref().unwrap_or(model_attr);
+    let resolved;
+    let filename = if model == "raw" {
+        resolved = plmc::resolve_model_file(filename, "raw")
+            .map_err(|e| scene_error(format!("btf: {e}")))?;
+        &resolved
+    } else {
+        filename
     };
     match model {
         "raw" => {
@@ -29,10 +42,30 @@ pub fn build_btf(
             let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
             Ok(Bsdf::Btf(bsdf))
         }
+        "lm" | "plm" | "plmc" => {
+            let bsdf = plmc::resolve_model_file(filename, model)
+                .and_then(|p| plmc::shared_material(&p))
+                .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
+                .map_err(|e| scene_error(format!("btf: {e}")))?;
+            Ok(Bsdf::Plmc(bsdf))
+        }
         other => Err(scene_error(format!(
-            "btf model \"{other}\" is not available in this build (supported: \"raw\")"
+            "btf model \"{other}\" is not one of \"raw\", \"lm\", \"plm\", \"plmc\""
         ))),
     }
+}
+
+thread_local! {
+    static MODEL_OVERRIDE: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// Runs `f` (a scene load on this thread) with every `<bsdf type="btf">` using `model` instead of
+/// its own `model` property (the CLI's `--btf-model`); `None` leaves the scene as written.
+pub fn with_model_override<R>(model: Option<&str>, f: impl FnOnce() -> R) -> R {
+    let prev = MODEL_OVERRIDE.with(|m| m.replace(model.map(str::to_string)));
+    let out = f();
+    MODEL_OVERRIDE.with(|m| *m.borrow_mut() = prev);
+    out
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several
