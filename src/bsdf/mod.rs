@@ -23,8 +23,8 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
-pub use btf::{BtfBsdf, BtfMaterial};
 pub use crate::btf::plmc::PlmcBsdf;
+pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;

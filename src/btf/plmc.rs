@@ -488,8 +488,8 @@ pub fn fast_exp2(x: f32) -> f32 {
     let f = x - (r - MAGIC);
     let l = std::f32::consts::LN_2;
     let p = 1.0
-        + f * (l
-            + f * (l * l / 2.0
+        + f * (l + f
+            * (l * l / 2.0
                 + f * (l * l * l / 6.0
                     + f * (l * l * l * l / 24.0
                         + f * (l * l * l * l * l / 120.0 + f * (l * l * l * l * l * l / 720.0))))));
@@ -703,7 +703,9 @@ pub fn resolve_model_file(filename: &Path, model: &str) -> Result<PathBuf> {
         [".btfc", ".btf"]
             .iter()
             .find(|e| lower.ends_with(*e))
-            .map_or(name.to_string(), |e| name[..name.len() - e.len()].to_string())
+            .map_or(name.to_string(), |e| {
+                name[..name.len() - e.len()].to_string()
+            })
     };
     let kind_of = |p: &Path| -> Option<&'static str> {
         use std::io::Read;

@@ -186,11 +186,16 @@ fn eval_at_measured_directions_is_the_reconstruction() {
 }
 
 /// Straightforward scalar reference of the DESIGN §4 rendering rule.
-fn reference_b(m: &PlmcModel, wi: Vec3, wo: Vec3, texel: usize) -> [f32; 3] {
-    let vint = m.views.interpolator().unwrap();
-    let lint = m.lights.interpolator().unwrap();
-    let (vi, vw) = vint.lookup(wi);
-    let (li, lw) = lint.lookup(wo);
+fn reference_b(
+    m: &PlmcModel,
+    interp: &DirectionInterp,
+    wi: Vec3,
+    wo: Vec3,
+    texel: usize,
+) -> [f32; 3] {
+    // Views and lights share the UBO2003 set here.
+    let (vi, vw) = interp.lookup(wi);
+    let (li, lw) = interp.lookup(wo);
     let mut out = [0f32; 3];
     for a in 0..3 {
         for c in 0..3 {
@@ -212,6 +217,7 @@ fn reference_b(m: &PlmcModel, wi: Vec3, wo: Vec3, texel: usize) -> [f32; 3] {
 #[test]
 fn eval_between_directions_matches_the_scalar_reference() {
     let mut rng = Pcg32::new(9, 1);
+    let interp = DirectionSet::ubo2003().interpolator().unwrap();
     for (kind, space) in ALL {
         let f = fixture(kind, space);
         let (w, h) = (f.model.width, f.model.height);
@@ -221,7 +227,7 @@ fn eval_between_directions_matches_the_scalar_reference() {
             let uv = rng.next_2d();
             let si = SurfaceInteraction::for_tests(wi, uv);
             let (x, y) = f.bsdf.texel(uv);
-            let want = reference_b(&f.model, wi, wo, y * w + x);
+            let want = reference_b(&f.model, &interp, wi, wo, y * w + x);
             let got = f.bsdf.eval(&si, wo) * std::f32::consts::PI;
             for c in 0..3 {
                 assert!(
@@ -290,7 +296,12 @@ fn bilinear_filter_interpolates_between_texel_centres() {
 #[test]
 fn chi2_sampling_matches_pdf() {
     use crate::bsdf::chi2::Chi2Test;
-    let views = [dir(0.0, 0.0), dir(37.0, 101.0), dir(68.0, 250.0), dir(82.0, 33.0)];
+    let views = [
+        dir(0.0, 0.0),
+        dir(37.0, 101.0),
+        dir(68.0, 250.0),
+        dir(82.0, 33.0),
+    ];
     let kinds = [
         (ModelKind::PlmC, ValueSpace::Linear),
         (ModelKind::Lm, ValueSpace::Linear),
@@ -315,7 +326,11 @@ fn chi2_sampling_matches_pdf() {
                 |w| b.pdf(&s, w),
             );
             assert!(out.passed, "{kind:?} wi = {wi}: {}", out.message);
-            assert!((out.pdf_integral - 1.0).abs() < 5e-3, "{}", out.pdf_integral);
+            assert!(
+                (out.pdf_integral - 1.0).abs() < 5e-3,
+                "{}",
+                out.pdf_integral
+            );
         }
     }
 }
@@ -347,7 +362,10 @@ fn weight_stats(b: &PlmcBsdf, s: &SurfaceInteraction, c: usize, n: usize, seed: 
         s2 += w * w;
     }
     let mean = s1 / n as f64;
-    ((mean), ((s2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt())
+    (
+        (mean),
+        ((s2 / n as f64 - mean * mean).max(0.0) / n as f64).sqrt(),
+    )
 }
 
 /// White furnace: an LM whose every lobe is ρ = 1, D = n̂, n = 1 is B = cos θ_l exactly (no
@@ -369,14 +387,21 @@ fn white_lambertian_lm_furnace() {
         polys: Vec::new(),
     };
     let b = PlmcBsdf::new(Arc::new(PlmcMaterial::new(&m).unwrap()), 1.0, false).unwrap();
-    for wi in [dir(0.0, 0.0), dir(45.0, 20.0), dir(68.0, 250.0), dir(85.0, 10.0)] {
+    for wi in [
+        dir(0.0, 0.0),
+        dir(45.0, 20.0),
+        dir(68.0, 250.0),
+        dir(85.0, 10.0),
+    ] {
         let s = SurfaceInteraction::for_tests(wi, Vec2::new(0.2, 0.7));
         let quad = albedo_quadrature(&b, &s);
         assert!((quad - Spectrum::ONE).abs().max_element() < 2e-3, "{quad}");
         let (mean, se) = weight_stats(&b, &s, 1, 20_000, 1);
         assert!((mean - 1.0).abs() < 4.0 * se + 1e-3, "IS {mean} ± {se}");
-        // The tables make sampling nearly cosine-proportional: small weight spread.
-        assert!(se * (20_000f64).sqrt() < 0.25, "weight std {}", se * 141.4);
+        // The tables make sampling nearly cosine-proportional: a weight spread well below
+        // uniform sampling's (≈ 0.58); not 0, since the tables' grazing band assumes the raw
+        // data's extrapolation (B held beyond 75°) while this model falls like cos θ there.
+        assert!(se * (20_000f64).sqrt() < 0.35, "weight std {}", se * 141.4);
     }
 }
 
@@ -421,7 +446,10 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     assert_eq!(r("mat.plmc", "raw").unwrap(), d.join("mat.btfc"));
     assert_eq!(r("mat.btfc", "raw").unwrap(), d.join("mat.btfc"));
     let e = r("mat.plmc", "plm").unwrap_err().to_string();
-    assert!(e.contains("mat.plm.plmc") && e.contains("no plm data"), "{e}");
+    assert!(
+        e.contains("mat.plm.plmc") && e.contains("no plm data"),
+        "{e}"
+    );
     let e = r("other.plmc", "raw").unwrap_err().to_string();
     assert!(e.contains("other.plmc") && e.contains("other.btfc"), "{e}");
     assert!(r("mat.plmc", "pca").is_err());
@@ -449,7 +477,10 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     })
     .unwrap_err()
     .to_string();
-    assert!(e.contains("scene.xml:6") && e.contains("mat.plm.plmc"), "{e}");
+    assert!(
+        e.contains("scene.xml:6") && e.contains("mat.plm.plmc"),
+        "{e}"
+    );
     // The raw sibling exists but is not a BTF: the raw loader's error names it.
     let e = build_btf(scene, 7, &d.join("mat.plmc"), 1.0, "raw")
         .unwrap_err()
