@@ -46,6 +46,10 @@ pub struct FitArgs {
     /// Seed of the k-means++ initialisation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Keep OUTPUT.parts/ (one file per fitted view) after the model is written, e.g. to merge
+    /// views fitted on several machines or to refit with other options later.
+    #[arg(long)]
+    pub keep_parts: bool,
 }
 
 /// Progress bars for the per-view stages.
@@ -100,7 +104,9 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     })?;
     bars.iter().for_each(|b| b.finish());
     format::write(&args.output, &outcome.model)?;
-    std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    if !args.keep_parts {
+        std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    }
     let bytes = std::fs::metadata(&args.output)
         .with_context(|| format!("reading size of {}", args.output.display()))?
         .len() as usize;

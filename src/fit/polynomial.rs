@@ -57,6 +57,19 @@ pub fn fit_mapping(model: &[f32], orig: &[f32], s: &mut Scratch) -> Poly {
     fit_pairs(m, o)
 }
 
+/// [`fit_mapping`] with the original image already sorted ascending (it is shared by the PLM and
+/// PLM-C fits of one image, so it is sorted once).
+pub fn fit_mapping_sorted(model: &[f32], orig_sorted: &[f32], s: &mut Scratch) -> Poly {
+    debug_assert_eq!(model.len(), orig_sorted.len());
+    if model.is_empty() {
+        return IDENTITY;
+    }
+    s.model.clear();
+    s.model.extend_from_slice(model);
+    s.model.sort_unstable_by(f32::total_cmp);
+    fit_pairs(&s.model, orig_sorted)
+}
+
 /// Least-squares polynomial through sorted (x, y) pairs, degree ≤ 4, monotone over the x range.
 pub fn fit_pairs(x: &[f32], y: &[f32]) -> Poly {
     let n = x.len();
