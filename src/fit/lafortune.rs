@@ -36,7 +36,7 @@ pub fn eval_all(p: &Lobe, fitter: &LobeFitter, out: &mut [f32]) {
 }
 
 /// Lights processed per block of the Levenberg–Marquardt kernel (stack buffers of this size).
-const BLOCK: usize = 64;
+const BLOCK: usize = 128;
 /// SIMD lanes the kernel's reductions are split into (independent accumulators vectorise).
 const LANES: usize = 8;
 
@@ -52,6 +52,8 @@ pub struct LobeFitter {
     lights: usize,
     /// (UᵀU)⁻¹Uᵀ, 3 rows × lights: maps a light curve Y to the LSQ g of Y ≈ g·u.
     pinv: [Vec<f64>; 3],
+    /// The CPU supports AVX2 (the kernel then runs 8 lanes wide).
+    avx2: bool,
 }
 
 /// Result of one fit: parameters and the sum of squared residuals over the lights.
@@ -59,6 +61,8 @@ pub struct LobeFitter {
 pub struct LobeFit {
     pub lobe: Lobe,
     pub sse: f64,
+    /// Model evaluations (SSE + Jacobian at one parameter vector) the fit used.
+    pub evaluations: u32,
 }
 
 /// Residual sum of squares, JᵀJ (upper triangle) and Jᵀr at one parameter vector.
@@ -136,6 +140,10 @@ impl LobeFitter {
             uz,
             lights: n,
             pinv,
+            #[cfg(target_arch = "x86_64")]
+            avx2: std::arch::is_x86_feature_detected!("avx2"),
+            #[cfg(not(target_arch = "x86_64"))]
+            avx2: false,
         })
     }
 
@@ -182,9 +190,28 @@ impl LobeFitter {
         s
     }
 
-    /// SSE, JᵀJ and Jᵀr at `p`: per block of lights, an elementwise pass (fast ln/exp) into
-    /// stack buffers, then 21 lane-split dot products; f32 inside a block, f64 across blocks.
+    /// SSE, JᵀJ and Jᵀr at `p`, with the 8-wide AVX2 build of the kernel where the CPU has it.
+    #[inline]
     fn normal(&self, p: &[f64; 5], y: &[f32]) -> Normal {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only if the running CPU supports AVX2 (checked in `new`).
+            return unsafe { self.normal_avx2(p, y) };
+        }
+        self.normal_kernel(p, y)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn normal_avx2(&self, p: &[f64; 5], y: &[f32]) -> Normal {
+        self.normal_kernel(p, y)
+    }
+
+    /// The kernel: per block of lights, an elementwise pass (fast ln/exp) into stack buffers,
+    /// then 21 lane-split dot products; f32 inside a block, f64 across blocks. Only the lights
+    /// rounded up to whole [`LANES`] are processed (padding directions contribute exact zeros).
+    #[inline(always)]
+    fn normal_kernel(&self, p: &[f64; 5], y: &[f32]) -> Normal {
         let mut nm = Normal {
             sse: 0.0,
             jtj: [[0.0; 5]; 5],
@@ -202,12 +229,15 @@ impl LobeFitter {
         let mut yb = [0.0f32; BLOCK];
         for start in (0..self.lights).step_by(BLOCK) {
             let len = (self.lights - start).min(BLOCK);
+            let m = len.div_ceil(LANES) * LANES;
             yb[..len].copy_from_slice(&y[start..start + len]);
-            yb[len..].iter_mut().for_each(|v| *v = 0.0);
-            let ux: &[f32; BLOCK] = self.ux[start..start + BLOCK].try_into().expect("padded");
-            let uy: &[f32; BLOCK] = self.uy[start..start + BLOCK].try_into().expect("padded");
-            let uz: &[f32; BLOCK] = self.uz[start..start + BLOCK].try_into().expect("padded");
-            for i in 0..BLOCK {
+            yb[len..m].iter_mut().for_each(|v| *v = 0.0);
+            let (ux, uy, uz) = (
+                &self.ux[start..start + m],
+                &self.uy[start..start + m],
+                &self.uz[start..start + m],
+            );
+            for i in 0..m {
                 let b = dx * ux[i] + dy * uy[i] + dz * uz[i];
                 let valid = b > 1e-30;
                 let bs = if valid { b } else { 1.0 };
@@ -224,9 +254,9 @@ impl LobeFitter {
             }
             let dot = |a: &[f32; BLOCK], b: &[f32; BLOCK]| -> f64 {
                 let mut acc = [0.0f32; LANES];
-                for c in 0..BLOCK / LANES {
+                for (ca, cb) in a[..m].chunks_exact(LANES).zip(b[..m].chunks_exact(LANES)) {
                     for k in 0..LANES {
-                        acc[k] += a[c * LANES + k] * b[c * LANES + k];
+                        acc[k] += ca[k] * cb[k];
                     }
                 }
                 acc.iter().map(|&v| v as f64).sum()
@@ -263,9 +293,11 @@ impl LobeFitter {
             return LobeFit {
                 lobe: ZERO_LOBE,
                 sse: 0.0,
+                evaluations: 0,
             };
         }
         let mut cur = self.normal(p, y);
+        let mut evaluations = 1;
         let mut lambda = 1e-3;
         for _ in 0..MAX_ITER {
             let mut a = cur.jtj;
@@ -289,6 +321,7 @@ impl LobeFitter {
             ];
             normalise(&mut q);
             let next = self.normal(&q, y);
+            evaluations += 1;
             if next.sse < cur.sse {
                 let gain = cur.sse - next.sse;
                 *p = q;
@@ -309,6 +342,7 @@ impl LobeFitter {
         LobeFit {
             lobe: p.map(|v| v as f32),
             sse: cur.sse,
+            evaluations,
         }
     }
 }
@@ -452,7 +486,8 @@ mod tests {
         let y = curve(&truth, &f);
         let lsq = f.fit(&y);
         let naive = f.fit_from([1.0, 0.0, 0.0, 1.0, 1.0], &y);
-        assert!(lsq.sse <= naive.sse + 1e-12, "{} vs {}", lsq.sse, naive.sse);
+        // 1e-9: the f32 residual floor of an exact fit (81 residuals of ~1e-7·y).
+        assert!(lsq.sse <= naive.sse + 1e-9, "{} vs {}", lsq.sse, naive.sse);
         assert!(lsq.sse < 1e-8);
     }
 
@@ -487,10 +522,30 @@ mod tests {
     }
 
     #[test]
+    fn portable_and_avx2_kernels_agree() {
+        let dirs = DirectionSet::ubo2003();
+        let mut f = LobeFitter::new(&dirs.dirs).unwrap();
+        let truth: Lobe = [0.8, 0.2, 0.1, (1.0f32 - 0.05).sqrt(), 4.0];
+        let y = curve(&truth, &f);
+        let p = [0.5, 0.0, 0.0, 1.0, 2.0];
+        let a = f.normal(&p, &y);
+        f.avx2 = false;
+        let b = f.normal_kernel(&p, &y);
+        let rel = |x: f64, y: f64| (x - y).abs() / x.abs().max(y.abs()).max(1e-12);
+        assert!(rel(a.sse, b.sse) < 1e-5, "{} {}", a.sse, b.sse);
+        for r in 0..5 {
+            assert!(rel(a.jtr[r], b.jtr[r]) < 1e-5);
+            for c in r..5 {
+                assert!(rel(a.jtj[r][c], b.jtj[r][c]) < 1e-5);
+            }
+        }
+    }
+
+    #[test]
     fn more_lights_than_a_block_fit_the_same_lobe() {
-        // 151 lights (UBO2014-like): three blocks, the last one partial.
+        // Two blocks, the second partial and not a whole number of lanes.
         let mut rng = Pcg32::new(5, 5);
-        let dirs: Vec<Vec3> = (0..151)
+        let dirs: Vec<Vec3> = (0..BLOCK + 23)
             .map(|_| {
                 let (a, b) = (rng.next_f32(), rng.next_f32());
                 crate::math::warp::square_to_uniform_hemisphere(crate::math::Vec2::new(a, b))
