@@ -31,7 +31,7 @@ fn dist2(a: &[f32], b: &[f32]) -> f32 {
 }
 
 /// Squared distance of two padded vectors (length a multiple of [`LANES`]).
-#[inline]
+#[inline(always)]
 fn dist2_padded(a: &[f32], b: &[f32]) -> f32 {
     let mut acc = [0.0f32; LANES];
     for (ca, cb) in a.chunks_exact(LANES).zip(b.chunks_exact(LANES)) {
@@ -47,6 +47,23 @@ fn dist2_padded(a: &[f32], b: &[f32]) -> f32 {
 /// features never seed two clusters, so constant data give one cluster and `k > n` is fine.
 /// Empty clusters during iteration are re-seeded at the points farthest from their centres.
 pub fn kmeans(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the running CPU supports AVX2 (checked just above).
+        return unsafe { kmeans_avx2(data, dim, k, seed, max_iter) };
+    }
+    kmeans_impl(data, dim, k, seed, max_iter)
+}
+
+/// [`kmeans`] compiled for AVX2 (8-lane distance loops).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn kmeans_avx2(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
+    kmeans_impl(data, dim, k, seed, max_iter)
+}
+
+#[inline(always)]
+fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
     let n = data.len().checked_div(dim).unwrap_or(0);
     if n == 0 || k == 0 {
         return KMeans {
