@@ -58,6 +58,10 @@ pub struct FitArgs {
     /// Overlap band of the cuts in texels (with --tile; default min(W,H)/4 within 2..=16).
     #[arg(long)]
     pub overlap: Option<usize>,
+    /// Keep OUTPUT.parts/ (one file per fitted view) after the model is written, e.g. to merge
+    /// views fitted on several machines or to refit with other options later.
+    #[arg(long)]
+    pub keep_parts: bool,
 }
 
 /// Progress bars for the per-view stages.
@@ -165,7 +169,9 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     bars.iter().for_each(|b| b.finish());
     let section = stitch.as_ref().map(|s| s.section()).transpose()?;
     format::write_tiled(&args.output, &outcome.model, section.as_ref())?;
-    std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    if !args.keep_parts {
+        std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    }
     let bytes = std::fs::metadata(&args.output)
         .with_context(|| format!("reading size of {}", args.output.display()))?
         .len() as usize;

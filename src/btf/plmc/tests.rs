@@ -5,6 +5,7 @@ use crate::fit::model::PackedLobe;
 use crate::fit::polynomial::Poly;
 use crate::math::color::srgb_to_linear;
 use crate::math::{Pcg32, frame::from_spherical, warp};
+use std::path::PathBuf;
 use std::sync::OnceLock;
 
 fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
@@ -457,38 +458,38 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     // Through the scene entry point: model property, override, sharing, errors with the place.
     use crate::scene::btf_bsdf::{build_btf, with_model_override};
     let scene = Path::new("scene.xml");
-    let a = build_btf(scene, 3, &d.join("mat.plmc"), 1.0, "plmc").unwrap();
-    let b = build_btf(scene, 4, &d.join("mat.plmc"), 2.0, "plmc").unwrap();
+    let mat = d.join("mat.plmc");
+    let mat = mat.to_string_lossy().into_owned();
+    let id = |f: &str| PathBuf::from(f);
+    let a = build_btf(scene, 3, &mat, &id, 1.0, "plmc").unwrap();
+    let b = build_btf(scene, 4, &mat, &id, 2.0, "plmc").unwrap();
     let (crate::bsdf::Bsdf::Plmc(a), crate::bsdf::Bsdf::Plmc(b)) = (a, b) else {
         panic!("not a model bsdf");
     };
     assert!(Arc::ptr_eq(a.material(), b.material()));
     assert_eq!(a.material().kind(), ModelKind::PlmC);
-    let l = with_model_override(Some("lm"), || {
-        build_btf(scene, 5, &d.join("mat.plmc"), 1.0, "plmc")
-    })
-    .unwrap();
+    let l =
+        with_model_override(Some("lm"), || build_btf(scene, 5, &mat, &id, 1.0, "plmc")).unwrap();
     let crate::bsdf::Bsdf::Plmc(l) = l else {
         panic!("not a model bsdf");
     };
     assert_eq!(l.material().kind(), ModelKind::Lm);
-    let e = with_model_override(Some("plm"), || {
-        build_btf(scene, 6, &d.join("mat.plmc"), 1.0, "plmc")
-    })
-    .unwrap_err()
-    .to_string();
+    let e = with_model_override(Some("plm"), || build_btf(scene, 6, &mat, &id, 1.0, "plmc"))
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("scene.xml:6") && e.contains("mat.plm.plmc"),
         "{e}"
     );
     // The raw sibling exists but is not a BTF: the raw loader's error names it.
-    let e = build_btf(scene, 7, &d.join("mat.plmc"), 1.0, "raw")
+    let e = build_btf(scene, 7, &mat, &id, 1.0, "raw")
         .unwrap_err()
         .to_string();
     assert!(e.contains("scene.xml:7") && e.contains("mat.btfc"), "{e}");
     // A corrupt model file.
     std::fs::write(d.join("bad.plmc"), b"PLMC\x01\0\0\0junk").unwrap();
-    let e = build_btf(scene, 8, &d.join("bad.plmc"), 1.0, "plmc")
+    let bad = d.join("bad.plmc").to_string_lossy().into_owned();
+    let e = build_btf(scene, 8, &bad, &id, 1.0, "plmc")
         .unwrap_err()
         .to_string();
     assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
