@@ -2,6 +2,8 @@
 //! in the stored encoding, to tune the solver's stopping rules.
 //!
 //! usage: cargo run --release --example fit_iterations -- DATA VIEW
+#![allow(clippy::needless_range_loop)]
+
 use anyhow::Context;
 use btfpt::btf::{self, StoredEncoding};
 use btfpt::fit::lafortune::LobeFitter;
