@@ -23,8 +23,8 @@ Conventions (the same as btfpt's raw BTF material, so the two renderers agree):
 
 Input: a UBO2003 folder (81×81 images `NNNNN tlTTT plPPP tvTTT pvPPP.{png,jpg,jpeg,exr}`,
 NNNNN = 81·light + view, flat or in per-view sub-folders `tvTTT_pvPPP/`); 8-bit/16-bit images are
-decoded with the exact sRGB EOTF, EXR is linear. Hook for btfpt's `.btfc` cache: `load_table`
-dispatches on the path (see `load_btfc`).
+decoded with the exact sRGB EOTF, EXR is linear; or btfpt's `.btfc` cache (`load_btfc`). btfpt's
+in-memory `synth:MATERIAL?...` sources are refused with the `btfpt synth` command that writes them.
 """
 from __future__ import annotations
 
@@ -49,6 +49,16 @@ def ubo2003_angles() -> np.ndarray:
         for k in range(n):
             out.append((theta, 360.0 * k / n))
     return np.array(out, dtype=np.float64)
+
+
+UBO2014_RINGS = [(0.0, 1, 0.0), (11.0, 6, 15.0), (23.5, 12, 0.0), (30.0, 12, 15.0), (37.5, 12, 0.0),
+                 (45.0, 18, 0.0), (52.5, 18, 7.5), (60.0, 24, 0.0), (67.5, 24, 7.5), (75.0, 24, 0.0)]
+
+
+def ubo2014_angles() -> np.ndarray:
+    """The 151 UBO2014 directions in btfpt's index order as (θ°, φ°) (btfpt DirectionSet::ubo2014)."""
+    return np.array([(t, off + 360.0 * k / n) for t, n, off in UBO2014_RINGS for k in range(n)],
+                    dtype=np.float64)
 
 
 def angles_to_dirs(angles_deg: np.ndarray) -> np.ndarray:
@@ -124,18 +134,92 @@ def _tri_box_overlap(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
     return True
 
 
-def build_triangulation(dirs: np.ndarray, grid_res: int = 48, sub: int = 8) -> Triangulation:
-    """Delaunay on the unit disk and the candidate grid (see module docstring)."""
+COLLINEAR_SIN = 1e-6  # btfpt src/btf/delaunay.rs: sine below which three points are collinear
+COCIRCULAR_RAD = 1e-6  # |alpha + beta - pi| below which a quad counts as cocircular
+
+
+def _orient(a, b, c) -> float:
+    return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+
+def _orient_sign(a, b, c) -> int:
+    """Sign of the orientation with btfpt's relative tolerance (0 = collinear)."""
+    o = _orient(a, b, c)
+    l1, l2 = sorted([math.hypot(b[0] - a[0], b[1] - a[1]), math.hypot(c[0] - a[0], c[1] - a[1]),
+                     math.hypot(c[0] - b[0], c[1] - b[1])])[1:]
+    if abs(o) <= COLLINEAR_SIN * l1 * l2:
+        return 0
+    return 1 if o > 0 else -1
+
+
+def _angle_at(p, q, r) -> float:
+    u, v = (q[0] - p[0], q[1] - p[1]), (r[0] - p[0], r[1] - p[1])
+    return math.atan2(abs(u[0] * v[1] - u[1] * v[0]), u[0] * v[0] + u[1] * v[1])
+
+
+def _should_flip(pts, a: int, b: int, c: int, d: int) -> bool:
+    """btfpt's `should_flip`: edge a-b of the ccw triangles (a, b, c), (b, a, d) becomes c-d if the
+    quad is strictly convex and either not locally Delaunay, or cocircular (within
+    COCIRCULAR_RAD) and c or d is the lowest index of the four (the canonical tie rule)."""
+    pa, pb, pc, pd = pts[a], pts[b], pts[c], pts[d]
+    if _orient_sign(pc, pd, pa) * _orient_sign(pc, pd, pb) >= 0:
+        return False
+    excess = _angle_at(pc, pa, pb) + _angle_at(pd, pa, pb) - math.pi
+    if excess > COCIRCULAR_RAD:
+        return True
+    if excess < -COCIRCULAR_RAD:
+        return False
+    return min(c, d) < min(a, b)
+
+
+def canonical_delaunay(pts: np.ndarray) -> np.ndarray:
+    """The Delaunay triangulation btfpt uses (src/btf/delaunay.rs): Qhull's, then Lawson flips to
+    the canonical tie rule "the diagonal of a cocircular quad is the one through its lowest-index
+    point" (Qhull splits cocircular quads arbitrarily; UBO2003 has dozens). Triangles are
+    counter-clockwise index triples."""
     from scipy.spatial import Delaunay
 
-    pts = dirs[:, :2].astype(np.float64)
-    dl = Delaunay(pts)
-    tris = dl.simplices.copy()
-    # counter-clockwise orientation
+    pts = np.asarray(pts, dtype=np.float64)
+    tris = [list(map(int, t)) for t in Delaunay(pts).simplices]
     for t in tris:
-        a, b, c = pts[t]
-        if (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]) < 0:
+        if _orient(pts[t[0]], pts[t[1]], pts[t[2]]) < 0:
             t[1], t[2] = t[2], t[1]
+    owner = {}
+    for k, t in enumerate(tris):
+        for e in range(3):
+            owner[(t[e], t[(e + 1) % 3])] = k
+    stack = list({(min(a, b), max(a, b)) for (a, b) in owner})
+    flips = 0
+    while stack:
+        u, v = stack.pop()
+        if (u, v) not in owner or (v, u) not in owner:
+            continue
+        t1, t2 = owner[(u, v)], owner[(v, u)]
+        a, b = u, v
+        c = next(x for x in tris[t1] if x not in (a, b))
+        d = next(x for x in tris[t2] if x not in (a, b))
+        if not _should_flip(pts, a, b, c, d):
+            continue
+        flips += 1
+        if flips > 100 * len(tris) + 1000:
+            raise RuntimeError("canonical_delaunay: flips do not terminate")
+        for t in (t1, t2):
+            for e in range(3):
+                owner.pop((tris[t][e], tris[t][(e + 1) % 3]), None)
+        tris[t1], tris[t2] = [a, d, c], [d, b, c]
+        for t in (t1, t2):
+            for e in range(3):
+                owner[(tris[t][e], tris[t][(e + 1) % 3])] = t
+        for (x, y) in ((a, d), (d, b), (b, c), (c, a)):
+            stack.append((min(x, y), max(x, y)))
+    return np.array(tris, dtype=np.int64)
+
+
+def build_triangulation(dirs: np.ndarray, grid_res: int = 48, sub: int = 8) -> Triangulation:
+    """Delaunay on the unit disk (btfpt's canonical one) and the candidate grid (see module docstring)."""
+    # btfpt computes the disk positions in float32 and triangulates them in float64
+    pts = dirs[:, :2].astype(np.float32).astype(np.float64)
+    tris = canonical_delaunay(pts)
     bary = _bary_matrices(pts, tris)
     tri = Triangulation(pts, tris, bary, grid_res, np.zeros((0, 1), np.int64))
 
@@ -321,17 +405,65 @@ def load_ubo2003(folder: Path) -> BtfTable:
 
 
 def load_btfc(path: Path) -> BtfTable:
-    """HOOK for btfpt's binary cache (`.btfc`, defined by btfpt's src/btf/cache.rs).
+    """Reads btfpt's binary cache `.btfc` (layout: btfpt's src/btf/cache.rs), checking the header
+    and per-view CRC32s. The f16 payload `[view][light][row][col][rgb]` is linear and cosine-baked
+    whatever the recorded source encoding (that field only says how the source was stored)."""
+    import struct
+    import zlib
 
-    Not implemented here yet: the format was being defined in parallel. To add it, parse the
-    header (directions, size, encoding) and the f16 payload `[view][light][row][col][rgb]` into a
-    BtfTable (np.frombuffer(..., '<f2').astype(np.float32))."""
-    raise ValueError(f"{path}: reading btfpt .btfc caches is not implemented in the Mitsuba plugin; "
-                     "convert to a UBO2003 folder (EXR) with btfpt, or implement load_btfc()")
+    path = Path(path)
+    b = path.read_bytes()
+    if len(b) < 40 or b[:4] != b"BTFC":
+        raise ValueError(f"{path}: not a .btfc cache (bad signature or too short)")
+    version, encoding, w, h, nv, nl, _flags = struct.unpack_from("<7I", b, 4)
+    if version != 1:
+        raise ValueError(f"{path}: unsupported .btfc version {version} (expected 1)")
+    if encoding not in (0, 1):
+        raise ValueError(f"{path}: unknown encoding code {encoding}")
+    if not (0 < nv <= 1 << 16 and 0 < nl <= 1 << 16 and w > 0 and h > 0):
+        raise ValueError(f"{path}: implausible dimensions: {nv} views, {nl} lights, {w}x{h} texels")
+    hl = 40 + 8 * (nv + nl) + 4
+    if len(b) < hl:
+        raise ValueError(f"{path}: truncated header ({len(b)} of {hl} bytes)")
+    if zlib.crc32(b[: hl - 4]) != struct.unpack_from("<I", b, hl - 4)[0]:
+        raise ValueError(f"{path}: header checksum mismatch (corrupt file)")
+    (offset,) = struct.unpack_from("<Q", b, 32)
+    if offset != -(-hl // 64) * 64:
+        raise ValueError(f"{path}: unexpected payload offset {offset}")
+    per_view = nl * h * w * 3
+    expected = offset + 2 * nv * per_view + 4 * nv + 4
+    if len(b) != expected:
+        raise ValueError(f"{path}: file is {len(b)} bytes, expected {expected} for {nv} views x {nl} "
+                         f"lights x {w}x{h} texels (truncated or trailing data)")
+    ang = np.frombuffer(b, "<f4", 2 * (nv + nl), 40).reshape(-1, 2).astype(np.float64)
+    trailer = offset + 2 * nv * per_view
+    crcs = np.frombuffer(b, "<u4", nv, trailer)
+    if zlib.crc32(b[trailer: trailer + 4 * nv]) != struct.unpack_from("<I", b, trailer + 4 * nv)[0]:
+        raise ValueError(f"{path}: checksum table corrupt")
+    for v in range(nv):
+        a = offset + 2 * v * per_view
+        if zlib.crc32(b[a: a + 2 * per_view]) != int(crcs[v]):
+            raise ValueError(f"{path}: checksum mismatch in view {v} (corrupt file)")
+    data = np.frombuffer(b, "<f2", nv * per_view, offset).astype(np.float32).reshape(nv, nl, h, w, 3)
+    return BtfTable(ang[:nv], ang[nv:], data)
+
+
+def _synth_hint(value: str) -> str:
+    """The btfpt command that writes a `synth:` source (btfpt-only) as a folder Mitsuba can read."""
+    import urllib.parse
+
+    name, _, query = value.strip()[len("synth:"):].partition("?")
+    args = [f"--{k} {v}" for k, v in urllib.parse.parse_qsl(query)]
+    return f"btfpt synth {name} {' '.join(args)} --format exr -o DIR".replace("  ", " ")
 
 
 def load_table(path: Path) -> BtfTable:
     """Dispatch on the path: UBO2003 folder, `.btfc` cache (hook), `.npz` (tests: views, lights, data)."""
+    if str(path).strip().startswith("synth:") or Path(path).name.startswith("synth:"):
+        spec = str(path).strip()
+        spec = spec[spec.index("synth:"):]
+        raise ValueError(f"{spec}: a synthetic BTF source is generated by btfpt only; write the same "
+                         f"values for Mitsuba with `{_synth_hint(spec)}` and pass -D btf=DIR")
     path = Path(path)
     if path.is_dir():
         return load_ubo2003(path)
@@ -534,3 +666,45 @@ def register() -> None:
 
     cls = bsdf_class()
     mi.register_bsdf("btf", lambda props: cls(props))
+
+
+def write_triangulation_json(path: Path, which: str = "ubo2003") -> None:
+    """Writes the triangulation this plugin uses for the UBO2003 or UBO2014 direction set as JSON;
+    btfpt's test `mitsuba_plugin_triangulation_is_ours` (tests/regression_btf.rs) checks that it
+    is btfpt's own (UBO2014 has dozens of exactly cocircular quads: it exercises the tie rule)."""
+    import json
+
+    ang = ubo2003_angles() if which == "ubo2003" else ubo2014_angles()
+    pts = angles_to_dirs(ang)[:, :2].astype(np.float32).astype(np.float64)
+    tris = canonical_delaunay(pts)
+    from scipy.spatial import Delaunay
+
+    qhull = {tuple(sorted(map(int, t))) for t in Delaunay(pts).simplices}
+    ours = {tuple(sorted(map(int, t))) for t in tris}
+    doc = {
+        "what": f"Delaunay triangulation of the {len(ang)} {which.upper()} directions projected to the "
+                "unit disk, (x, y) = sin(theta)(cos(phi), sin(phi)) (float32 positions), with btfpt's "
+                "canonical tie rule for cocircular quads (the diagonal through the lowest-index point); "
+                "triangles counter-clockwise, indices in btfpt's index order. Written by "
+                "`reference-images/btf_plugin.py --write-triangulation`; the Mitsuba btf plugin "
+                "builds the same one (btf_plugin.canonical_delaunay), and btfpt's "
+                "tests/regression_btf.rs checks it equals btfpt's own (src/btf/delaunay.rs).",
+        "triangles_differing_from_plain_qhull": len(ours - qhull),
+        "angles_deg": ang.tolist(),
+        "triangles": tris.tolist(),
+    }
+    Path(path).write_text(json.dumps(doc, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    import sys
+
+    if sys.argv[1:] == ["--write-triangulation"]:
+        for which in ("ubo2003", "ubo2014"):
+            out = Path(__file__).parent / f"{which}_triangulation.json"
+            write_triangulation_json(out, which)
+            print(f"wrote {out}")
+    else:
+        print("usage: btf_plugin.py --write-triangulation   (writes ubo2003/ubo2014_triangulation.json)",
+              file=sys.stderr)
+        sys.exit(2)

@@ -7,7 +7,10 @@
 (b) The plugin equals a plain float64 numpy evaluation of the same conventions to float precision
     at random (uv, wi, wo), for a random table read back from a UBO2003 folder of EXR images
     (exercises the loader) and with uv_scale ≠ 1.
-(c) The triangulation: sampling, Delaunay robustness report, candidate grid exactness.
+(c) The triangulation: sampling, Delaunay robustness report, candidate grid exactness, btfpt's
+    canonical tie rule for cocircular quads.
+(d) `.btfc` caches written by btfpt (`btfpt convert`; needs the built binary) read back exactly;
+    `synth:` sources are refused with the btfpt command that writes them.
 """
 from __future__ import annotations
 
@@ -79,7 +82,7 @@ def interp_cos_np(local_dirs: np.ndarray) -> np.ndarray:
 
 def test_triangulation_is_complete_and_exact_at_vertices():
     assert len(TRI.tris) == 136, len(TRI.tris)  # 2n - 2 - h = 162 - 2 - 24
-    idx, w, _ = bp.interpolate_np(TRI, DIRS[:, :2])
+    idx, w, _ = bp.interpolate_np(TRI, TRI.points)  # float32-rounded, as btfpt
     for k in range(81):
         j = np.argmax(w[k])
         assert idx[k, j] == k and abs(w[k, j] - 1) < 1e-9, (k, idx[k], w[k])
@@ -255,6 +258,78 @@ def test_errors_name_the_file():
             assert "6561" in str(e) and "bad" in str(e), str(e)
         else:
             raise AssertionError("no error for an incomplete folder")
+
+
+def test_canonical_tie_rule():
+    """Cocircular quads get btfpt's diagonal (through the lowest index) whatever Qhull picked."""
+    sq = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    for perm in ([0, 1, 2, 3], [1, 0, 3, 2], [3, 2, 0, 1], [2, 3, 1, 0]):
+        pts = sq[perm]
+        tris = bp.canonical_delaunay(pts)
+        # the lowest index is 0: the diagonal must join pts[0] to the opposite corner
+        opposite = [k for k in range(4) if np.all(np.abs(pts[k] - pts[0]) == 1.0)][0]
+        assert all(0 in t and opposite in t for t in tris), (perm, tris)
+    # UBO2014 has exactly cocircular quads in its triangulation: the result must be locally
+    # canonical everywhere (no edge wants a flip)
+    pts = bp.angles_to_dirs(bp.ubo2014_angles())[:, :2].astype(np.float32).astype(np.float64)
+    tris = bp.canonical_delaunay(pts)
+    assert len(tris) == 2 * 151 - 2 - 24, len(tris)
+    own = {(int(t[e]), int(t[(e + 1) % 3])): k for k, t in enumerate(tris) for e in range(3)}
+    for (a, b), k in own.items():
+        if (b, a) in own:
+            c = next(x for x in tris[k] if x not in (a, b))
+            d = next(x for x in tris[own[(b, a)]] if x not in (a, b))
+            assert not bp._should_flip(pts, a, b, int(c), int(d)), (a, b, c, d)
+
+
+def _btfpt_binary() -> Path:
+    import os
+
+    for p in [os.environ.get("BTFPT", ""), HERE.parent / "target/release/btfpt", HERE.parent / "target/debug/btfpt"]:
+        if p and Path(p).is_file():
+            return Path(p)
+    raise AssertionError("btfpt binary not found: build it (cargo build --release) or set BTFPT")
+
+
+def test_btfc_cache_matches_the_folder():
+    """load_btfc reads what `btfpt convert FOLDER X.btfc` writes (values f16-rounded), and refuses
+    a corrupted file naming it."""
+    import subprocess
+
+    rng = np.random.default_rng(3)
+    h, w = 2, 3
+    codes = rng.integers(0, 256, (81, 81, h, w, 3), dtype=np.uint8)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "rand"
+        write_ubo2003_png(folder, codes)
+        cache = Path(tmp) / "rand.btfc"
+        subprocess.run([str(_btfpt_binary()), "convert", str(folder), str(cache)], check=True,
+                       capture_output=True)
+        ref = bp.load_table(folder)
+        got = bp.load_table(cache)
+        assert np.array_equal(got.view_angles, ANG) and np.array_equal(got.light_angles, ANG)
+        assert np.array_equal(got.data, ref.data.astype(np.float16).astype(np.float32))
+        bsdf = mi.load_dict({"type": "btf", "filename": str(cache)})
+        assert "texels=3x2" in str(bsdf), str(bsdf)
+        b = bytearray(cache.read_bytes())
+        b[len(b) // 2] ^= 0x40
+        bad = Path(tmp) / "corrupt.btfc"
+        bad.write_bytes(bytes(b))
+        try:
+            bp.load_table(bad)
+        except ValueError as e:
+            assert "corrupt.btfc" in str(e) and "checksum" in str(e), str(e)
+        else:
+            raise AssertionError("no error for a corrupted cache")
+
+
+def test_synth_source_names_the_btfpt_command():
+    try:
+        mi.load_dict({"type": "btf", "filename": "synth:corduroy?size=32&seed=1"})
+    except Exception as e:  # noqa: BLE001
+        assert "btfpt synth corduroy --size 32 --seed 1 --format exr" in str(e), str(e)
+    else:
+        raise AssertionError("no error for a synth: source")
 
 
 def main() -> int:

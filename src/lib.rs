@@ -6,6 +6,7 @@
 pub mod bsdf;
 pub mod btf;
 pub mod error;
+pub mod fit;
 pub mod geometry;
 pub mod io;
 pub mod light;

@@ -5,6 +5,7 @@
 //! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
+pub mod btf;
 #[cfg(test)]
 pub(crate) mod chi2;
 pub mod conductor;
@@ -22,6 +23,7 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
+pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
@@ -87,6 +89,8 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     ThinDielectric(ThinDielectric),
     TwoSided(TwoSided),
+    /// Measured BTF (raw data), DESIGN §2.
+    Btf(BtfBsdf),
 }
 
 impl Bsdf {
@@ -99,6 +103,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.flags(),
             Bsdf::ThinDielectric(b) => b.flags(),
             Bsdf::TwoSided(b) => b.flags(),
+            Bsdf::Btf(b) => b.flags(),
         }
     }
 
@@ -111,6 +116,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.eval(si, wo),
             Bsdf::ThinDielectric(b) => b.eval(si, wo),
             Bsdf::TwoSided(b) => b.eval(si, wo),
+            Bsdf::Btf(b) => b.eval(si, wo),
         }
     }
 
@@ -123,6 +129,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.pdf(si, wo),
             Bsdf::ThinDielectric(b) => b.pdf(si, wo),
             Bsdf::TwoSided(b) => b.pdf(si, wo),
+            Bsdf::Btf(b) => b.pdf(si, wo),
         }
     }
 
@@ -132,6 +139,7 @@ impl Bsdf {
         match self {
             Bsdf::RoughConductor(b) => b.eval_pdf(si, wo),
             Bsdf::TwoSided(b) => b.eval_pdf(si, wo),
+            Bsdf::Btf(b) => b.eval_pdf(si, wo),
             _ => (self.eval(si, wo), self.pdf(si, wo)),
         }
     }
@@ -151,6 +159,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
+            Bsdf::Btf(b) => b.sample(si, sample1, sample2),
         }
     }
 }

@@ -2,8 +2,11 @@
 //! formats, the measurement simulator, and (later) the PLM-C evaluation core.
 
 pub mod cache;
+pub mod delaunay;
 pub mod directions;
+pub mod format;
 pub mod raw;
+pub mod synth;
 pub mod ubo2003;
 pub mod ubo2014;
 

@@ -140,6 +140,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("{}: scene file not found", args.scene.display());
     }
     let scene = btfpt::scene::load(&args.scene, &defines)?;
+    if scene.meshes.is_empty() && scene.emitters.is_empty() {
+        bail!(
+            "{}: the scene is empty (no shapes and no emitters), the image would be black",
+            args.scene.display()
+        );
+    }
     let out = args
         .output
         .clone()
@@ -181,7 +187,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--threads {t}: must be in 1..=4096");
     }
-    if !(args.checkpoint_interval > 0.0) {
+    if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");
     }
     check_writable(&out)?;

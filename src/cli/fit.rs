@@ -1,0 +1,199 @@
+//! `btfpt fit DATA -o mat.plmc`: fits LM, PLM or PLM-C to a measured BTF, resumably.
+
+use anyhow::Context;
+use btfpt::btf::{self, format};
+use btfpt::fit::model::ModelKind;
+use btfpt::fit::pipeline::{self, FitOptions, Stage};
+use btfpt::fit::report::raw_bytes;
+use btfpt::fit::tiling;
+use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+
+/// Model kind on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KindArg {
+    Lm,
+    Plm,
+    Plmc,
+}
+
+impl From<KindArg> for ModelKind {
+    fn from(k: KindArg) -> Self {
+        match k {
+            KindArg::Lm => ModelKind::Lm,
+            KindArg::Plm => ModelKind::Plm,
+            KindArg::Plmc => ModelKind::PlmC,
+        }
+    }
+}
+
+/// Fit a reflectance model to a measured BTF and write a .plmc file.
+#[derive(clap::Args, Debug)]
+pub struct FitArgs {
+    /// The measured BTF (UBO2003 folder, UBO2014 .btf, or cache).
+    pub data: PathBuf,
+    /// Output model file; finished views are kept in OUTPUT.parts/ until the fit succeeds.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Model to fit.
+    #[arg(long, value_enum, default_value = "plmc")]
+    pub model: KindArg,
+    /// Clusters per view and colour channel (PLM-C); indices are u8 up to 256, u16 above.
+    #[arg(long, default_value_t = 256)]
+    pub clusters: usize,
+    /// Images chosen by Kullback–Leibler selection as K-means features (PLM-C).
+    #[arg(long, default_value_t = 20)]
+    pub features: usize,
+    /// Seed of the k-means++ initialisation.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Cut a seamless tile of WxH texels (or N for N×N) out of the sample by minimum-error
+    /// boundary cuts and fit only its texels.
+    #[arg(long)]
+    pub tile: Option<String>,
+    /// Number of tiles (with --tile): the template plus copies whose inner area is covered by
+    /// patches from other positions (all share the borders, stacked vertically in the model).
+    #[arg(long, default_value_t = 1)]
+    pub tiles: usize,
+    /// Overlap band of the cuts in texels (with --tile; default min(W,H)/4 within 2..=16).
+    #[arg(long)]
+    pub overlap: Option<usize>,
+}
+
+/// Progress bars for the per-view stages.
+pub(crate) fn stage_bars(views: usize, labels: &[&str]) -> (MultiProgress, Vec<ProgressBar>) {
+    let mp = MultiProgress::new();
+    let style = ProgressStyle::with_template(
+        "{prefix:>8} [{bar:40}] {pos}/{len} views {elapsed_precise} eta {eta}",
+    )
+    .unwrap_or_else(|_| ProgressStyle::default_bar())
+    .progress_chars("=> ");
+    let bars = labels
+        .iter()
+        .map(|l| {
+            let b = mp.add(ProgressBar::new(views as u64));
+            b.set_style(style.clone());
+            b.set_prefix(l.to_string());
+            b
+        })
+        .collect();
+    (mp, bars)
+}
+
+/// Runs `btfpt fit`.
+pub fn run(args: FitArgs) -> anyhow::Result<()> {
+    if args.tile.is_none() && (args.tiles != 1 || args.overlap.is_some()) {
+        anyhow::bail!("--tiles and --overlap need --tile WxH");
+    }
+    let spec = match &args.tile {
+        Some(t) => {
+            let (width, height) = tiling::parse_size(t)?;
+            Some(tiling::TileSpec {
+                width,
+                height,
+                count: args.tiles,
+                overlap: args.overlap,
+            })
+        }
+        None => None,
+    };
+    let data = btf::open(&args.data)?;
+    let stitch = match &spec {
+        Some(spec) => {
+            let t0 = std::time::Instant::now();
+            let st = tiling::find_stitch(&*data, spec)
+                .with_context(|| format!("cutting tiles out of {}", args.data.display()))?;
+            println!(
+                "tile: {}×{} × {} from the {}×{} sample at ({}, {}), overlap {}, cut RMS error {:.4}{} ({:.1} s)",
+                st.tile_w,
+                st.tile_h,
+                st.count,
+                st.sample_w,
+                st.sample_h,
+                st.origin.0,
+                st.origin.1,
+                st.overlap,
+                st.cut_error,
+                if st.patches.is_empty() {
+                    String::new()
+                } else {
+                    format!(", inner patches from {:?}", st.patches)
+                },
+                t0.elapsed().as_secs_f64()
+            );
+            Some(st)
+        }
+        None => None,
+    };
+    let tiled = match &stitch {
+        Some(st) => Some(tiling::TiledSource::new(&*data, st)?),
+        None => None,
+    };
+    let source: &dyn btf::BtfSource = match &tiled {
+        Some(t) => t,
+        None => &*data,
+    };
+    let opts = FitOptions {
+        kind: args.model.into(),
+        clusters: args.clusters,
+        features: args.features,
+        seed: args.seed,
+        ..FitOptions::default()
+    };
+    let parts = pipeline::parts_dir(&args.output);
+    let views = source.views().len();
+    let labels: &[&str] = match opts.kind {
+        ModelKind::Lm => &["LM", "done"],
+        ModelKind::Plm => &["LM", "PLM", "done"],
+        ModelKind::PlmC => &["LM", "PLM", "PLM-C", "done"],
+    };
+    let (_mp, bars) = stage_bars(views, labels);
+    let start = std::time::Instant::now();
+    let key = stitch.as_ref().map_or(0, |s| s.key());
+    let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &|_, stage| {
+        let i = match stage {
+            Stage::Lm => 0,
+            Stage::Plm => 1,
+            Stage::PlmC => 2,
+            Stage::Done => labels.len() - 1,
+        };
+        if let Some(b) = bars.get(i) {
+            b.inc(1);
+        }
+    })
+    .with_context(|| format!("fitting {}", args.data.display()))?;
+    bars.iter().for_each(|b| b.finish());
+    let section = stitch.as_ref().map(|s| s.section()).transpose()?;
+    format::write_tiled(&args.output, &outcome.model, section.as_ref())?;
+    std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    let bytes = std::fs::metadata(&args.output)
+        .with_context(|| format!("reading size of {}", args.output.display()))?
+        .len() as usize;
+    // Raw size of the whole measured sample (for tiles: what the tile replaces).
+    let raw = raw_bytes(views, source.lights().len(), data.width() * data.height());
+    println!(
+        "{}: {} model, {} bytes (1:{:.1} vs 8-bit raw), fitted in {:.1} s{}",
+        args.output.display(),
+        opts.kind.name(),
+        bytes,
+        raw as f64 / bytes.max(1) as f64,
+        start.elapsed().as_secs_f64(),
+        if outcome.resumed_views > 0 {
+            format!(
+                ", {} views resumed from {}",
+                outcome.resumed_views,
+                parts.display()
+            )
+        } else {
+            String::new()
+        }
+    );
+    if opts.kind == ModelKind::PlmC {
+        let s = outcome.stats;
+        println!(
+            "clusters: {} (refit on members better for {}, averaged member parameters for {}), {} Lloyd iterations",
+            s.clusters, s.refit_wins, s.average_wins, s.kmeans_iterations
+        );
+    }
+    Ok(())
+}
