@@ -102,7 +102,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         ("--max-relmse", args.max_relmse),
     ] {
         if let Some(v) = v
-            && !(v >= 0.0)
+            && (v.is_nan() || v < 0.0)
         {
             bail!("{name} {v}: must be a non-negative number");
         }

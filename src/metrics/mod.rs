@@ -20,6 +20,11 @@ use crate::math::color::luminance;
 use crate::{Error, Result};
 use serde::Serialize;
 
+/// True unless `v ≤ max` (so NaN exceeds every bound).
+fn exceeds(v: f64, max: f64) -> bool {
+    v.is_nan() || v > max
+}
+
 /// The ε in relMSE = mean((t − r)² / (r² + ε)), as `compare.py` (keeps dark pixels from dominating).
 pub const RELMSE_EPS: f64 = 1e-2;
 
@@ -201,7 +206,7 @@ impl Comparison {
         if let Some(max) = c.max_abs_mean_z {
             need(&self.pixel_test, "the mean-z bound", &mut out);
             if let Some(t) = &self.pixel_test
-                && !(t.mean_z.abs() <= max)
+                && exceeds(t.mean_z.abs(), max)
             {
                 out.push(format!(
                     "mean z {:+.4} (± {:.4} if unbiased) is outside ±{max}: a global bias",
@@ -210,7 +215,7 @@ impl Comparison {
             }
         }
         if let Some(max) = c.max_relmse
-            && !(self.relmse <= max)
+            && exceeds(self.relmse, max)
         {
             out.push(format!("relMSE {:.3e} exceeds {max:.3e}", self.relmse));
         }
