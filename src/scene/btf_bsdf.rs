@@ -253,7 +253,7 @@ impl SynthSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::btf::{DirectionSet, RawBtf, StoredEncoding};
+    use crate::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
 
     fn build(line: u32, filename: &str, uv_scale: f32, model: &str) -> Result<Bsdf> {
         build_btf(
