@@ -202,7 +202,7 @@ fn score(test: &RgbImage, spp: u32, r: &Reference) -> Score {
     }
 }
 
-/// Pass bounds of one scene at [`SPP`], from its calibration (see `check_bounds_match_calibration`).
+/// Pass bounds of one scene at [`SPP`], from its calibration (see `check_bounds_against_calibration`).
 struct Bounds {
     max_failing_blocks: usize,
     max_abs_mean_z: f64,
@@ -339,9 +339,42 @@ fn with_fault(mut scene: Scene, fault: Fault) -> Scene {
     scene
 }
 
+/// The bounds must let every independent Mitsuba render of the committed calibration (`calibrate.py`,
+/// 3 seeds at [`SPP`]) pass: they are at least as loose as Mitsuba-vs-Mitsuba.
+fn check_bounds_against_calibration(name: &str, b: &Bounds) {
+    let p = root()
+        .join("reference-images")
+        .join(name)
+        .join(format!("{name}_calibration.json"));
+    let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let runs: Vec<&serde_json::Value> = json["runs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|r| r["spp"].as_u64() == Some(SPP as u64))
+        .collect();
+    assert!(
+        runs.len() >= 3,
+        "{name}: calibration has no runs at {SPP} spp"
+    );
+    for r in runs {
+        let blocks = r["failing_blocks4"].as_u64().unwrap() as usize;
+        let mean_z = r["mean_z"].as_f64().unwrap();
+        let rel = r["relmse"].as_f64().unwrap();
+        assert!(
+            blocks <= b.max_failing_blocks
+                && mean_z.abs() <= b.max_abs_mean_z
+                && rel <= b.max_rel_mse,
+            "{name}: bounds reject an independent Mitsuba render: {r}"
+        );
+    }
+}
+
 /// Renders `name` correctly and with every fault; the correct render must pass `bounds`, every
 /// faulty one must fail them.
 fn regression(name: &str, bounds: &Bounds) {
+    check_bounds_against_calibration(name, bounds);
     let r = reference(name);
     let scene = load_scene(name);
     let t0 = std::time::Instant::now();
