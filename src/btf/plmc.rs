@@ -21,6 +21,9 @@
 //! Sampling reuses the raw material's tabulated light distribution ([`BtfMaterial`]), built at
 //! load from the model's texel-averaged values at the measured directions, mixed with the uniform
 //! defensive component exactly as for raw data.
+//!
+//! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
+#![allow(clippy::needless_range_loop)]
 
 use crate::bsdf::{BsdfFlags, BsdfSample, BtfMaterial};
 use crate::btf::directions::DirectionInterp;
