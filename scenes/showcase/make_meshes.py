@@ -13,7 +13,8 @@ def spow(x, e):
 
 def superellipsoid(center, half, axes, e1, e2, nu=56, nv=32):
     """half = (a, b, c): half extents along the local ring axes (a, b) and pole axis c;
-    axes = 3 world unit vectors for the local (ring1, ring2, pole) axes."""
+    axes = 3 world unit vectors for the local (ring1, ring2, pole) axes, right-handed
+    (ring1 x ring2 = pole) so that the faces and normals point outward."""
     grid = []
     for j in range(nv + 1):
         eta = -math.pi / 2 + math.pi * j / nv
@@ -94,19 +95,17 @@ def write_obj(path, parts):
 
 X, Y, Z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
 here = os.path.dirname(os.path.abspath(__file__))
-# Armrest pad (leather), lying along x on top of the console; pole axis x, ring axes z (width), y.
-armrest = superellipsoid((0.0, 0.78, 0.0), (0.34, 0.16, 1.05), (Z, Y, X), 0.25, 0.3)
-# Gear-lever knob (leather): a slightly squashed ball, pole axis y.
-knob = superellipsoid((0.0, 1.22, 1.35), (0.17, 0.17, 0.15), (X, Z, Y), 0.9, 0.9, 48, 32)
-# Console body under the armrest (wood), and the trim plate the lever stands on (wood).
-console = superellipsoid((0.0, 0.31, 0.0), (0.36, 0.31, 1.1), (Z, Y, X), 0.12, 0.15)
-plate = superellipsoid((0.0, 0.66, 1.35), (0.32, 0.05, 0.34), (X, Y, Z), 0.3, 0.2, 64, 32)
-# Lever shaft and a collar (brushed metal foil).
-shaft = superellipsoid((0.0, 0.92, 1.35), (0.035, 0.035, 0.26), (X, Z, Y), 0.15, 1.0, 48, 32)
-collar = superellipsoid((0.0, 0.73, 1.35), (0.09, 0.09, 0.035), (X, Z, Y), 0.3, 1.0, 48, 24)
-# Seat cushion (corduroy) to the left, and its backrest-side bolster.
-seat = superellipsoid((-1.15, 0.42, 0.2), (0.6, 0.24, 1.05), (Z, Y, X), 0.35, 0.3)
-bolster = superellipsoid((-1.7, 0.55, 0.2), (0.15, 0.3, 1.05), (Z, Y, X), 0.4, 0.4)
+# Console body (wood) along x, and on its top: the armrest pad (leather) at the back, the trim
+# plate (wood) at the front with the gear lever: collar and shaft (brushed metal foil), knob
+# (leather). Beside it a seat cushion and its backrest bolster (corduroy).
+console = superellipsoid((0.0, 0.31, 0.0), (0.31, 0.36, 1.1), (Y, Z, X), 0.12, 0.15)
+armrest = superellipsoid((-0.42, 0.74, 0.0), (0.13, 0.34, 0.66), (Y, Z, X), 0.3, 0.3)
+plate = superellipsoid((0.68, 0.635, 0.0), (0.3, 0.03, 0.3), (X, Y, Z), 0.2, 0.2, 64, 32)
+collar = superellipsoid((0.68, 0.68, 0.0), (0.08, 0.08, 0.03), (Z, X, Y), 0.3, 1.0, 48, 24)
+shaft = superellipsoid((0.68, 0.9, 0.0), (0.03, 0.03, 0.24), (Z, X, Y), 0.15, 1.0, 48, 32)
+knob = superellipsoid((0.68, 1.18, 0.0), (0.11, 0.11, 0.1), (Z, X, Y), 0.9, 0.9, 48, 32)
+seat = superellipsoid((-0.1, 0.3, -1.0), (0.3, 0.55, 1.05), (Y, Z, X), 0.35, 0.3)
+bolster = superellipsoid((-0.1, 0.75, -1.62), (0.75, 0.16, 1.05), (Y, Z, X), 0.4, 0.4)
 write_obj(os.path.join(here, "leather.obj"), [armrest, knob])
 write_obj(os.path.join(here, "wood.obj"), [console, plate])
 write_obj(os.path.join(here, "foil.obj"), [shaft, collar])

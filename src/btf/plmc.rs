@@ -21,6 +21,9 @@
 //! Sampling reuses the raw material's tabulated light distribution ([`BtfMaterial`]), built at
 //! load from the model's texel-averaged values at the measured directions, mixed with the uniform
 //! defensive component exactly as for raw data.
+//!
+//! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
+#![allow(clippy::needless_range_loop)]
 
 use crate::bsdf::{BsdfFlags, BsdfSample, BtfMaterial};
 use crate::btf::directions::DirectionInterp;
@@ -114,6 +117,11 @@ pub struct PlmcMaterial {
     params: Params,
     /// `[view][light]`; empty for LM.
     polys: Vec<PolyRow>,
+    /// `[view][channel]`: the largest lobe value Y over the measured lights (and the clusters /
+    /// sampled texels). The polynomials were fitted on Y in this range; Y is clamped to it before
+    /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
+    /// light directions near a sharp lobe's peak.
+    y_max: Vec<[f32; 3]>,
     /// Sampling tables (and the view interpolator) built from the model's texel-mean values.
     sampler: BtfMaterial,
 }
@@ -196,7 +204,7 @@ impl PlmcMaterial {
         } else {
             Vec::new()
         };
-        let means = mean_values(model);
+        let (means, y_max) = mean_values(model);
         let table = RawBtf::from_f32(
             model.views.clone(),
             model.lights.clone(),
@@ -215,6 +223,7 @@ impl PlmcMaterial {
             lights,
             params,
             polys,
+            y_max,
             sampler,
         })
     }
@@ -372,6 +381,13 @@ impl PlmcMaterial {
             y[i] = if b > 0.0 { rho[i] * pw } else { 0.0 };
         }
         if has_polys {
+            let mut y_max = [0f32; LANES];
+            for v in 0..3 {
+                y_max[3 * v..3 * v + 3].copy_from_slice(&self.y_max[vi[v] as usize]);
+            }
+            for i in 0..LANES {
+                y[i] = y[i].min(y_max[i]);
+            }
             let mut a = [[0f32; LANES]; 5];
             for v in 0..3 {
                 for c in 0..3 {
@@ -402,8 +418,9 @@ impl PlmcMaterial {
 }
 
 /// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact
-/// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models).
-fn mean_values(model: &PlmcModel) -> Vec<f32> {
+/// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models), and the
+/// largest lobe value per view and channel over the measured lights (see `y_max`).
+fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
     let (nv, nl) = (model.views.len(), model.lights.len());
     let (w, h) = (model.width, model.height);
     let value = |v: usize, l: usize, c: usize, lobe: &lafortune::Lobe| {
@@ -412,10 +429,22 @@ fn mean_values(model: &PlmcModel) -> Vec<f32> {
             lafortune::eval(lobe, model.lights.dirs[l]),
         ))
     };
-    let per_view: Vec<Vec<f32>> = (0..nv)
+    // Largest value of a lobe over the measured lights: ρ · (max_l D·u_l)^n (x^n is monotone).
+    let peak = |lobe: &lafortune::Lobe| {
+        let b = model.lights.dirs.iter().fold(0f32, |m, u| {
+            m.max(lobe[1] * u.x + lobe[2] * u.y + lobe[3] * u.z)
+        });
+        if b > 0.0 {
+            lobe[0] * b.powf(lobe[4])
+        } else {
+            0.0
+        }
+    };
+    let per_view: Vec<(Vec<f32>, [f32; 3])> = (0..nv)
         .into_par_iter()
         .map(|v| {
             let mut out = vec![0f32; nl * 3];
+            let mut y_max = [0f32; 3];
             match &model.params[v] {
                 ViewParams::Clustered { k, table, index } => {
                     let mut counts = vec![0u32; 3 * k];
@@ -423,6 +452,11 @@ fn mean_values(model: &PlmcModel) -> Vec<f32> {
                         counts[3 * i as usize + t % 3] += 1;
                     }
                     let lobes: Vec<_> = table.iter().map(|p| p.unpack()).collect();
+                    for (j, lobe) in lobes.iter().enumerate() {
+                        if counts[j] > 0 {
+                            y_max[j % 3] = y_max[j % 3].max(peak(lobe));
+                        }
+                    }
                     for l in 0..nl {
                         for c in 0..3 {
                             let mut s = 0f64;
@@ -446,6 +480,9 @@ fn mean_values(model: &PlmcModel) -> Vec<f32> {
                         .iter()
                         .map(|&t| std::array::from_fn(|c| packed[3 * t + c].unpack()))
                         .collect();
+                    for (t, p) in packed.iter().enumerate() {
+                        y_max[t % 3] = y_max[t % 3].max(peak(&p.unpack()));
+                    }
                     for l in 0..nl {
                         for c in 0..3 {
                             let s: f64 = lobes.iter().map(|lb| value(v, l, c, &lb[c]) as f64).sum();
@@ -454,10 +491,11 @@ fn mean_values(model: &PlmcModel) -> Vec<f32> {
                     }
                 }
             }
-            out
+            (out, y_max)
         })
         .collect();
-    per_view.concat()
+    let y_max = per_view.iter().map(|p| p.1).collect();
+    (per_view.into_iter().flat_map(|p| p.0).collect(), y_max)
 }
 
 /// log2 of a positive normal f32, branch-free (exponent + odd series in (m−1)/(m+1) on
