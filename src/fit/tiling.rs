@@ -116,12 +116,29 @@ impl Stitch {
     }
 
     /// A plain crop of `w × h` at `origin` (no cut: what a naive tile would be).
-    pub fn crop(sample_w: usize, sample_h: usize, origin: (usize, usize), w: usize, h: usize) -> Self {
+    pub fn crop(
+        sample_w: usize,
+        sample_h: usize,
+        origin: (usize, usize),
+        w: usize,
+        h: usize,
+    ) -> Self {
         let mixes: Vec<Mix> = (0..h)
             .flat_map(|y| (0..w).map(move |x| (x, y)))
             .map(|(x, y)| vec![(((origin.1 + y) * sample_w + origin.0 + x) as u32, 1.0)])
             .collect();
-        Self::from_mixes(sample_w, sample_h, w, h, 1, 0, origin, Vec::new(), 0.0, &mixes)
+        Self::from_mixes(
+            sample_w,
+            sample_h,
+            w,
+            h,
+            1,
+            0,
+            origin,
+            Vec::new(),
+            0.0,
+            &mixes,
+        )
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -243,7 +260,13 @@ impl Stitch {
     pub fn key(&self) -> u64 {
         let mut h = 0x7469_6c65u64;
         let mut add = |v: u64| h = mix64(h ^ v);
-        for v in [self.sample_w, self.sample_h, self.tile_w, self.tile_h, self.count] {
+        for v in [
+            self.sample_w,
+            self.sample_h,
+            self.tile_w,
+            self.tile_h,
+            self.count,
+        ] {
             add(v as u64);
         }
         for &o in &self.offsets {
@@ -630,7 +653,8 @@ fn patch_cuts(
         cut(&maps[2], pw, op, false),
         cut(&maps[3], pw, op, false),
     ];
-    let cost = (cuts[0].cost + cuts[1].cost) * ph as f64 + (cuts[2].cost + cuts[3].cost) * pw as f64;
+    let cost =
+        (cuts[0].cost + cuts[1].cost) * ph as f64 + (cuts[2].cost + cuts[3].cost) * pw as f64;
     PatchCuts {
         cuts,
         cost: cost / (2 * (pw + ph)) as f64,
@@ -695,11 +719,7 @@ pub fn find_stitch_in(
             }
         }
     }
-    let f = Features {
-        w: sw,
-        d,
-        f: feat,
-    };
+    let f = Features { w: sw, d, f: feat };
     // Stage 1a: the template origin with the cheapest wrap cuts.
     let mut best: Option<((usize, usize), Template)> = None;
     for &y0 in &candidates(sh - h - o) {
@@ -1061,7 +1081,11 @@ mod tests {
             assert!(path.windows(2).all(|w| w[0].abs_diff(w[1]) <= 1));
         }
         // And a zero-error band gives hard cuts (no blending).
-        assert!(blend_radii(&err, band, &vec![3; len]).iter().all(|&r| r == 0));
+        assert!(
+            blend_radii(&err, band, &vec![3; len])
+                .iter()
+                .all(|&r| r == 0)
+        );
     }
 
     #[test]
@@ -1162,7 +1186,12 @@ mod tests {
             b.add_image(&tile_of(&crop, img), 32, 24, StoredEncoding::Linear);
         }
         assert!(a.ratio() < 1.25, "stitched {}", a.ratio());
-        assert!(b.ratio() > 1.5 * a.ratio(), "crop {} stitched {}", b.ratio(), a.ratio());
+        assert!(
+            b.ratio() > 1.5 * a.ratio(),
+            "crop {} stitched {}",
+            b.ratio(),
+            a.ratio()
+        );
         // Tiles 1 and 2 differ inside but keep the template's border ring, so they are
         // interchangeable; the patches come from elsewhere.
         let t = tile_of(&st, &imgs[0]);
@@ -1212,7 +1241,9 @@ mod tests {
         // Through a BTF source as well.
         let d = DirectionSet::from_angles_deg(vec![(0.0, 0.0)]);
         let btf = RawBtf::from_f32(d.clone(), d, 4, 4, StoredEncoding::Linear, &[0.5; 48]).unwrap();
-        let e = find_stitch(&btf, &TileSpec::new(8, 8)).unwrap_err().to_string();
+        let e = find_stitch(&btf, &TileSpec::new(8, 8))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("larger than the 4×4 sample"), "{e}");
     }
 
