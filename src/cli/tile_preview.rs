@@ -37,6 +37,13 @@ pub struct TilePreviewArgs {
     /// Always use this tile (index) instead of a random choice per cell.
     #[arg(long)]
     pub tile: Option<usize>,
+    /// Show the measured data instead of the model: the model's stitched tiles cut from this
+    /// sample (the one it was fitted to), or with --crop a plain crop of the same size.
+    #[arg(long)]
+    pub data: Option<PathBuf>,
+    /// With --data: a plain crop at the template's origin instead of the stitched tiles.
+    #[arg(long)]
+    pub crop: bool,
 }
 
 /// Runs `btfpt tile-preview`.
@@ -72,16 +79,59 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
         .as_ref()
         .map_or((model.width, model.height), |s| (s.tile_w, s.tile_h));
     let count = (model.width / tw) * (model.height / th);
+    if a.crop && a.data.is_none() {
+        bail!("--crop needs --data");
+    }
     if let Some(t) = a.tile
         && t >= count
     {
         bail!("--tile {t} is out of range: the model has {count} tiles");
     }
-    let mut recon = Vec::new();
-    model.reconstruct_view(a.view, &mut recon);
     let texels = model.width * model.height;
-    let img = &recon[a.light * texels * 3..(a.light + 1) * texels * 3];
-    let tiles_per_row = model.width / tw;
+    let mut recon = vec![0.0f32; texels * 3];
+    let mut plane_w = model.width;
+    match &a.data {
+        Some(d) => {
+            let section = section.as_ref().with_context(|| {
+                format!(
+                    "--data needs a tiled model: {} has no tiles",
+                    a.model.display()
+                )
+            })?;
+            let stitch = tiling::Stitch::from_section(section, &a.model)?;
+            let source = btfpt::btf::open(d)?;
+            if (source.width(), source.height()) != (stitch.sample_w, stitch.sample_h)
+                || source.views().len() != model.views.len()
+                || source.lights().len() != model.lights.len()
+            {
+                bail!(
+                    "{} is not the sample the tiles of {} were cut from",
+                    d.display(),
+                    a.model.display()
+                );
+            }
+            let n_in = source.width() * source.height() * 3;
+            let full = source.load_view(a.view)?;
+            let img = &full[a.light * n_in..(a.light + 1) * n_in];
+            if a.crop {
+                let c =
+                    tiling::Stitch::crop(stitch.sample_w, stitch.sample_h, stitch.origin, tw, th);
+                recon.truncate(tw * th * 3);
+                c.apply(img, &mut recon);
+                plane_w = tw;
+            } else {
+                stitch.apply(img, &mut recon);
+            }
+        }
+        None => {
+            let mut all = Vec::new();
+            model.reconstruct_view(a.view, &mut all);
+            recon.copy_from_slice(&all[a.light * texels * 3..(a.light + 1) * texels * 3]);
+        }
+    }
+    let count = if a.crop { 1 } else { count };
+    let img = &recon;
+    let tiles_per_row = plane_w / tw;
     let (z, out_w, out_h) = (a.zoom, cols * tw * a.zoom, rows * th * a.zoom);
     let mut out = RgbImage::new(out_w, out_h);
     for r in 0..rows {
@@ -92,7 +142,7 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
             let (kx, ky) = (k % tiles_per_row * tw, k / tiles_per_row * th);
             for y in 0..th * z {
                 for x in 0..tw * z {
-                    let t = (ky + y / z) * model.width + kx + x / z;
+                    let t = (ky + y / z) * plane_w + kx + x / z;
                     let v = [img[3 * t], img[3 * t + 1], img[3 * t + 2]].map(|v| v * a.exposure);
                     out.set(c * tw * z + x, r * th * z + y, v);
                 }
