@@ -693,7 +693,6 @@ fn cases(dir: &Path) -> Vec<Case> {
         },
         vec!["a.exr"],
     );
-    drop(add);
     v
 }
 
