@@ -899,3 +899,20 @@ fn nan_and_inf_samples_never_reach_the_film() {
         "non-finite pixel in the film"
     );
 }
+
+/// Every input a fuzzer crashed once (`tests/fuzz-regressions/<target>/`) is now a clean error.
+#[test]
+fn fuzz_regressions_are_clean_errors() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fuzz-regressions");
+    let mut n = 0;
+    for f in files_in(&root.join("image_exr")) {
+        let e = btfpt::io::read_image(&f).expect_err("corrupt EXR must be rejected");
+        assert!(
+            e.to_string()
+                .contains(&*f.file_name().unwrap().to_string_lossy()),
+            "{e}"
+        );
+        n += 1;
+    }
+    assert!(n > 0, "no regression inputs found");
+}
