@@ -364,6 +364,7 @@ impl PlmcMaterial {
 
     /// The 9 (view, channel) values of one texel, linear, lane `3·view + channel`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the per-evaluation state, passed in registers
     fn eval_lanes<P: LobeAt>(
         &self,
         p: &P,
@@ -465,7 +466,8 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
             0.0
         }
     };
-    let per_view: Vec<(Vec<f32>, [f32; 3], Vec<[f32; 4]>)> = (0..nv)
+    type PerView = (Vec<f32>, [f32; 3], Vec<[f32; 4]>);
+    let per_view: Vec<PerView> = (0..nv)
         .into_par_iter()
         .map(|v| {
             let mut out = vec![0f32; nl * 3];
