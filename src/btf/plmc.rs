@@ -122,6 +122,12 @@ pub struct PlmcMaterial {
     /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
     /// light directions near a sharp lobe's peak.
     y_max: Vec<[f32; 3]>,
+    /// `[view][light]`: the largest polynomial output (model space) per channel over the
+    /// clusters / sampled texels at that measured (view, light). Between measured lights the
+    /// output is clamped to the largest bound of the 3 lights: a guard against ill-conditioned
+    /// fitted polynomials (|a_j| up to 1e38 occur) that are harmless at the measured directions
+    /// but explode for lobe values in between; values at measured directions are unchanged.
+    out_max: Vec<[f32; 4]>,
     /// Sampling tables (and the view interpolator) built from the model's texel-mean values.
     sampler: BtfMaterial,
 }
@@ -204,7 +210,7 @@ impl PlmcMaterial {
         } else {
             Vec::new()
         };
-        let (means, y_max) = mean_values(model);
+        let (means, y_max, out_max) = mean_values(model);
         let table = RawBtf::from_f32(
             model.views.clone(),
             model.lights.clone(),
@@ -224,6 +230,7 @@ impl PlmcMaterial {
             params,
             polys,
             y_max,
+            out_max,
             sampler,
         })
     }
@@ -322,11 +329,18 @@ impl PlmcMaterial {
     ) -> [f32; 3] {
         // Light interpolation of the polynomial rows: once per evaluation, shared by all texels.
         let mut coef = [[0f32; 16]; 3];
+        let mut bound = [[f32::INFINITY; 3]; 3];
         let has_polys = !self.polys.is_empty();
         if has_polys {
             let (li, lw) = self.lights.lookup(wo);
             for a in 0..3 {
                 let base = vi[a] as usize * self.n_lights;
+                // Output bound: the largest of the 3 measured lights' maxima.
+                let m = [
+                    &self.out_max[base + li[0] as usize],
+                    &self.out_max[base + li[1] as usize],
+                    &self.out_max[base + li[2] as usize],
+                ];
                 let r = [
                     &self.polys[base + li[0] as usize].0,
                     &self.polys[base + li[1] as usize].0,
@@ -335,11 +349,12 @@ impl PlmcMaterial {
                 for j in 0..16 {
                     coef[a][j] = lw[0] * r[0][j] + lw[1] * r[1][j] + lw[2] * r[2][j];
                 }
+                bound[a] = [0, 1, 2].map(|c| m[0][c].max(m[1][c]).max(m[2][c]));
             }
         }
         let mut out = [0f32; 3];
         for &(t, tw) in texels {
-            let v = self.eval_lanes(p, vi, &coef, has_polys, wo, t);
+            let v = self.eval_lanes(p, vi, &coef, &bound, has_polys, wo, t);
             for c in 0..3 {
                 out[c] += tw * (vw[0] * v[c] + vw[1] * v[3 + c] + vw[2] * v[6 + c]);
             }
@@ -349,11 +364,13 @@ impl PlmcMaterial {
 
     /// The 9 (view, channel) values of one texel, linear, lane `3·view + channel`.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the per-evaluation state, passed in registers
     fn eval_lanes<P: LobeAt>(
         &self,
         p: &P,
         vi: [u32; 3],
         coef: &[[f32; 16]; 3],
+        bound: &[[f32; 3]; 3],
         has_polys: bool,
         wo: Vec3,
         texel: usize,
@@ -400,6 +417,13 @@ impl PlmcMaterial {
                 y[i] = (((a[4][i] * y[i] + a[3][i]) * y[i] + a[2][i]) * y[i] + a[1][i]) * y[i]
                     + a[0][i];
             }
+            let mut hi = [0f32; LANES];
+            for v in 0..3 {
+                hi[3 * v..3 * v + 3].copy_from_slice(&bound[v]);
+            }
+            for i in 0..LANES {
+                y[i] = y[i].min(hi[i]);
+            }
         }
         match self.space {
             ValueSpace::Linear => {
@@ -420,14 +444,16 @@ impl PlmcMaterial {
 /// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact
 /// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models), and the
 /// largest lobe value per view and channel over the measured lights (see `y_max`).
-fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
+fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
     let (nv, nl) = (model.views.len(), model.lights.len());
     let (w, h) = (model.width, model.height);
-    let value = |v: usize, l: usize, c: usize, lobe: &lafortune::Lobe| {
-        model.space.to_linear(polynomial::eval(
+    // (linear value, model-space polynomial output) of a lobe at a measured (view, light).
+    let value2 = |v: usize, l: usize, c: usize, lobe: &lafortune::Lobe| {
+        let o = polynomial::eval(
             &model.poly(v, l, c),
             lafortune::eval(lobe, model.lights.dirs[l]),
-        ))
+        );
+        (model.space.to_linear(o), o.max(0.0))
     };
     // Largest value of a lobe over the measured lights: ρ · (max_l D·u_l)^n (x^n is monotone).
     let peak = |lobe: &lafortune::Lobe| {
@@ -440,10 +466,12 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
             0.0
         }
     };
-    let per_view: Vec<(Vec<f32>, [f32; 3])> = (0..nv)
+    type PerView = (Vec<f32>, [f32; 3], Vec<[f32; 4]>);
+    let per_view: Vec<PerView> = (0..nv)
         .into_par_iter()
         .map(|v| {
             let mut out = vec![0f32; nl * 3];
+            let mut omax = vec![[0f32; 4]; nl];
             let mut y_max = [0f32; 3];
             match &model.params[v] {
                 ViewParams::Clustered { k, table, index } => {
@@ -463,7 +491,9 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
                             for j in 0..*k {
                                 let n = counts[3 * j + c];
                                 if n > 0 {
-                                    s += n as f64 * value(v, l, c, &lobes[3 * j + c]) as f64;
+                                    let (lin, o) = value2(v, l, c, &lobes[3 * j + c]);
+                                    s += n as f64 * lin as f64;
+                                    omax[l][c] = omax[l][c].max(o);
                                 }
                             }
                             out[3 * l + c] = (s / (w * h) as f64) as f32;
@@ -485,17 +515,27 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
                     }
                     for l in 0..nl {
                         for c in 0..3 {
-                            let s: f64 = lobes.iter().map(|lb| value(v, l, c, &lb[c]) as f64).sum();
+                            let mut s = 0f64;
+                            for lb in &lobes {
+                                let (lin, o) = value2(v, l, c, &lb[c]);
+                                s += lin as f64;
+                                omax[l][c] = omax[l][c].max(o);
+                            }
                             out[3 * l + c] = (s / lobes.len() as f64) as f32;
                         }
                     }
                 }
             }
-            (out, y_max)
+            (out, y_max, omax)
         })
         .collect();
     let y_max = per_view.iter().map(|p| p.1).collect();
-    (per_view.into_iter().flat_map(|p| p.0).collect(), y_max)
+    let out_max = per_view.iter().flat_map(|p| p.2.iter().copied()).collect();
+    (
+        per_view.into_iter().flat_map(|p| p.0).collect(),
+        y_max,
+        out_max,
+    )
 }
 
 /// log2 of a positive normal f32, branch-free (exponent + odd series in (m−1)/(m+1) on

@@ -186,7 +186,7 @@ fn eval_at_measured_directions_is_the_reconstruction() {
     }
 }
 
-/// Straightforward scalar reference of the DESIGN §4 rendering rule.
+/// Straightforward scalar reference of the DESIGN §4 rendering rule, with the two range clamps.
 fn reference_b(
     m: &PlmcModel,
     interp: &DirectionInterp,
@@ -197,19 +197,43 @@ fn reference_b(
     // Views and lights share the UBO2003 set here.
     let (vi, vw) = interp.lookup(wi);
     let (li, lw) = interp.lookup(wo);
+    let texels = m.width * m.height;
     let mut out = [0f32; 3];
     for a in 0..3 {
+        let v = vi[a] as usize;
         for c in 0..3 {
-            let lobe = m.params[vi[a] as usize].packed(texel, c).unpack();
-            let y = lafortune::eval(&lobe, wo);
+            let lobe_of = |t: usize| m.params[v].packed(t, c).unpack();
+            let y = lafortune::eval(&lobe_of(texel), wo);
+            if !m.kind.has_polys() {
+                out[c] += vw[a] * m.space.to_linear(y);
+                continue;
+            }
+            // Clamps: Y to its largest value at the measured lights (all texels), the output
+            // to the largest output at the 3 measured lights.
+            let y_max = (0..texels)
+                .flat_map(|t| m.lights.dirs.iter().map(move |&u| (t, u)))
+                .map(|(t, u)| lafortune::eval(&lobe_of(t), u))
+                .fold(0f32, f32::max);
+            let out_max = li
+                .iter()
+                .flat_map(|&l| {
+                    let l = l as usize;
+                    (0..texels).map(move |t| (t, l))
+                })
+                .map(|(t, l)| {
+                    let yl = lafortune::eval(&lobe_of(t), m.lights.dirs[l]);
+                    polynomial::eval(&m.poly(v, l, c), yl).max(0.0)
+                })
+                .fold(0f32, f32::max);
             let mut poly = [0f32; 5];
             for b in 0..3 {
-                let p = m.poly(vi[a] as usize, li[b] as usize, c);
+                let p = m.poly(v, li[b] as usize, c);
                 for j in 0..5 {
                     poly[j] += lw[b] * p[j];
                 }
             }
-            out[c] += vw[a] * m.space.to_linear(polynomial::eval(&poly, y));
+            let o = polynomial::eval(&poly, y.min(y_max)).min(out_max);
+            out[c] += vw[a] * m.space.to_linear(o);
         }
     }
     out
