@@ -3,6 +3,10 @@
 //!
 //! See `DESIGN.md` of the project (shared) for the conventions every module follows.
 
+// `!(x <= max)` is the deliberate NaN-rejecting form of a bound check throughout (a NaN must fail),
+// and the hot paths index several fixed-size lane arrays with one loop counter.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 pub mod bsdf;
 pub mod btf;
 pub mod error;
@@ -11,6 +15,7 @@ pub mod geometry;
 pub mod io;
 pub mod light;
 pub mod math;
+pub mod metrics;
 pub mod render;
 pub mod scene;
 

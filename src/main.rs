@@ -1,5 +1,8 @@
 //! The `btfpt` command line: parses arguments, calls the library, prints, sets the exit code.
 
+// See lib.rs: `!(x >= 0.0)` deliberately rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 mod cli;
 
 use clap::Parser;

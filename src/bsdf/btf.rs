@@ -200,6 +200,60 @@ impl BtfMaterial {
         Spectrum::from(acc)
     }
 
+    /// Samples a light direction from the mixture (uniform defensive part + the blended tabulated
+    /// part of the views `vi` with weights `vw`); its density is [`BtfMaterial::light_pdf`].
+    /// Shared by the raw material and the fitted models (whose tables are built the same way).
+    #[inline]
+    pub fn sample_light(&self, vi: [u32; 3], vw: [f32; 3], sample1: f32, sample2: Vec2) -> Vec3 {
+        let m = self;
+        if sample1 < DEFENSIVE_FRACTION {
+            warp::square_to_uniform_hemisphere(sample2)
+        } else {
+            // Choose one of the 3 views by its weight, then a triangle of its table.
+            let mut u = (sample1 - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION);
+            let last = (0..3).rev().find(|&k| vw[k] > 0.0).unwrap_or(0);
+            let mut k = 0;
+            while k < last && (vw[k] == 0.0 || u >= vw[k]) {
+                u -= vw[k];
+                k += 1;
+            }
+            let u = (u / vw[k].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+            let v = vi[k] as usize;
+            if !m.table_ok[v] {
+                warp::square_to_cosine_hemisphere(sample2)
+            } else if u >= m.table_prob[v] {
+                // Grazing band, uniform in solid angle.
+                let z = m.band_cos * sample2.x;
+                let r = (1.0 - z * z).max(0.0).sqrt();
+                let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
+                Vec3::new(r * cp, r * sp, z)
+            } else {
+                let u = u / m.table_prob[v];
+                let nt = m.lights.num_triangles();
+                let cdf = &m.tri_cdf[v * nt..(v + 1) * nt];
+                let t = cdf.partition_point(|&c| c <= u).min(nt - 1);
+                let b = warp::square_to_uniform_triangle(sample2);
+                let p = m.lights.triangle_disk(t);
+                let (b0, b1, b2) = (1.0 - b.x - b.y, b.x, b.y);
+                let x = b0 * p[0][0] + b1 * p[1][0] + b2 * p[2][0];
+                let y = b0 * p[0][1] + b1 * p[1][1] + b2 * p[2][1];
+                Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
+            }
+        }
+    }
+
+    /// Solid-angle density of [`BtfMaterial::sample_light`] at the upper-hemisphere `wo`.
+    #[inline]
+    pub fn light_pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        DEFENSIVE_FRACTION * INV_TWO_PI
+            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf(vi, vw, wo)
+    }
+
+    /// The view-direction interpolator (shared with a fitted model on the same direction sets).
+    pub fn view_interp(&self) -> &DirectionInterp {
+        &self.views
+    }
+
     /// Solid-angle density of the tabulated part of the mixture (blended over the 3 views) at
     /// the upper-hemisphere direction `wo`.
     #[inline]
@@ -363,8 +417,7 @@ impl BtfBsdf {
 
     #[inline]
     fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        DEFENSIVE_FRACTION * INV_TWO_PI
-            + (1.0 - DEFENSIVE_FRACTION) * self.material.tabulated_pdf(vi, vw, wo)
+        self.material.light_pdf(vi, vw, wo)
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -379,40 +432,7 @@ impl BtfBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.views.lookup(si.wi);
-        let wo = if sample1 < DEFENSIVE_FRACTION {
-            warp::square_to_uniform_hemisphere(sample2)
-        } else {
-            // Choose one of the 3 views by its weight, then a triangle of its table.
-            let mut u = (sample1 - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION);
-            let last = (0..3).rev().find(|&k| vw[k] > 0.0).unwrap_or(0);
-            let mut k = 0;
-            while k < last && (vw[k] == 0.0 || u >= vw[k]) {
-                u -= vw[k];
-                k += 1;
-            }
-            let u = (u / vw[k].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-            let v = vi[k] as usize;
-            if !m.table_ok[v] {
-                warp::square_to_cosine_hemisphere(sample2)
-            } else if u >= m.table_prob[v] {
-                // Grazing band, uniform in solid angle.
-                let z = m.band_cos * sample2.x;
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
-                Vec3::new(r * cp, r * sp, z)
-            } else {
-                let u = u / m.table_prob[v];
-                let nt = m.lights.num_triangles();
-                let cdf = &m.tri_cdf[v * nt..(v + 1) * nt];
-                let t = cdf.partition_point(|&c| c <= u).min(nt - 1);
-                let b = warp::square_to_uniform_triangle(sample2);
-                let p = m.lights.triangle_disk(t);
-                let (b0, b1, b2) = (1.0 - b.x - b.y, b.x, b.y);
-                let x = b0 * p[0][0] + b1 * p[1][0] + b2 * p[2][0];
-                let y = b0 * p[0][1] + b1 * p[1][1] + b2 * p[2][1];
-                Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
-            }
-        };
+        let wo = m.sample_light(vi, vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }

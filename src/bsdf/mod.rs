@@ -23,6 +23,7 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
+pub use crate::btf::plmc::PlmcBsdf;
 pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
@@ -91,6 +92,8 @@ pub enum Bsdf {
     TwoSided(TwoSided),
     /// Measured BTF (raw data), DESIGN §2.
     Btf(BtfBsdf),
+    /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
+    Plmc(PlmcBsdf),
 }
 
 impl Bsdf {
@@ -104,6 +107,7 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.flags(),
             Bsdf::TwoSided(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
+            Bsdf::Plmc(b) => b.flags(),
         }
     }
 
@@ -117,6 +121,7 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.eval(si, wo),
             Bsdf::TwoSided(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
+            Bsdf::Plmc(b) => b.eval(si, wo),
         }
     }
 
@@ -130,6 +135,7 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.pdf(si, wo),
             Bsdf::TwoSided(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
+            Bsdf::Plmc(b) => b.pdf(si, wo),
         }
     }
 
@@ -140,6 +146,7 @@ impl Bsdf {
             Bsdf::RoughConductor(b) => b.eval_pdf(si, wo),
             Bsdf::TwoSided(b) => b.eval_pdf(si, wo),
             Bsdf::Btf(b) => b.eval_pdf(si, wo),
+            Bsdf::Plmc(b) => b.eval_pdf(si, wo),
             _ => (self.eval(si, wo), self.pdf(si, wo)),
         }
     }
@@ -160,6 +167,7 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
+            Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
         }
     }
 }

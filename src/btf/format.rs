@@ -10,6 +10,7 @@
 //!            k > 0: table k × 3 × lobe, u8 coding (0 raw, 1 deflate), u32 n, index data[n]
 //!            k = 0: W·H·3 × lobe
 //! POLY    := views × lights × 3 × 5 f32 a_0..a_4       (PLM and PLM-C only)
+//! TILE    := optional: how the tiles were cut from the sample (see `fit::tiling::Stitch`)
 //! "END!"  := empty payload
 //! lobe    := u16 ρ (f16 bits) u16 oct_x u16 oct_y u16 n (f16 bits)      (see PackedLobe)
 //! ```
@@ -31,9 +32,27 @@ pub const VERSION: u32 = 1;
 /// Largest direction count a reader accepts (guards allocations on corrupt headers).
 const MAX_DIRECTIONS: usize = 1 << 16;
 
+/// The planes of a tiled model: `width / tile_w × height / tile_h` seamless tiles (all sharing
+/// their borders), and the stitch that cut them from the measured sample (opaque here, read by
+/// `fit::tiling::Stitch::from_bytes`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TileSection {
+    /// Texels per row of one tile.
+    pub tile_w: usize,
+    /// Rows of one tile.
+    pub tile_h: usize,
+    /// The TILE section payload.
+    pub payload: Vec<u8>,
+}
+
 /// Writes the whole model to `path` atomically (temporary file + rename).
 pub fn write(path: &Path, model: &PlmcModel) -> Result<()> {
-    let bytes = to_bytes(model)?;
+    write_tiled(path, model, None)
+}
+
+/// [`write`] with an optional TILE section.
+pub fn write_tiled(path: &Path, model: &PlmcModel, tile: Option<&TileSection>) -> Result<()> {
+    let bytes = to_bytes_tiled(model, tile)?;
     crate::io::write_atomic(path, |w| {
         w.write_all(&bytes).map_err(|e| Error::io(path, e))
     })
@@ -42,17 +61,43 @@ pub fn write(path: &Path, model: &PlmcModel) -> Result<()> {
 /// Reads and fully validates a model file; corrupt or truncated files give an error naming the
 /// file and the problem.
 pub fn read(path: &Path) -> Result<PlmcModel> {
+    Ok(read_tiled(path)?.0)
+}
+
+/// [`read`], also returning the TILE section if the file has one.
+pub fn read_tiled(path: &Path) -> Result<(PlmcModel, Option<TileSection>)> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    from_bytes(&bytes, path)
+    from_bytes_tiled(&bytes, path)
 }
 
 /// Serialises a model (the exact bytes [`write`] stores).
 pub fn to_bytes(model: &PlmcModel) -> Result<Vec<u8>> {
+    to_bytes_tiled(model, None)
+}
+
+/// Serialises a model with an optional TILE section (its tile size goes into HEAD).
+pub fn to_bytes_tiled(model: &PlmcModel, tile: Option<&TileSection>) -> Result<Vec<u8>> {
     model.validate()?;
+    let tile_size = match tile {
+        Some(t) => {
+            if t.tile_w == 0
+                || t.tile_h == 0
+                || !model.width.is_multiple_of(t.tile_w)
+                || !model.height.is_multiple_of(t.tile_h)
+            {
+                return Err(Error::Invalid(format!(
+                    "{}×{} tiles do not divide the {}×{} planes",
+                    t.tile_w, t.tile_h, model.width, model.height
+                )));
+            }
+            (t.tile_w, t.tile_h)
+        }
+        None => (model.width, model.height),
+    };
     let mut out = Vec::new();
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
-    push_section(&mut out, b"HEAD", &head_payload(model));
+    push_section(&mut out, b"HEAD", &head_payload(model, tile_size));
     for (v, p) in model.params.iter().enumerate() {
         push_section(&mut out, b"VIEW", &view_payload(v, p, model.clusters)?);
     }
@@ -64,6 +109,9 @@ pub fn to_bytes(model: &PlmcModel) -> Result<Vec<u8>> {
             }
         }
         push_section(&mut out, b"POLY", &p);
+    }
+    if let Some(t) = tile {
+        push_section(&mut out, b"TILE", &t.payload);
     }
     push_section(&mut out, b"END!", &[]);
     Ok(out)
@@ -78,7 +126,7 @@ pub fn file_size(model_without_views: &PlmcModel, view_section_bytes: usize) -> 
         0
     };
     8 + SECTION_OVERHEAD
-        + head_payload(model_without_views).len()
+        + head_payload(model_without_views, (1, 1)).len()
         + view_section_bytes
         + polys
         + SECTION_OVERHEAD
@@ -100,13 +148,13 @@ fn index_bytes(clusters: usize) -> u8 {
     }
 }
 
-fn head_payload(m: &PlmcModel) -> Vec<u8> {
+fn head_payload(m: &PlmcModel, tile: (usize, usize)) -> Vec<u8> {
     let mut p = vec![m.kind.code(), index_bytes(m.clusters), m.space.code(), 0];
     for v in [
         m.width,
         m.height,
-        m.width,
-        m.height,
+        tile.0,
+        tile.1,
         m.clusters,
         m.views.len(),
         m.lights.len(),
@@ -306,6 +354,11 @@ fn read_dirs(c: &mut Cursor, n: usize) -> Result<DirectionSet> {
 
 /// Parses and validates a model from bytes; `path` is only used in error messages.
 pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
+    Ok(from_bytes_tiled(bytes, path)?.0)
+}
+
+/// [`from_bytes`], also returning the TILE section if present.
+pub fn from_bytes_tiled(bytes: &[u8], path: &Path) -> Result<(PlmcModel, Option<TileSection>)> {
     let mut c = Cursor {
         buf: bytes,
         pos: 0,
@@ -345,7 +398,13 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
         *d = h.u32()? as usize;
     }
     let [width, height, tile_w, tile_h, clusters, nv, nl] = dims;
-    if width == 0 || height == 0 || (tile_w, tile_h) != (width, height) {
+    if width == 0
+        || height == 0
+        || tile_w == 0
+        || tile_h == 0
+        || !width.is_multiple_of(tile_w)
+        || !height.is_multiple_of(tile_h)
+    {
         return Err(h.err(format!(
             "bad plane size {width}×{height} (tile {tile_w}×{tile_h})"
         )));
@@ -509,7 +568,16 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
             polys.push(a);
         }
     }
-    let (tag, payload) = next_section(&mut c)?;
+    let (mut tag, mut payload) = next_section(&mut c)?;
+    let mut tile = None;
+    if &tag == b"TILE" {
+        tile = Some(TileSection {
+            tile_w,
+            tile_h,
+            payload: payload.to_vec(),
+        });
+        (tag, payload) = next_section(&mut c)?;
+    }
     if &tag != b"END!" || !payload.is_empty() {
         return Err(c.err("missing END! section"));
     }
@@ -529,7 +597,7 @@ pub fn from_bytes(bytes: &[u8], path: &Path) -> Result<PlmcModel> {
     model
         .validate()
         .map_err(|e| Error::format(path, e.to_string()))?;
-    Ok(model)
+    Ok((model, tile))
 }
 
 /// Magic of a resumable-fit part file (one finished view, see `fit::pipeline`).
@@ -652,6 +720,29 @@ mod tests {
             assert_eq!(r, m);
             assert_eq!(to_bytes(&r).unwrap(), std::fs::read(&p).unwrap());
         }
+    }
+
+    #[test]
+    fn tile_sections_round_trip_and_tile_sizes_must_divide_the_planes() {
+        let mut m = model(ModelKind::PlmC, 7);
+        let t = TileSection {
+            tile_w: 5,
+            tile_h: 1,
+            payload: vec![1, 2, 3],
+        };
+        let bytes = to_bytes_tiled(&m, Some(&t)).unwrap();
+        let p = Path::new("tiled.plmc");
+        assert_eq!(from_bytes_tiled(&bytes, p).unwrap(), (m.clone(), Some(t)));
+        assert_eq!(from_bytes(&bytes, p).unwrap(), m);
+        assert_eq!(from_bytes_tiled(&to_bytes(&m).unwrap(), p).unwrap().1, None);
+        let bad = TileSection {
+            tile_w: 2,
+            tile_h: 3,
+            payload: Vec::new(),
+        };
+        assert!(to_bytes_tiled(&m, Some(&bad)).is_err());
+        m.kind = ModelKind::Lm;
+        assert!(to_bytes_tiled(&m, Some(&bad)).is_err());
     }
 
     #[test]

@@ -5,6 +5,7 @@ pub mod cache;
 pub mod delaunay;
 pub mod directions;
 pub mod format;
+pub mod plmc;
 pub mod raw;
 pub mod synth;
 pub mod ubo2003;

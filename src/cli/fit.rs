@@ -5,6 +5,7 @@ use btfpt::btf::{self, format};
 use btfpt::fit::model::ModelKind;
 use btfpt::fit::pipeline::{self, FitOptions, Stage};
 use btfpt::fit::report::raw_bytes;
+use btfpt::fit::tiling;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -46,6 +47,21 @@ pub struct FitArgs {
     /// Seed of the k-means++ initialisation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Cut a seamless tile of WxH texels (or N for N×N) out of the sample by minimum-error
+    /// boundary cuts and fit only its texels.
+    #[arg(long)]
+    pub tile: Option<String>,
+    /// Number of tiles (with --tile): the template plus copies whose inner area is covered by
+    /// patches from other positions (all share the borders, stacked vertically in the model).
+    #[arg(long, default_value_t = 1)]
+    pub tiles: usize,
+    /// Overlap band of the cuts in texels (with --tile; default min(W,H)/4 within 2..=16).
+    #[arg(long)]
+    pub overlap: Option<usize>,
+    /// Keep OUTPUT.parts/ (one file per fitted view) after the model is written, e.g. to merge
+    /// views fitted on several machines or to refit with other options later.
+    #[arg(long)]
+    pub keep_parts: bool,
 }
 
 /// Progress bars for the per-view stages.
@@ -70,7 +86,57 @@ pub(crate) fn stage_bars(views: usize, labels: &[&str]) -> (MultiProgress, Vec<P
 
 /// Runs `btfpt fit`.
 pub fn run(args: FitArgs) -> anyhow::Result<()> {
-    let source = btf::open(&args.data)?;
+    if args.tile.is_none() && (args.tiles != 1 || args.overlap.is_some()) {
+        anyhow::bail!("--tiles and --overlap need --tile WxH");
+    }
+    let spec = match &args.tile {
+        Some(t) => {
+            let (width, height) = tiling::parse_size(t)?;
+            Some(tiling::TileSpec {
+                width,
+                height,
+                count: args.tiles,
+                overlap: args.overlap,
+            })
+        }
+        None => None,
+    };
+    let data = btf::open(&args.data)?;
+    let stitch = match &spec {
+        Some(spec) => {
+            let t0 = std::time::Instant::now();
+            let st = tiling::find_stitch(&*data, spec)
+                .with_context(|| format!("cutting tiles out of {}", args.data.display()))?;
+            println!(
+                "tile: {}×{} × {} from the {}×{} sample at ({}, {}), overlap {}, cut RMS error {:.4}{} ({:.1} s)",
+                st.tile_w,
+                st.tile_h,
+                st.count,
+                st.sample_w,
+                st.sample_h,
+                st.origin.0,
+                st.origin.1,
+                st.overlap,
+                st.cut_error,
+                if st.patches.is_empty() {
+                    String::new()
+                } else {
+                    format!(", inner patches from {:?}", st.patches)
+                },
+                t0.elapsed().as_secs_f64()
+            );
+            Some(st)
+        }
+        None => None,
+    };
+    let tiled = match &stitch {
+        Some(st) => Some(tiling::TiledSource::new(&*data, st)?),
+        None => None,
+    };
+    let source: &dyn btf::BtfSource = match &tiled {
+        Some(t) => t,
+        None => &*data,
+    };
     let opts = FitOptions {
         kind: args.model.into(),
         clusters: args.clusters,
@@ -87,7 +153,8 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     };
     let (_mp, bars) = stage_bars(views, labels);
     let start = std::time::Instant::now();
-    let outcome = pipeline::fit_model(&*source, &opts, Some(&parts), &|_, stage| {
+    let key = stitch.as_ref().map_or(0, |s| s.key());
+    let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &|_, stage| {
         let i = match stage {
             Stage::Lm => 0,
             Stage::Plm => 1,
@@ -97,18 +164,19 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         if let Some(b) = bars.get(i) {
             b.inc(1);
         }
-    })?;
+    })
+    .with_context(|| format!("fitting {}", args.data.display()))?;
     bars.iter().for_each(|b| b.finish());
-    format::write(&args.output, &outcome.model)?;
-    std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    let section = stitch.as_ref().map(|s| s.section()).transpose()?;
+    format::write_tiled(&args.output, &outcome.model, section.as_ref())?;
+    if !args.keep_parts {
+        std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
+    }
     let bytes = std::fs::metadata(&args.output)
         .with_context(|| format!("reading size of {}", args.output.display()))?
         .len() as usize;
-    let raw = raw_bytes(
-        views,
-        source.lights().len(),
-        source.width() * source.height(),
-    );
+    // Raw size of the whole measured sample (for tiles: what the tile replaces).
+    let raw = raw_bytes(views, source.lights().len(), data.width() * data.height());
     println!(
         "{}: {} model, {} bytes (1:{:.1} vs 8-bit raw), fitted in {:.1} s{}",
         args.output.display(),

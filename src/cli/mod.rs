@@ -1,10 +1,12 @@
 //! Subcommands, one file each.
 
+pub mod compare;
 pub mod convert;
 pub mod info;
 pub mod merge;
 pub mod render;
 pub mod synth;
+pub mod tile_preview;
 
 use clap::{Parser, Subcommand};
 
@@ -35,6 +37,10 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
     Synth(synth::SynthArgs),
+    /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, z-tests.
+    Compare(compare::CompareArgs),
+    /// Render a model's seamless tile(s) for one view and light repeated over a grid (sRGB PNG).
+    TilePreview(tile_preview::TilePreviewArgs),
 }
 
 /// Runs one subcommand.
@@ -47,5 +53,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Fit(a) => fit::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Compare(a) => compare::run(a),
+        Command::TilePreview(a) => tile_preview::run(a),
     }
 }

@@ -46,6 +46,10 @@ pub struct RenderArgs {
     /// Seconds between checkpoints.
     #[arg(long, default_value_t = 60.0)]
     pub checkpoint_interval: f64,
+    /// Render every BTF material with this model instead of the scene's (raw data or a fitted
+    /// model of the same material, found next to the scene's file: S, S.btfc, S.plmc, S.lm.plmc…).
+    #[arg(long, value_name = "MODEL", value_parser = ["raw", "lm", "plm", "plmc"])]
+    pub btf_model: Option<String>,
 }
 
 fn parse_range(s: &str) -> anyhow::Result<(u32, u32)> {
@@ -139,7 +143,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
     }
-    let scene = btfpt::scene::load(&args.scene, &defines)?;
+    let scene = btfpt::scene::btf_bsdf::with_model_override(args.btf_model.as_deref(), || {
+        btfpt::scene::load(&args.scene, &defines)
+    })?;
+    if scene.meshes.is_empty() && scene.emitters.is_empty() {
+        bail!(
+            "{}: the scene is empty (no shapes and no emitters), the image would be black",
+            args.scene.display()
+        );
+    }
     let out = args
         .output
         .clone()
@@ -181,7 +193,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     {
         bail!("--threads {t}: must be in 1..=4096");
     }
-    if !(args.checkpoint_interval > 0.0) {
+    if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");
     }
     check_writable(&out)?;
@@ -194,7 +206,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         }
     }
     let ckpt = with_suffix(&out, ".ckpt");
-    let fp = fingerprint(&args.scene, &defines, &settings);
+    // The BTF model override changes the image: a checkpoint of another model must not resume.
+    let mut fp_defines = defines.clone();
+    if let Some(m) = &args.btf_model {
+        fp_defines.push(("--btf-model".into(), m.clone()));
+    }
+    let fp = fingerprint(&args.scene, &fp_defines, &settings);
 
     let rs = RenderScene::new(scene)?;
     eprintln!("{}", rs.summary());

@@ -14,3 +14,4 @@ pub mod plot;
 pub mod polynomial;
 pub mod report;
 pub mod select;
+pub mod tiling;

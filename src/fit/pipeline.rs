@@ -131,6 +131,8 @@ pub fn fit_view(
         .collect();
     stage(Stage::Lm);
     let lm_lobes: Vec<Lobe> = lm.iter().map(|p| p.unpack()).collect();
+    // Every original image sorted once, `[light][channel][rank]`, for both histogram matchings.
+    let sorted = sorted_planes(data, texels, nl);
     let mut out = ViewFit {
         lm,
         plm_polys: Vec::new(),
@@ -140,7 +142,7 @@ pub fn fit_view(
     if opts.kind == ModelKind::Lm {
         return out;
     }
-    out.plm_polys = fit_polys(lights, data, texels, |t, c, u| {
+    out.plm_polys = fit_polys(lights, &sorted, texels, |t, c, u| {
         lafortune::eval(&lm_lobes[3 * t + c], u)
     });
     stage(Stage::Plm);
@@ -252,7 +254,7 @@ pub fn fit_view(
         }
     }
     let unpacked: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
-    let polys = fit_polys(lights, data, texels, |t, c, u| {
+    let polys = fit_polys(lights, &sorted, texels, |t, c, u| {
         lafortune::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
     });
     out.plmc = Some((ViewParams::Clustered { k, table, index }, polys));
@@ -269,25 +271,37 @@ pub fn value_space(encoding: StoredEncoding, opts: &FitOptions) -> ValueSpace {
     }
 }
 
+/// The original images sorted ascending, `[light][channel][rank]` (`texels` values each).
+fn sorted_planes(data: &[f32], texels: usize, lights: usize) -> Vec<f32> {
+    let mut out = vec![0.0f32; lights * 3 * texels];
+    out.par_chunks_mut(texels).enumerate().for_each(|(i, dst)| {
+        let (l, c) = (i / 3, i % 3);
+        for (t, d) in dst.iter_mut().enumerate() {
+            *d = data[(l * texels + t) * 3 + c];
+        }
+        dst.sort_unstable_by(f32::total_cmp);
+    });
+    out
+}
+
 /// Polynomials `[light][channel]` mapping the model image `model(texel, channel, u)` onto the
-/// original image by histogram matching.
+/// original image (given sorted, see [`sorted_planes`]) by histogram matching.
 fn fit_polys(
     lights: &DirectionSet,
-    data: &[f32],
+    sorted: &[f32],
     texels: usize,
     model: impl Fn(usize, usize, crate::math::Vec3) -> f32 + Sync,
 ) -> Vec<Poly> {
     (0..lights.len() * 3)
         .into_par_iter()
         .map_init(
-            || (Vec::new(), Vec::new(), polynomial::Scratch::default()),
-            |(m, o, s), i| {
+            || (Vec::new(), polynomial::Scratch::default()),
+            |(m, s), i| {
                 let (l, c) = (i / 3, i % 3);
                 let u = lights.dirs[l];
                 m.clear();
                 m.extend((0..texels).map(|t| model(t, c, u)));
-                plane(data, texels, l, c, o);
-                polynomial::fit_mapping(m, o, s)
+                polynomial::fit_mapping_sorted(m, &sorted[i * texels..(i + 1) * texels], s)
             },
         )
         .collect()
@@ -295,6 +309,12 @@ fn fit_polys(
 
 /// A hash of everything that determines a view's fit, so parts of another fit are not reused.
 pub fn fingerprint(source: &dyn BtfSource, opts: &FitOptions) -> u64 {
+    fingerprint_keyed(source, opts, 0)
+}
+
+/// [`fingerprint`] that also covers `key` (a hash of how the source was derived, e.g. the tile
+/// stitch); key 0 gives the plain fingerprint.
+pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) -> u64 {
     use crate::math::rng::mix64;
     let mut h = 0x504c_4d43u64;
     let mut add = |v: u64| h = mix64(h ^ v);
@@ -317,11 +337,14 @@ pub fn fingerprint(source: &dyn BtfSource, opts: &FitOptions) -> u64 {
         add(d.1.to_bits() as u64);
     }
     add(FIT_CODE_VERSION);
+    if key != 0 {
+        add(key);
+    }
     h
 }
 
 /// Bumped whenever the fitting code changes results, so stale parts are refitted.
-const FIT_CODE_VERSION: u64 = 1;
+const FIT_CODE_VERSION: u64 = 2;
 
 /// The sidecar directory holding finished views of an interrupted fit: `mat.plmc.parts/`.
 pub fn parts_dir(output: &Path) -> PathBuf {
@@ -404,6 +427,18 @@ pub fn fit_model(
     parts: Option<&Path>,
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
+    fit_model_keyed(source, opts, 0, parts, progress)
+}
+
+/// [`fit_model`] whose part files are keyed by `key` too (see [`fingerprint_keyed`]), for sources
+/// derived from the data (tiles), so parts of another derivation are never reused.
+pub fn fit_model_keyed(
+    source: &dyn BtfSource,
+    opts: &FitOptions,
+    key: u64,
+    parts: Option<&Path>,
+    progress: &(dyn Fn(usize, Stage) + Sync),
+) -> Result<FitOutcome> {
     if opts.kind == ModelKind::PlmC && !(1..=65536).contains(&opts.clusters) {
         return Err(Error::Invalid(format!(
             "--clusters must be in 1..=65536, got {}",
@@ -414,7 +449,7 @@ pub fn fit_model(
         return Err(Error::Invalid("--features must be at least 1".into()));
     }
     let fitter = LobeFitter::new(&source.lights().dirs)?;
-    let fp = fingerprint(source, opts);
+    let fp = fingerprint_keyed(source, opts, key);
     if let Some(dir) = parts {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
@@ -439,6 +474,11 @@ pub fn fit_model(
                 }
             }
             let data = source.load_view(v)?;
+            if let Some(i) = data.iter().position(|x| !x.is_finite()) {
+                return Err(Error::Invalid(format!(
+                    "view {v}: measured value #{i} is NaN or infinite; the data must be finite"
+                )));
+            }
             let fit = fit_view(
                 &fitter,
                 source.lights(),

@@ -60,8 +60,25 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
     }
 }
 
+/// Largest image read (pixels): 16384² ≈ 3 GiB of linear RGB; larger headers are corrupt or absurd.
+pub const MAX_IMAGE_PIXELS: usize = 1 << 28;
+
 fn read_exr(path: &Path) -> Result<RgbImage> {
     use exr::prelude::*;
+    // Check the header's data window before the pixel buffer is allocated from it.
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| crate::Error::format(path, format!("cannot read EXR: {e}")))?;
+    for h in &meta.headers {
+        let (w, hgt) = (h.layer_size.width(), h.layer_size.height());
+        if w.checked_mul(hgt).is_none_or(|n| n > MAX_IMAGE_PIXELS) {
+            return Err(crate::Error::format(
+                path,
+                format!(
+                    "EXR data window {w}×{hgt} is corrupt or larger than {MAX_IMAGE_PIXELS} pixels"
+                ),
+            ));
+        }
+    }
     let img = read_first_rgba_layer_from_file(
         path,
         |res: Vec2<usize>, _| RgbImage::new(res.width(), res.height()),

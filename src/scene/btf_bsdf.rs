@@ -11,47 +11,82 @@
 //! values that `btfpt synth corduroy --size 32 --seed 1 --format exr -o DIR` writes, so Mitsuba
 //! renders the same material from `DIR`.
 
-use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
+use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
+use crate::btf::plmc;
 use crate::btf::synth::{MaterialKind, SynthSettings, measure};
 use crate::btf::{DirectionSet, RawBtf};
 use crate::{Error, Result};
+use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, Weak};
 
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` as written
 /// in the scene (a path, resolved with `resolve`, or a `synth:` source, see the module doc),
-/// `uv_scale` (texture repeats per unit uv), `model` ("raw" or a fitted model name).
+/// `uv_scale` (texture repeats per unit uv), `model_attr` ("raw", "lm", "plm" or "plmc"; see
+/// [`plmc::resolve_model_file`] for which file each one reads; a [`with_model_override`] in force
+/// replaces it). Synthetic sources exist only as raw data.
 pub fn build_btf(
     file: &Path,
     line: u32,
     filename: &str,
     resolve: &dyn Fn(&str) -> PathBuf,
     uv_scale: f32,
-    model: &str,
+    model_attr: &str,
 ) -> Result<Bsdf> {
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
         msg,
     };
+    let model = MODEL_OVERRIDE.with(|m| m.borrow().clone());
+    let model = model.as_deref().unwrap_or(model_attr);
+    if let Some(spec) = SynthSpec::parse(filename) {
+        if model != "raw" {
+            return Err(scene_error(format!(
+                "btf: \"{filename}\" is a synthetic raw BTF; model \"{model}\" needs a fitted .plmc file"
+            )));
+        }
+        let material = spec
+            .and_then(|s| shared_synth_material(&s))
+            .map_err(|e| scene_error(format!("btf: {e}")))?;
+        let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
+        return Ok(Bsdf::Btf(bsdf));
+    }
+    let path = resolve(filename);
     match model {
         "raw" => {
             // The message names the BTF source and the problem; the scene error adds where it is used.
-            let material = match SynthSpec::parse(filename) {
-                Some(spec) => spec
-                    .and_then(|s| shared_synth_material(&s))
-                    .map_err(|e| scene_error(format!("btf: {e}")))?,
-                None => shared_raw_material(&resolve(filename))
-                    .map_err(|e| scene_error(format!("btf: {e}")))?,
-            };
+            let material = plmc::resolve_model_file(&path, "raw")
+                .and_then(|p| shared_raw_material(&p))
+                .map_err(|e| scene_error(format!("btf: {e}")))?;
             let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
             Ok(Bsdf::Btf(bsdf))
         }
+        "lm" | "plm" | "plmc" => {
+            let bsdf = plmc::resolve_model_file(&path, model)
+                .and_then(|p| plmc::shared_material(&p))
+                .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
+                .map_err(|e| scene_error(format!("btf: {e}")))?;
+            Ok(Bsdf::Plmc(bsdf))
+        }
         other => Err(scene_error(format!(
-            "btf model \"{other}\" is not available in this build (supported: \"raw\")"
+            "btf model \"{other}\" is not one of \"raw\", \"lm\", \"plm\", \"plmc\""
         ))),
     }
+}
+
+thread_local! {
+    static MODEL_OVERRIDE: RefCell<Option<String>> = const { RefCell::new(None) };
+}
+
+/// Runs `f` (a scene load on this thread) with every `<bsdf type="btf">` using `model` instead of
+/// its own `model` property (the CLI's `--btf-model`); `None` leaves the scene as written.
+pub fn with_model_override<R>(model: Option<&str>, f: impl FnOnce() -> R) -> R {
+    let prev = MODEL_OVERRIDE.with(|m| m.replace(model.map(str::to_string)));
+    let out = f();
+    MODEL_OVERRIDE.with(|m| *m.borrow_mut() = prev);
+    out
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several

@@ -310,10 +310,12 @@ impl<'a, 'x> Builder<'a, 'x> {
         };
         let mut name = x.attr(node, "id").map(str::to_string);
         let wrap = |e: Error| x.err(node, format!("shape \"{}\": {e}", p.ty));
+        let mut mesh_file = None;
         let local = match p.ty.as_str() {
             "obj" | "ply" => {
                 let file = p.string_req("filename")?;
                 let path = x.resolve(&file);
+                mesh_file = Some(path.clone());
                 opts.face_normals = p.bool("face_normals", false)?;
                 opts.recompute_normals = true;
                 let flip_uv = p.bool("flip_tex_coords", p.ty == "obj")?;
@@ -387,7 +389,13 @@ impl<'a, 'x> Builder<'a, 'x> {
         p.finish()?;
         let mut mesh = shapes::to_world(local, &xf, opts).map_err(|m| p.err(m))?;
         if mesh.indices.is_empty() {
-            return Err(p.err("the shape has no triangles of non-zero area"));
+            return Err(p.err(match mesh_file {
+                Some(f) => format!(
+                    "{}: the mesh has no triangles of non-zero area",
+                    f.display()
+                ),
+                None => "the shape has no triangles of non-zero area".into(),
+            }));
         }
         mesh.name = name.unwrap_or_else(|| p.ty.clone());
         mesh.bsdf = bsdf;
@@ -631,6 +639,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             return Err(p.err("raw=\"true\" (no sRGB decoding of 8-bit images) is not supported"));
         }
         let img = crate::io::read_image(&path).map_err(|e| p.err(e.to_string()))?;
+        check_finite(&img, &path).map_err(|m| p.err(m))?;
         let t = Texture::Bitmap(Arc::new(img));
         self.tex_memo.insert(node.id(), t.clone());
         Ok(t)
@@ -710,6 +719,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
                 let path = x.resolve(&file);
                 let image = crate::io::read_image(&path).map_err(|e| p.err(e.to_string()))?;
+                check_finite(&image, &path).map_err(|m| p.err(m))?;
                 Emitter::EnvMap {
                     image: Arc::new(image),
                     to_world,
@@ -834,4 +844,20 @@ fn conductor_ior(p: &Props) -> Result<(Spectrum, Spectrum)> {
         )));
     }
     Ok((p.color("eta", Vec3::ZERO)?, p.color("k", Vec3::ONE)?))
+}
+
+/// Rejects images holding NaN or infinite values (they would poison every sample that sees them).
+fn check_finite(img: &crate::io::RgbImage, path: &Path) -> std::result::Result<(), String> {
+    match img.data.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(i) => {
+            let px = i / 3;
+            Err(format!(
+                "{}: pixel ({}, {}) is NaN or infinite; images must hold finite values",
+                path.display(),
+                px % img.width.max(1),
+                px / img.width.max(1)
+            ))
+        }
+    }
 }

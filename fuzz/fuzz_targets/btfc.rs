@@ -1,0 +1,18 @@
+//! `.btfc` cache reader: header parse and the full memory-mapped load with CRC checks.
+#![no_main]
+mod common;
+use btfpt::btf::BtfSource;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let p = common::scratch("m.btfc", data);
+    if let Ok(b) = btfpt::btf::cache::load_cache(&p) {
+        // Touch the first and last value so a header/length mismatch would fault.
+        let (w, h) = (b.width(), b.height());
+        let (nv, nl) = (b.views().len(), b.lights().len());
+        if w > 0 && h > 0 && nv > 0 && nl > 0 {
+            let _ = b.texel(0, 0, 0, 0);
+            let _ = b.texel(nv - 1, nl - 1, w - 1, h - 1);
+        }
+    }
+});

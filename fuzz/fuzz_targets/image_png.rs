@@ -1,0 +1,9 @@
+//! PNG/JPEG input (`io::read_image`) on arbitrary bytes.
+#![no_main]
+mod common;
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let p = common::scratch("img.png", data);
+    let _ = btfpt::io::read_image(&p);
+});

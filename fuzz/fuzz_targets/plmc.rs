@@ -1,0 +1,17 @@
+//! `.plmc` model reader (whole file and per-view part file) on arbitrary bytes; a model that reads
+//! back is reconstructed for its first view, so inconsistent tables the reader let through show up.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use std::path::Path;
+
+fuzz_target!(|data: &[u8]| {
+    let p = Path::new("fuzz.plmc");
+    if let Ok(m) = btfpt::btf::format::from_bytes(data, p) {
+        let mut out = Vec::new();
+        m.reconstruct_view(0, &mut out);
+    }
+    if data.len() >= 16 {
+        let fp = u64::from_le_bytes(data[4..12].try_into().unwrap_or_default());
+        let _ = btfpt::btf::format::part_from_bytes(data, p, fp, 0);
+    }
+});

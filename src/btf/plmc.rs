@@ -1,0 +1,817 @@
+//! The fitted models (LM, PLM, PLM-C; DESIGN §4) evaluated at every shading hit, and their BSDF.
+//!
+//! For a hit (texel, ω_v, ω_l): the 3 measured views around ω_v with barycentric weights; per view
+//! and channel the texel's lobe (PLM-C: its cluster's lobe via the u8 index planes) is evaluated
+//! at the actual ω_l, mapped by the degree-4 polynomial whose coefficients are interpolated over
+//! the 3 measured lights around ω_l (LM: identity), decoded to linear if the model was fitted in
+//! sRGB (`srgb_to_linear(max(0, ·))`), and the 3 views are blended.
+//!
+//! Layout (data-oriented, nothing allocated per evaluation, no branch on data in the inner loop):
+//! - the 3 views × 3 channels are 9 of [`LANES`] = 12 lanes (three 4-wide or 8+4 vectors); lobe
+//!   parameters are gathered into structure-of-arrays lanes `[ρ; 12] [Dx; 12] …` and the
+//!   Lafortune power, polynomial and sRGB decode run lane-wise with a branch-free exp2/log2;
+//! - PLM-C cluster tables: per (view, channel) K records `{ρ, Dx, Dy, Dz, n}` padded to 8 f32
+//!   (32-byte aligned, one record never straddles a cache line: a gather is one line, not five
+//!   as with a table per parameter);
+//! - index planes: per view `[texel][R, G, B, pad]` u8 (u16 above 256 clusters), so one texel of
+//!   one view is one 4-byte load and neighbouring texels share cache lines;
+//! - polynomial coefficients: dense `[view][light]` rows of 16 f32 (a_0..a_4 for R, G, B + pad),
+//!   64-byte aligned: light interpolation is three 16-wide multiply-adds on three cache lines.
+//!
+//! Sampling reuses the raw material's tabulated light distribution ([`BtfMaterial`]), built at
+//! load from the model's texel-averaged values at the measured directions, mixed with the uniform
+//! defensive component exactly as for raw data.
+//!
+//! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
+#![allow(clippy::needless_range_loop)]
+
+use crate::bsdf::{BsdfFlags, BsdfSample, BtfMaterial};
+use crate::btf::directions::DirectionInterp;
+use crate::btf::{RawBtf, StoredEncoding};
+use crate::fit::lafortune;
+use crate::fit::model::{ModelKind, PlmcModel, ValueSpace, ViewParams};
+use crate::fit::polynomial;
+use crate::geometry::SurfaceInteraction;
+use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
+use crate::{Error, Result};
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, Weak};
+
+/// Lanes of one evaluation: 3 views × 3 channels = 9, padded to a multiple of 4.
+pub const LANES: usize = 12;
+/// Texels per axis averaged (at most) per image when building the sampling tables.
+const TABLE_TEXELS: usize = 64;
+
+/// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct LobeRec(pub [f32; 8]);
+
+/// Polynomial coefficients of one (view, light): `[a_0..a_4 of R, of G, of B, pad]`.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub struct PolyRow(pub [f32; 16]);
+
+/// How the per-texel lobes are stored.
+enum Params {
+    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[view][texel][4]`.
+    Clustered8 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u8; 4]>,
+    },
+    /// PLM-C with more than 256 clusters: u16 indices.
+    Clustered16 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u16; 4]>,
+    },
+    /// LM / PLM: one lobe per texel and channel, `[view][texel][channel]` as `[ρ, Dx, Dy, Dz, n]`.
+    Texel { lobes: Vec<[f32; 5]> },
+}
+
+/// Gathers the lobe of (view, texel, channel): the only part that differs between the layouts.
+trait LobeAt {
+    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5];
+}
+
+struct Clustered<'a, I> {
+    k: usize,
+    texels: usize,
+    records: &'a [LobeRec],
+    index: &'a [[I; 4]],
+}
+
+impl<I: Copy + Into<usize>> LobeAt for Clustered<'_, I> {
+    #[inline(always)]
+    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
+        let i: usize = self.index[view * self.texels + texel][channel].into();
+        let r = &self.records[(view * 3 + channel) * self.k + i].0;
+        [r[0], r[1], r[2], r[3], r[4]]
+    }
+}
+
+struct PerTexel<'a> {
+    texels: usize,
+    lobes: &'a [[f32; 5]],
+}
+
+impl LobeAt for PerTexel<'_> {
+    #[inline(always)]
+    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
+        self.lobes[(view * self.texels + texel) * 3 + channel]
+    }
+}
+
+/// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
+/// shared (`Arc`) by every [`PlmcBsdf`] that uses the same file.
+pub struct PlmcMaterial {
+    kind: ModelKind,
+    space: ValueSpace,
+    width: usize,
+    height: usize,
+    n_lights: usize,
+    lights: DirectionInterp,
+    params: Params,
+    /// `[view][light]`; empty for LM.
+    polys: Vec<PolyRow>,
+    /// `[view][channel]`: the largest lobe value Y over the measured lights (and the clusters /
+    /// sampled texels). The polynomials were fitted on Y in this range; Y is clamped to it before
+    /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
+    /// light directions near a sharp lobe's peak.
+    y_max: Vec<[f32; 3]>,
+    /// Sampling tables (and the view interpolator) built from the model's texel-mean values.
+    sampler: BtfMaterial,
+}
+
+impl PlmcMaterial {
+    /// Builds the evaluation layout, interpolators and sampling tables of a validated model.
+    pub fn new(model: &PlmcModel) -> Result<Self> {
+        model.validate()?;
+        let (nv, nl) = (model.views.len(), model.lights.len());
+        let texels = model.width * model.height;
+        let lights = model
+            .lights
+            .interpolator()
+            .map_err(|e| Error::Invalid(format!("model light directions: {e}")))?;
+        let rec = |l: [f32; 5]| LobeRec([l[0], l[1], l[2], l[3], l[4], 0.0, 0.0, 0.0]);
+        let params = match model.kind {
+            ModelKind::PlmC => {
+                let k = model.clusters.max(1);
+                let mut records = vec![LobeRec::default(); nv * 3 * k];
+                let mut idx16 = vec![[0u16; 4]; nv * texels];
+                for (v, p) in model.params.iter().enumerate() {
+                    let ViewParams::Clustered {
+                        k: kv,
+                        table,
+                        index,
+                    } = p
+                    else {
+                        return Err(Error::Invalid(format!(
+                            "PLM-C model: view {v} has per-texel lobes"
+                        )));
+                    };
+                    for j in 0..*kv {
+                        for c in 0..3 {
+                            records[(v * 3 + c) * k + j] = rec(table[3 * j + c].unpack());
+                        }
+                    }
+                    for t in 0..texels {
+                        let d = &mut idx16[v * texels + t];
+                        d[..3].copy_from_slice(&index[3 * t..3 * t + 3]);
+                    }
+                }
+                if k <= 256 {
+                    let index = idx16
+                        .iter()
+                        .map(|q| [q[0] as u8, q[1] as u8, q[2] as u8, 0])
+                        .collect();
+                    Params::Clustered8 { k, records, index }
+                } else {
+                    Params::Clustered16 {
+                        k,
+                        records,
+                        index: idx16,
+                    }
+                }
+            }
+            ModelKind::Lm | ModelKind::Plm => {
+                let mut lobes = Vec::with_capacity(nv * texels * 3);
+                for (v, p) in model.params.iter().enumerate() {
+                    let ViewParams::Texel(l) = p else {
+                        return Err(Error::Invalid(format!(
+                            "{} model: view {v} is clustered",
+                            model.kind.name()
+                        )));
+                    };
+                    lobes.extend(l.iter().map(|p| p.unpack()));
+                }
+                Params::Texel { lobes }
+            }
+        };
+        let polys = if model.kind.has_polys() {
+            let mut rows = vec![PolyRow::default(); nv * nl];
+            for v in 0..nv {
+                for l in 0..nl {
+                    for c in 0..3 {
+                        rows[v * nl + l].0[5 * c..5 * c + 5].copy_from_slice(&model.poly(v, l, c));
+                    }
+                }
+            }
+            rows
+        } else {
+            Vec::new()
+        };
+        let (means, y_max) = mean_values(model);
+        let table = RawBtf::from_f32(
+            model.views.clone(),
+            model.lights.clone(),
+            1,
+            1,
+            StoredEncoding::Linear,
+            &means,
+        )?;
+        let sampler = BtfMaterial::new(Arc::new(table))?;
+        Ok(PlmcMaterial {
+            kind: model.kind,
+            space: model.space,
+            width: model.width,
+            height: model.height,
+            n_lights: nl,
+            lights,
+            params,
+            polys,
+            y_max,
+            sampler,
+        })
+    }
+
+    /// Reads a `.plmc` file and builds the material; errors name the file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let model = crate::btf::format::read(path)?;
+        Self::new(&model).map_err(|e| Error::format(path, e.to_string()))
+    }
+
+    /// The model kind.
+    pub fn kind(&self) -> ModelKind {
+        self.kind
+    }
+
+    /// Texels per row.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows of texels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
+    #[inline]
+    pub fn view_lookup(&self, wi: Vec3) -> ([u32; 3], [f32; 3]) {
+        self.sampler.view_interp().lookup(wi)
+    }
+
+    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
+    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
+    #[inline]
+    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
+        let (vi, vw) = self.view_lookup(wi);
+        self.eval_b_with_views(vi, vw, wo, &[(y * self.width + x, 1.0)])
+    }
+
+    /// B blended over `texels` (texel index, weight) with the view lookup already done.
+    #[inline]
+    pub fn eval_b_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let texel_count = self.width * self.height;
+        match &self.params {
+            Params::Clustered8 { k, records, index } => self.eval_texels(
+                &Clustered {
+                    k: *k,
+                    texels: texel_count,
+                    records,
+                    index,
+                },
+                vi,
+                vw,
+                wo,
+                texels,
+            ),
+            Params::Clustered16 { k, records, index } => self.eval_texels(
+                &Clustered {
+                    k: *k,
+                    texels: texel_count,
+                    records,
+                    index,
+                },
+                vi,
+                vw,
+                wo,
+                texels,
+            ),
+            Params::Texel { lobes } => self.eval_texels(
+                &PerTexel {
+                    texels: texel_count,
+                    lobes,
+                },
+                vi,
+                vw,
+                wo,
+                texels,
+            ),
+        }
+    }
+
+    #[inline(always)]
+    fn eval_texels<P: LobeAt>(
+        &self,
+        p: &P,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        // Light interpolation of the polynomial rows: once per evaluation, shared by all texels.
+        let mut coef = [[0f32; 16]; 3];
+        let has_polys = !self.polys.is_empty();
+        if has_polys {
+            let (li, lw) = self.lights.lookup(wo);
+            for a in 0..3 {
+                let base = vi[a] as usize * self.n_lights;
+                let r = [
+                    &self.polys[base + li[0] as usize].0,
+                    &self.polys[base + li[1] as usize].0,
+                    &self.polys[base + li[2] as usize].0,
+                ];
+                for j in 0..16 {
+                    coef[a][j] = lw[0] * r[0][j] + lw[1] * r[1][j] + lw[2] * r[2][j];
+                }
+            }
+        }
+        let mut out = [0f32; 3];
+        for &(t, tw) in texels {
+            let v = self.eval_lanes(p, vi, &coef, has_polys, wo, t);
+            for c in 0..3 {
+                out[c] += tw * (vw[0] * v[c] + vw[1] * v[3 + c] + vw[2] * v[6 + c]);
+            }
+        }
+        out
+    }
+
+    /// The 9 (view, channel) values of one texel, linear, lane `3·view + channel`.
+    #[inline(always)]
+    fn eval_lanes<P: LobeAt>(
+        &self,
+        p: &P,
+        vi: [u32; 3],
+        coef: &[[f32; 16]; 3],
+        has_polys: bool,
+        wo: Vec3,
+        texel: usize,
+    ) -> [f32; LANES] {
+        let mut rho = [0f32; LANES];
+        let mut dx = [0f32; LANES];
+        let mut dy = [0f32; LANES];
+        let mut dz = [0f32; LANES];
+        let mut n = [1f32; LANES];
+        for a in 0..3 {
+            for c in 0..3 {
+                let l = p.lobe(vi[a] as usize, texel, c);
+                let i = 3 * a + c;
+                rho[i] = l[0];
+                dx[i] = l[1];
+                dy[i] = l[2];
+                dz[i] = l[3];
+                n[i] = l[4];
+            }
+        }
+        let mut y = [0f32; LANES];
+        for i in 0..LANES {
+            let b = dx[i] * wo.x + dy[i] * wo.y + dz[i] * wo.z;
+            let pw = fast_pow(b.max(1e-30), n[i]);
+            y[i] = if b > 0.0 { rho[i] * pw } else { 0.0 };
+        }
+        if has_polys {
+            let mut y_max = [0f32; LANES];
+            for v in 0..3 {
+                y_max[3 * v..3 * v + 3].copy_from_slice(&self.y_max[vi[v] as usize]);
+            }
+            for i in 0..LANES {
+                y[i] = y[i].min(y_max[i]);
+            }
+            let mut a = [[0f32; LANES]; 5];
+            for v in 0..3 {
+                for c in 0..3 {
+                    for j in 0..5 {
+                        a[j][3 * v + c] = coef[v][5 * c + j];
+                    }
+                }
+            }
+            for i in 0..LANES {
+                y[i] = (((a[4][i] * y[i] + a[3][i]) * y[i] + a[2][i]) * y[i] + a[1][i]) * y[i]
+                    + a[0][i];
+            }
+        }
+        match self.space {
+            ValueSpace::Linear => {
+                for v in y.iter_mut() {
+                    *v = v.max(0.0);
+                }
+            }
+            ValueSpace::Srgb => {
+                for v in y.iter_mut() {
+                    *v = fast_srgb_to_linear(*v);
+                }
+            }
+        }
+        y
+    }
+}
+
+/// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact
+/// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models), and the
+/// largest lobe value per view and channel over the measured lights (see `y_max`).
+fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>) {
+    let (nv, nl) = (model.views.len(), model.lights.len());
+    let (w, h) = (model.width, model.height);
+    let value = |v: usize, l: usize, c: usize, lobe: &lafortune::Lobe| {
+        model.space.to_linear(polynomial::eval(
+            &model.poly(v, l, c),
+            lafortune::eval(lobe, model.lights.dirs[l]),
+        ))
+    };
+    // Largest value of a lobe over the measured lights: ρ · (max_l D·u_l)^n (x^n is monotone).
+    let peak = |lobe: &lafortune::Lobe| {
+        let b = model.lights.dirs.iter().fold(0f32, |m, u| {
+            m.max(lobe[1] * u.x + lobe[2] * u.y + lobe[3] * u.z)
+        });
+        if b > 0.0 {
+            lobe[0] * b.powf(lobe[4])
+        } else {
+            0.0
+        }
+    };
+    let per_view: Vec<(Vec<f32>, [f32; 3])> = (0..nv)
+        .into_par_iter()
+        .map(|v| {
+            let mut out = vec![0f32; nl * 3];
+            let mut y_max = [0f32; 3];
+            match &model.params[v] {
+                ViewParams::Clustered { k, table, index } => {
+                    let mut counts = vec![0u32; 3 * k];
+                    for (t, &i) in index.iter().enumerate() {
+                        counts[3 * i as usize + t % 3] += 1;
+                    }
+                    let lobes: Vec<_> = table.iter().map(|p| p.unpack()).collect();
+                    for (j, lobe) in lobes.iter().enumerate() {
+                        if counts[j] > 0 {
+                            y_max[j % 3] = y_max[j % 3].max(peak(lobe));
+                        }
+                    }
+                    for l in 0..nl {
+                        for c in 0..3 {
+                            let mut s = 0f64;
+                            for j in 0..*k {
+                                let n = counts[3 * j + c];
+                                if n > 0 {
+                                    s += n as f64 * value(v, l, c, &lobes[3 * j + c]) as f64;
+                                }
+                            }
+                            out[3 * l + c] = (s / (w * h) as f64) as f32;
+                        }
+                    }
+                }
+                ViewParams::Texel(packed) => {
+                    let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
+                    let picks: Vec<usize> = (0..h)
+                        .step_by(sy)
+                        .flat_map(|y| (0..w).step_by(sx).map(move |x| y * w + x))
+                        .collect();
+                    let lobes: Vec<[lafortune::Lobe; 3]> = picks
+                        .iter()
+                        .map(|&t| std::array::from_fn(|c| packed[3 * t + c].unpack()))
+                        .collect();
+                    for (t, p) in packed.iter().enumerate() {
+                        y_max[t % 3] = y_max[t % 3].max(peak(&p.unpack()));
+                    }
+                    for l in 0..nl {
+                        for c in 0..3 {
+                            let s: f64 = lobes.iter().map(|lb| value(v, l, c, &lb[c]) as f64).sum();
+                            out[3 * l + c] = (s / lobes.len() as f64) as f32;
+                        }
+                    }
+                }
+            }
+            (out, y_max)
+        })
+        .collect();
+    let y_max = per_view.iter().map(|p| p.1).collect();
+    (per_view.into_iter().flat_map(|p| p.0).collect(), y_max)
+}
+
+/// log2 of a positive normal f32, branch-free (exponent + odd series in (m−1)/(m+1) on
+/// [√½, √2)); absolute error below 1e-7.
+#[inline(always)]
+pub fn fast_log2(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
+    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    let big = m > std::f32::consts::SQRT_2;
+    m = if big { m * 0.5 } else { m };
+    e += big as i32;
+    let t = (m - 1.0) / (m + 1.0);
+    let t2 = t * t;
+    const C: f32 = 2.0 / std::f32::consts::LN_2;
+    let s = t * (C + t2 * (C / 3.0 + t2 * (C / 5.0 + t2 * (C / 7.0 + t2 * (C / 9.0)))));
+    e as f32 + s
+}
+
+/// 2^x, branch-free, for x clamped to [−125, 127] (round-to-nearest split + degree-6 series on
+/// [−½, ½]); relative error below 3e-7.
+#[inline(always)]
+pub fn fast_exp2(x: f32) -> f32 {
+    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2^23: adding it rounds to an integer
+    let x = x.clamp(-125.0, 127.0);
+    let r = x + MAGIC;
+    let i = (r.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32);
+    let f = x - (r - MAGIC);
+    let l = std::f32::consts::LN_2;
+    let p = 1.0
+        + f * (l + f
+            * (l * l / 2.0
+                + f * (l * l * l / 6.0
+                    + f * (l * l * l * l / 24.0
+                        + f * (l * l * l * l * l / 120.0 + f * (l * l * l * l * l * l / 720.0))))));
+    f32::from_bits((p.to_bits() as i32).wrapping_add(i << 23) as u32)
+}
+
+/// b^n for b > 0 (normal) and n ≥ 0: exp2(n · log2 b).
+#[inline(always)]
+pub fn fast_pow(b: f32, n: f32) -> f32 {
+    fast_exp2(n * fast_log2(b))
+}
+
+/// `srgb_to_linear(max(0, v))`, branch-free.
+#[inline(always)]
+pub fn fast_srgb_to_linear(v: f32) -> f32 {
+    let v = v.max(0.0);
+    let hi = fast_pow(((v + 0.055) * (1.0 / 1.055)).max(1e-30), 2.4);
+    if v <= 0.04045 { v * (1.0 / 12.92) } else { hi }
+}
+
+/// Summary only: the tables can be large.
+impl std::fmt::Debug for PlmcMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let clusters = match &self.params {
+            Params::Clustered8 { k, .. } | Params::Clustered16 { k, .. } => *k,
+            Params::Texel { .. } => 0,
+        };
+        f.debug_struct("PlmcMaterial")
+            .field("kind", &self.kind.name())
+            .field("space", &self.space)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("lights", &self.n_lights)
+            .field("clusters", &clusters)
+            .finish_non_exhaustive()
+    }
+}
+
+/// A fitted-model BTF instance: shared model + uv tiling + texel filter.
+#[derive(Clone, Debug)]
+pub struct PlmcBsdf {
+    material: Arc<PlmcMaterial>,
+    /// Texture-space repetitions per unit of uv.
+    uv_scale: f32,
+    /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
+    bilinear: bool,
+}
+
+impl PlmcBsdf {
+    /// An instance of `material` tiled `uv_scale` times per unit uv (finite, non-zero).
+    pub fn new(material: Arc<PlmcMaterial>, uv_scale: f32, bilinear: bool) -> Result<Self> {
+        if !uv_scale.is_finite() || uv_scale == 0.0 {
+            return Err(Error::Invalid(format!(
+                "btf uv_scale must be finite and non-zero, got {uv_scale}"
+            )));
+        }
+        Ok(PlmcBsdf {
+            material,
+            uv_scale,
+            bilinear,
+        })
+    }
+
+    /// The shared material.
+    pub fn material(&self) -> &Arc<PlmcMaterial> {
+        &self.material
+    }
+
+    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (DESIGN §2).
+    #[inline]
+    pub fn texel(&self, uv: Vec2) -> (usize, usize) {
+        let m = &self.material;
+        let idx = |c: f32, n: usize| {
+            let s = c * self.uv_scale;
+            let f = s - s.floor();
+            ((f * n as f32) as usize).min(n - 1)
+        };
+        (idx(uv.x, m.width), idx(uv.y, m.height))
+    }
+
+    /// The texels (index, weight) that filter uv: 1 (nearest) or 4 (bilinear between texel
+    /// centres, wrapping at the tile border).
+    #[inline]
+    fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
+        let m = &self.material;
+        if !self.bilinear {
+            let (x, y) = self.texel(uv);
+            return ([(y * m.width + x, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], 1);
+        }
+        let axis = |c: f32, n: usize| {
+            let s = c * self.uv_scale;
+            let p = (s - s.floor()) * n as f32 - 0.5;
+            let f = p.floor();
+            let i0 = (f as i64).rem_euclid(n as i64) as usize;
+            (i0, (i0 + 1) % n, (p - f).clamp(0.0, 1.0))
+        };
+        let (x0, x1, fx) = axis(uv.x, m.width);
+        let (y0, y1, fy) = axis(uv.y, m.height);
+        let w = m.width;
+        (
+            [
+                (y0 * w + x0, (1.0 - fx) * (1.0 - fy)),
+                (y0 * w + x1, fx * (1.0 - fy)),
+                (y1 * w + x0, (1.0 - fx) * fy),
+                (y1 * w + x1, fx * fy),
+            ],
+            4,
+        )
+    }
+
+    /// Lobes: measured reflection, glossy in general, varying over the surface.
+    pub fn flags(&self) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
+    }
+
+    #[inline]
+    fn f_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3, uv: Vec2) -> Spectrum {
+        let (t, n) = self.texels(uv);
+        Spectrum::from(self.material.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
+    }
+
+    /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
+    #[inline]
+    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        self.f_with_views(vi, vw, wo, si.uv)
+    }
+
+    /// Solid-angle pdf of [`PlmcBsdf::sample`].
+    #[inline]
+    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        self.material.sampler.light_pdf(vi, vw, wo)
+    }
+
+    /// `(eval, pdf)` sharing the view lookup.
+    #[inline]
+    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        (
+            self.f_with_views(vi, vw, wo, si.uv),
+            self.material.sampler.light_pdf(vi, vw, wo),
+        )
+    }
+
+    /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
+    pub fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        let m = &*self.material;
+        let (vi, vw) = m.view_lookup(si.wi);
+        let wo = m.sampler.sample_light(vi, vw, sample1, sample2);
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let pdf = m.sampler.light_pdf(vi, vw, wo);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        let weight = self.f_with_views(vi, vw, wo, si.uv) / pdf;
+        let s = BsdfSample {
+            wo,
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::GLOSSY_REFLECTION,
+        };
+        Some((s, weight))
+    }
+}
+
+/// The model names `<bsdf type="btf">` and `--btf-model` accept.
+pub const MODEL_NAMES: [&str; 4] = ["raw", "lm", "plm", "plmc"];
+
+/// The file that holds `model` ("raw", "lm", "plm", "plmc") of the material named by
+/// `filename` (a raw BTF or a `.plmc` model). Convention: the material `S` has its raw data at
+/// `S` (UBO2003 folder), `S.btfc` or `S.btf`, and its models at `S.plmc` (any kind) or
+/// `S.<model>.plmc`. A file of the requested kind itself is always used as is.
+pub fn resolve_model_file(filename: &Path, model: &str) -> Result<PathBuf> {
+    if !MODEL_NAMES.contains(&model) {
+        return Err(Error::Invalid(format!(
+            "btf model \"{model}\" is not one of raw, lm, plm, plmc"
+        )));
+    }
+    let name = filename.to_string_lossy();
+    let is_plmc = name.to_ascii_lowercase().ends_with(".plmc");
+    // The material stem: without .plmc / .lm.plmc / .btfc / .btf.
+    let stem: String = if is_plmc {
+        let s = &name[..name.len() - 5];
+        ["lm", "plm", "plmc"]
+            .iter()
+            .find_map(|m| s.strip_suffix(&format!(".{m}")))
+            .unwrap_or(s)
+            .to_string()
+    } else {
+        let lower = name.to_ascii_lowercase();
+        [".btfc", ".btf"]
+            .iter()
+            .find(|e| lower.ends_with(*e))
+            .map_or(name.to_string(), |e| {
+                name[..name.len() - e.len()].to_string()
+            })
+    };
+    let kind_of = |p: &Path| -> Option<&'static str> {
+        use std::io::Read;
+        // The HEAD payload starts after magic(4) version(4) tag(4) len(8) with the kind byte.
+        let mut head = [0u8; 21];
+        std::fs::File::open(p).ok()?.read_exact(&mut head).ok()?;
+        (&head[..4] == crate::btf::format::MAGIC && &head[8..12] == b"HEAD")
+            .then(|| ModelKind::from_code(head[20]).map(|k| k.name()))
+            .flatten()
+    };
+    let mut tried = Vec::new();
+    if model == "raw" {
+        if !is_plmc {
+            return Ok(filename.to_path_buf());
+        }
+        for c in [stem.clone(), format!("{stem}.btfc"), format!("{stem}.btf")] {
+            let p = PathBuf::from(&c);
+            if p.exists() {
+                return Ok(p);
+            }
+            tried.push(c);
+        }
+    } else {
+        // The named model file itself, if it is of that kind, or unreadable (the reader will say
+        // precisely what is wrong with it).
+        if is_plmc && kind_of(filename).is_none_or(|k| k == model) {
+            return Ok(filename.to_path_buf());
+        }
+        let own = format!("{stem}.{model}.plmc");
+        let plain = format!("{stem}.plmc");
+        for c in [filename.to_string_lossy().to_string(), own, plain] {
+            let p = PathBuf::from(&c);
+            if c.to_ascii_lowercase().ends_with(".plmc") && kind_of(&p) == Some(model) {
+                return Ok(p);
+            }
+            if !tried.contains(&c) {
+                tried.push(c);
+            }
+        }
+    }
+    Err(Error::format(
+        filename,
+        format!(
+            "no {model} data for this material (looked for {}{})",
+            tried.join(", "),
+            if model == "raw" {
+                ""
+            } else {
+                " holding a model of that kind"
+            }
+        ),
+    ))
+}
+
+/// One material per model file while anything uses it (several `<bsdf>` may share a file).
+pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
+    static CACHE: Mutex<Option<HashMap<PathBuf, Weak<PlmcMaterial>>>> = Mutex::new(None);
+    let key = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+    let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    let cache = guard.get_or_insert_with(HashMap::new);
+    if let Some(m) = cache.get(&key).and_then(Weak::upgrade) {
+        return Ok(m);
+    }
+    cache.retain(|_, w| w.strong_count() > 0);
+    let m = Arc::new(PlmcMaterial::load(path)?);
+    cache.insert(key, Arc::downgrade(&m));
+    Ok(m)
+}
+
+#[cfg(test)]
+mod tests;

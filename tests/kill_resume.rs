@@ -1,0 +1,236 @@
+//! Kill tests: a render interrupted by SIGINT and then SIGKILL and resumed twice ends with the same
+//! EXR bytes as an uninterrupted render (same seed); a fit killed midway and rerun writes the same
+//! `.plmc` bytes as an uninterrupted fit.
+
+use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant, SystemTime};
+
+fn btfpt() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_btfpt"));
+    c.stdout(Stdio::null()).stderr(Stdio::piped());
+    c
+}
+
+fn signal(child: &Child, sig: &str) {
+    let st = Command::new("kill")
+        .arg(format!("-{sig}"))
+        .arg(child.id().to_string())
+        .status()
+        .unwrap();
+    assert!(st.success(), "kill -{sig} failed");
+}
+
+fn mtime(p: &Path) -> Option<SystemTime> {
+    std::fs::metadata(p).and_then(|m| m.modified()).ok()
+}
+
+/// Waits until `ready()` holds while `child` runs; panics if it exits first or after 60 s.
+fn wait_for(child: &mut Child, what: &str, ready: impl Fn() -> bool) {
+    let t0 = Instant::now();
+    while !ready() {
+        if let Some(st) = child.try_wait().unwrap() {
+            panic!("the process ended ({st}) before {what}: make the job slower");
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "timeout waiting for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+fn stderr_of(child: Child) -> (std::process::ExitStatus, String) {
+    let out = child.wait_with_output().unwrap();
+    (out.status, String::from_utf8_lossy(&out.stderr).to_string())
+}
+
+const SCENE: &str = r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 0, 3.5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="1024"/></sampler>
+        <film type="hdrfilm">
+            <integer name="width" value="24"/>
+            <integer name="height" value="24"/>
+            <rfilter type="box"/>
+        </film>
+    </sensor>
+    <shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.5, 0.3"/></bsdf>
+        <transform name="to_world"><scale value="0.6"/><rotate y="1" angle="30"/></transform></shape>
+    <shape type="rectangle"><bsdf type="diffuse"/>
+        <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/><translate y="-0.6"/></transform></shape>
+    <shape type="sphere"><float name="radius" value="0.3"/><point name="center" x="0.8" y="1.2" z="0.5"/>
+        <emitter type="area"><rgb name="radiance" value="20, 18, 15"/></emitter></shape>
+</scene>
+"#;
+
+fn render_args(scene: &Path, out: &Path) -> Vec<String> {
+    [
+        "render",
+        &scene.display().to_string(),
+        "-o",
+        &out.display().to_string(),
+        "--threads",
+        "1",
+        "--seed",
+        "7",
+        "--checkpoint-interval",
+        "0.1",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+#[test]
+fn render_killed_by_sigint_then_sigkill_resumes_bit_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.xml");
+    std::fs::write(&scene, SCENE).unwrap();
+
+    // Uninterrupted reference.
+    let reference = dir.path().join("ref.exr");
+    let (st, err) = stderr_of(
+        btfpt()
+            .args(render_args(&scene, &reference))
+            .spawn()
+            .unwrap(),
+    );
+    assert!(st.success(), "{err}");
+
+    let out = dir.path().join("out.exr");
+    let ckpt: PathBuf = dir.path().join("out.exr.ckpt");
+
+    // 1) SIGINT once the first checkpoint exists: the handler writes a final checkpoint, exits ≠ 0.
+    let mut child = btfpt().args(render_args(&scene, &out)).spawn().unwrap();
+    wait_for(&mut child, "the first checkpoint", || ckpt.exists());
+    signal(&child, "INT");
+    let (st, err) = stderr_of(child);
+    assert!(!st.success(), "an interrupted render must exit non-zero");
+    assert!(err.contains("--resume"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(ckpt.exists() && !out.exists(), "{err}");
+
+    // 2) Resume, then SIGKILL right after it wrote a newer checkpoint (no handler runs).
+    let first = mtime(&ckpt);
+    let mut args = render_args(&scene, &out);
+    args.push("--resume".into());
+    let mut child = btfpt().args(&args).spawn().unwrap();
+    wait_for(&mut child, "a newer checkpoint", || {
+        mtime(&ckpt).is_some_and(|t| Some(t) != first)
+    });
+    child.kill().unwrap();
+    let (st, _) = stderr_of(child);
+    assert!(!st.success());
+    assert!(
+        !out.exists(),
+        "a killed render must not leave an output image"
+    );
+
+    // 3) Resume to completion: identical bytes to the uninterrupted render.
+    let (st, err) = stderr_of(btfpt().args(&args).spawn().unwrap());
+    assert!(st.success(), "{err}");
+    assert!(err.contains("resuming from"), "{err}");
+    let a = std::fs::read(&reference).unwrap();
+    let b = std::fs::read(&out).unwrap();
+    assert!(a == b, "resumed EXR differs from the uninterrupted one");
+    assert!(!ckpt.exists(), "the checkpoint is removed after success");
+}
+
+/// A 4×4-texel BTF on the 81 UBO2003 directions with texture and a light-dependent lobe.
+fn fit_data(path: &Path) {
+    let d = DirectionSet::ubo2003();
+    let (w, h) = (4usize, 4usize);
+    let mut data = Vec::with_capacity(81 * 81 * w * h * 3);
+    for v in 0..81 {
+        for l in 0..81 {
+            for t in 0..w * h {
+                let g = 0.2 + 0.5 * (((v * 7 + l * 3 + t * 11) % 13) as f32 / 13.0);
+                data.extend_from_slice(&[g, g * 0.7, g * 0.4]);
+            }
+        }
+    }
+    let raw = RawBtf::from_f32(d.clone(), d, w, h, StoredEncoding::Linear, &data).unwrap();
+    btf::cache::write_raw(&raw, path).unwrap();
+}
+
+fn fit_args(data: &Path, out: &Path) -> Vec<String> {
+    [
+        "fit",
+        &data.display().to_string(),
+        "-o",
+        &out.display().to_string(),
+        "--model",
+        "plmc",
+        "--clusters",
+        "4",
+        "--features",
+        "5",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect()
+}
+
+#[test]
+fn fit_killed_midway_and_rerun_writes_the_same_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("m.btfc");
+    fit_data(&data);
+
+    let reference = dir.path().join("ref.plmc");
+    let (st, err) = stderr_of(
+        btfpt()
+            .args(fit_args(&data, &reference))
+            .env("RAYON_NUM_THREADS", "1")
+            .spawn()
+            .unwrap(),
+    );
+    assert!(st.success(), "{err}");
+
+    let out = dir.path().join("out.plmc");
+    let parts = dir.path().join("out.plmc.parts");
+    let count = |p: &Path| {
+        std::fs::read_dir(p)
+            .map(|r| {
+                r.flatten()
+                    .filter(|e| e.file_name().to_string_lossy().ends_with(".part"))
+                    .count()
+            })
+            .unwrap_or(0)
+    };
+    let mut child = btfpt()
+        .args(fit_args(&data, &out))
+        .env("RAYON_NUM_THREADS", "1")
+        .spawn()
+        .unwrap();
+    wait_for(&mut child, "a few finished views", || count(&parts) >= 3);
+    child.kill().unwrap();
+    let _ = stderr_of(child);
+    assert!(!out.exists(), "a killed fit must not leave a model file");
+    let done = count(&parts);
+    assert!(
+        done < 81,
+        "the fit finished before the kill: make it slower"
+    );
+
+    let child = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+        .args(fit_args(&data, &out))
+        .env("RAYON_NUM_THREADS", "1")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let o = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("resumed from"), "{text}");
+    assert!(
+        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
+        "the resumed fit's .plmc differs from the uninterrupted one"
+    );
+    assert!(!parts.exists(), "parts are removed after success");
+}
