@@ -67,7 +67,7 @@ pub fn radix_sort(v: &mut [f32], keys: &mut Vec<u32>, tmp: &mut Vec<u32>) {
         for &k in keys.iter() {
             count[((k >> shift) & 0xff) as usize] += 1;
         }
-        if count.iter().any(|&c| c == keys.len()) {
+        if count.contains(&keys.len()) {
             continue; // all keys share this byte: the pass would not move anything
         }
         let mut sum = 0;
