@@ -7,8 +7,7 @@
 //!
 //! usage: cargo run --release --example fit_diagnose -- DATA VIEWS [--linear] [--lights] [--align]
 //!        VIEWS = comma-separated view indices, e.g. 0,40,70
-#![allow(clippy::needless_range_loop)]
-
+#![allow(clippy::needless_range_loop)] // small dense linear algebra reads best with indices
 use anyhow::{Context, bail};
 use btfpt::btf::{self, BtfSource, StoredEncoding};
 use btfpt::fit::lafortune::{self, LobeFitter};
