@@ -598,9 +598,11 @@ fn template_mixes(
     out
 }
 
-/// Candidate positions 0..=range, about 16 of them, always including both ends.
-fn candidates(range: usize) -> Vec<usize> {
-    let step = (range / 15).max(1);
+/// Candidate positions 0..=range with a step chosen so a 2-D search over `range × other` offsets
+/// stays within ~`budget` candidates (every position when it does), always including both ends.
+fn candidates(range: usize, other: usize, budget: usize) -> Vec<usize> {
+    let n = ((range + 1) * (other + 1)) as f64 / budget as f64;
+    let step = (n.sqrt().ceil() as usize).max(1);
     let mut v: Vec<usize> = (0..=range).step_by(step).collect();
     if v.last() != Some(&range) {
         v.push(range);
@@ -722,8 +724,11 @@ pub fn find_stitch_in(
     let f = Features { w: sw, d, f: feat };
     // Stage 1a: the template origin with the cheapest wrap cuts.
     let mut best: Option<((usize, usize), Template)> = None;
-    for &y0 in &candidates(sh - h - o) {
-        for &x0 in &candidates(sw - w - o) {
+    // Every offset while ≲ 50k candidates and 4·10⁸ feature differences, a grid beyond (each
+    // candidate costs O((w + h) · overlap · features)).
+    let budget = (400_000_000 / ((w + h) * o * d).max(1)).clamp(1_000, 50_000);
+    for &y0 in &candidates(sh - h - o, sw - w - o, budget) {
+        for &x0 in &candidates(sw - w - o, sh - h - o, budget) {
             let t = template_cuts(&f, x0, y0, w, h, o);
             if best.as_ref().is_none_or(|b| t.cost < b.1.cost) {
                 best = Some(((x0, y0), t));
@@ -763,8 +768,8 @@ pub fn find_stitch_in(
         let min_sep = pw.max(ph) / 2;
         for _ in 1..spec.count {
             let mut bestp: Option<((usize, usize), PatchCuts)> = None;
-            for &py in &candidates(sh - ph) {
-                for &px in &candidates(sw - pw) {
+            for &py in &candidates(sh - ph, sw - pw, budget) {
+                for &px in &candidates(sw - pw, sh - ph, budget) {
                     if used
                         .iter()
                         .any(|&(ux, uy)| ux.abs_diff(px).max(uy.abs_diff(py)) < min_sep)
