@@ -35,9 +35,8 @@ use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use rayon::prelude::*;
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, Weak};
+use std::sync::Arc;
 
 /// Lanes of one evaluation: 3 views × 3 channels = 9, padded to a multiple of 4.
 pub const LANES: usize = 12;
@@ -840,17 +839,8 @@ pub fn resolve_model_file(filename: &Path, model: &str) -> Result<PathBuf> {
 
 /// One material per model file while anything uses it (several `<bsdf>` may share a file).
 pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
-    static CACHE: Mutex<Option<HashMap<PathBuf, Weak<PlmcMaterial>>>> = Mutex::new(None);
-    let key = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
-    let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    let cache = guard.get_or_insert_with(HashMap::new);
-    if let Some(m) = cache.get(&key).and_then(Weak::upgrade) {
-        return Ok(m);
-    }
-    cache.retain(|_, w| w.strong_count() > 0);
-    let m = Arc::new(PlmcMaterial::load(path)?);
-    cache.insert(key, Arc::downgrade(&m));
-    Ok(m)
+    static CACHE: crate::io::shared::SharedCache<PlmcMaterial> = std::sync::Mutex::new(None);
+    crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
 }
 
 #[cfg(test)]

@@ -2,6 +2,7 @@
 
 pub mod atomic;
 pub mod image;
+pub mod shared;
 
 pub use atomic::write_atomic;
 pub use image::{RgbImage, read_image, write_exr, write_png_srgb};

@@ -15,11 +15,12 @@ use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
 use crate::btf::plmc;
 use crate::btf::synth::{MaterialKind, SynthSettings, measure};
 use crate::btf::{DirectionSet, RawBtf};
+use crate::io::shared::{SharedCache, shared_by_path};
 use crate::{Error, Result};
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex, Weak};
+use std::sync::{Arc, Mutex};
 
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` as written
 /// in the scene (a path, resolved with `resolve`, or a `synth:` source, see the module doc),
@@ -92,17 +93,8 @@ pub fn with_model_override<R>(model: Option<&str>, f: impl FnOnce() -> R) -> R {
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several
 /// `<bsdf type="btf">` elements (e.g. different `uv_scale`) may name the same file.
 fn shared_raw_material(path: &Path) -> Result<Arc<BtfMaterial>> {
-    static CACHE: Mutex<Option<HashMap<PathBuf, Weak<BtfMaterial>>>> = Mutex::new(None);
-    let key = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
-    let mut guard = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    let cache = guard.get_or_insert_with(HashMap::new);
-    if let Some(m) = cache.get(&key).and_then(Weak::upgrade) {
-        return Ok(m);
-    }
-    cache.retain(|_, w| w.strong_count() > 0);
-    let m = Arc::new(BtfMaterial::load(path)?);
-    cache.insert(key, Arc::downgrade(&m));
-    Ok(m)
+    static CACHE: SharedCache<BtfMaterial> = Mutex::new(None);
+    shared_by_path(&CACHE, path, BtfMaterial::load)
 }
 
 /// Synthetic materials are kept for the whole process (strong references): regenerating one costs
