@@ -116,3 +116,31 @@ fn info_and_convert_read_a_ubo2014_file() {
         btf::load_raw(&p).unwrap().data()
     );
 }
+
+#[test]
+fn info_summarises_a_plmc_model_and_names_a_truncated_one() {
+    let model = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/showcase/materials/leather.plmc"
+    );
+    let out = btfpt().args(["info", model]).output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
+    assert!(
+        text.contains("model:       plmc") && text.contains("clusters:    256"),
+        "{text}"
+    );
+    assert!(text.contains("64 × 64 texels"), "{text}");
+
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("cut.plmc");
+    let bytes = std::fs::read(model).unwrap();
+    std::fs::write(&bad, &bytes[..2000]).unwrap();
+    let out = btfpt().args(["info"]).arg(&bad).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("cut.plmc") && err.contains("truncated") && !err.contains("panicked"),
+        "{err}"
+    );
+}

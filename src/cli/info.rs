@@ -65,6 +65,32 @@ fn describe_directions(set: &btf::DirectionSet) -> String {
     format!("{} (θ up to {max_theta:.1}°)", set.len())
 }
 
+/// Prints the summary of a fitted `.plmc` model: kind, directions, size, clusters, value space,
+/// tiles, and the compression ratio against 8-bit raw data of the same texels.
+fn describe_model(path: &std::path::Path) -> anyhow::Result<()> {
+    let t0 = Instant::now();
+    let (model, tile) = btfpt::btf::format::read_tiled(path)?;
+    let bytes = std::fs::metadata(path)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+        .len();
+    let raw = model.views.len() * model.lights.len() * model.width * model.height * 3;
+    println!("model:       {}", model.kind.name());
+    println!("views:       {}", describe_directions(&model.views));
+    println!("lights:      {}", describe_directions(&model.lights));
+    println!("size:        {} × {} texels", model.width, model.height);
+    println!("clusters:    {}", model.clusters);
+    println!("value space: {:?}", model.space);
+    if let Some(t) = tile {
+        println!("tile:        {} × {} texels", t.tile_w, t.tile_h);
+    }
+    println!(
+        "file:        {bytes} bytes, 1:{:.1} vs 8-bit raw data of these texels ({raw} bytes)",
+        raw as f64 / bytes.max(1) as f64
+    );
+    println!("read in:     {:.2} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
 /// Prints the summary of one BTF.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     let path = &args.path;
@@ -72,11 +98,7 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
     println!("path:        {}", path.display());
     println!("format:      {}", format.name());
     if format == BtfFormat::Plmc {
-        // Dispatch point for the PLM-C model summary (provided by the fitting/model module).
-        anyhow::bail!(
-            "{}: summaries of .plmc models are not available in this build",
-            path.display()
-        );
+        return describe_model(path);
     }
     let t0 = Instant::now();
     let src: Box<dyn btf::BtfSource + Send> = if format == BtfFormat::Ubo2014 {
