@@ -168,7 +168,7 @@ class Mitsuba:
 
         return {"mitsuba": self.mi.__version__, "drjit": drjit.__version__, "variant": self.mi.variant()}
 
-    def render(self, xml: Path, defines: list[str], spp: int, out_exr: Path, out_png: Path) -> dict:
+    def render(self, xml: Path, defines: list[str], spp: int, out_exr: Path, out_png: Path, seed: int) -> dict:
         dr, mi = self.dr, self.mi
         t = time.perf_counter()
         scene = self.mc.load_scene(xml, self.mc.parse_defines(defines))
@@ -179,7 +179,7 @@ class Mitsuba:
         first = time.perf_counter() - t
         c = time.process_time()
         t = time.perf_counter()
-        img = mi.render(scene, spp=spp, seed=1)
+        img = mi.render(scene, spp=spp, seed=seed)
         dr.eval(img)
         dr.sync_thread()
         wall = time.perf_counter() - t
@@ -187,6 +187,18 @@ class Mitsuba:
         mi.Bitmap(img).write(str(out_exr))
         mi.util.write_bitmap(str(out_png), img, write_async=False)
         return {"render_s": wall, "cpu_s": cpu, "load_s": load, "first_render_s": first}
+
+
+def median_times(ts: list[dict]) -> dict:
+    """Per-key medians of timing dicts (keys whose values are all numbers)."""
+    import statistics
+
+    out = {"runs": len(ts)}
+    for k in ts[0]:
+        vals = [t[k] for t in ts if isinstance(t.get(k), (int, float))]
+        if len(vals) == len(ts):
+            out[k] = statistics.median(vals)
+    return out
 
 
 def fmt(v, spec=".3e", none="n/a"):
@@ -199,12 +211,13 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=64, help="spp of the side-by-side renders (default 64)")
     ap.add_argument("--hi-spp", type=int, default=1024, help="spp of the model-error renders (default 1024)")
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--runs", type=int, default=3, help="interleaved timed runs of Mitsuba and btfpt raw (medians)")
     ap.add_argument("--out", type=Path, default=HERE / "REPORT.md")
     ap.add_argument("--images", type=Path, default=HERE / "report")
     ap.add_argument("--only", action="append", help="only these scene names (repeatable; for trying it out)")
     a = ap.parse_args(argv)
-    if a.spp < 1 or a.hi_spp < 1 or a.threads < 1:
-        ap.error("--spp, --hi-spp and --threads must be positive")
+    if a.spp < 1 or a.hi_spp < 1 or a.threads < 1 or a.runs < 1:
+        ap.error("--spp, --hi-spp, --threads and --runs must be positive")
     btfpt = a.btfpt.resolve()
     if not btfpt.is_file():
         sys.exit(f"{btfpt}: btfpt binary not found (cargo build --release)")
@@ -248,24 +261,40 @@ def main(argv=None) -> int:
             ref_json = HERE / name / f"{name}.json"
             if ref_json.is_file():
                 res["reference"] = {k: v for k, v in json.loads(ref_json.read_text()).items()
-                                    if k in ("spp", "wall_time_s", "seeds", "passes")}
-            # Side by side at the same spp: Mitsuba (raw) then btfpt (raw, then the models).
-            if mitsuba:
-                t = step(f"{name}: Mitsuba render", mitsuba.render, xml, defines, a.spp,
-                         sdir / "mitsuba.exr", idir / "mitsuba.png")
+                                    if k in ("spp", "wall_seconds", "seeds", "passes")}
+            # Side by side at the same spp: Mitsuba (raw) and btfpt (raw) interleaved, --runs times
+            # (medians; the images of the first run are scored), then btfpt's models once each.
+            times: dict = {"mitsuba": [], "raw": []}
+            for k in range(a.runs):
+                if mitsuba:
+                    t = step(f"{name}: Mitsuba render", mitsuba.render, xml, defines, a.spp,
+                             sdir / f"mitsuba{k}.exr", sdir / f"mitsuba{k}.png", 1 + k)
+                    if t:
+                        times["mitsuba"].append(t)
+                exr = sdir / f"btfpt-raw{k}.exr"
+                t = step(f"{name}: btfpt render raw", btfpt_render, btfpt, xml, exr, a.spp, 1 + k,
+                         a.threads, defines, "raw" if is_btf else None)
                 if t:
-                    c = step(f"{name}: compare Mitsuba", compare, btfpt, sdir / "mitsuba.exr", ref, a.spp,
-                             idir / "mitsuba-diff.png")
-                    res["rows"]["mitsuba"] = t | (c or {})
-            for m in ["raw"] + (MODELS if is_btf else []):
+                    times["raw"].append(t)
+            if times["mitsuba"]:
+                shutil.copy(sdir / "mitsuba0.png", idir / "mitsuba.png")
+                c = step(f"{name}: compare Mitsuba", compare, btfpt, sdir / "mitsuba0.exr", ref, a.spp,
+                         idir / "mitsuba-diff.png")
+                res["rows"]["mitsuba"] = median_times(times["mitsuba"]) | (c or {})
+            if times["raw"]:
+                exr = sdir / "btfpt-raw0.exr"
+                shutil.copy(exr.with_suffix(".png"), idir / "btfpt-raw.png")
+                c = step(f"{name}: compare btfpt raw", compare, btfpt, exr, ref, a.spp, idir / "btfpt-raw-diff.png")
+                res["rows"]["btfpt-raw"] = median_times(times["raw"]) | (c or {})
+            for m in MODELS if is_btf else []:
                 exr = sdir / f"btfpt-{m}.exr"
                 t = step(f"{name}: btfpt render {m}", btfpt_render, btfpt, xml, exr, a.spp, 1, a.threads,
-                         defines, m if is_btf else None)
+                         defines, m)
                 if t:
                     shutil.copy(exr.with_suffix(".png"), idir / f"btfpt-{m}.png")
                     c = step(f"{name}: compare btfpt {m}", compare, btfpt, exr, ref, a.spp,
                              idir / f"btfpt-{m}-diff.png")
-                    res["rows"][f"btfpt-{m}"] = t | (c or {})
+                    res["rows"][f"btfpt-{m}"] = t | {"runs": 1} | (c or {})
             # The models' own error: same seed, high spp, against btfpt raw.
             if is_btf:
                 hi = {}
@@ -335,8 +364,11 @@ def markdown(res: dict, a) -> str:
           "α = 0.01 (with the reference's per-sample variance; the raw regression tests allow 1, "
           "see NOTES.md for the calibrated ranges). Times: Mitsuba = `mi.render` after a warm-up "
           "render (no load, no JIT); btfpt *render* = the render alone (its \"done in\"), *process* "
-          "= the whole `btfpt render` process (scene and material load, BVH, EXR write), "
-          "CPU = all threads.",
+          "= the whole `btfpt render` process (scene and material load, BVH, EXR write); CPU = all "
+          "threads, of the render alone for Mitsuba but of the whole process for btfpt (so the two "
+          "CPU columns are not comparable: compare the render wall times, measured side by side). "
+          "Mitsuba and btfpt raw are timed in interleaved runs (medians); the first run's images "
+          "are the ones scored and shown.",
           "Difference images: per pixel the channel of largest |z| (white 0, full blue/red at the "
           "per-pixel failure threshold, cyan/magenta beyond it; blue = darker than the reference).", ""]
     for _, name, is_btf in SCENES:
@@ -347,25 +379,24 @@ def markdown(res: dict, a) -> str:
         L += [f"### {name}", "",
               f"Reference: {ref.get('spp', '?')} spp. Load average before / after: "
               f"{la(s['load_before'])} → {la(s.get('load_after', s['load_before']))}.", "",
-              "| image | relMSE | MAE | luminance ratio | failing 4×4 blocks | render time | CPU time | process wall |",
-              "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+              "| image | relMSE | MAE | luminance ratio | failing 4×4 blocks | render wall | CPU | process wall | runs |",
+              "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         rows = s["rows"]
         order = [("mitsuba", "Mitsuba raw")] + [(f"btfpt-{k}", f"btfpt {MODEL_LABEL[k]}")
                                                 for k in ["raw"] + (MODELS if is_btf else [])]
         for key, label in order:
             r = rows.get(key)
             if not r:
-                L.append(f"| {label} | failed (see above) | | | | | | |")
+                L.append(f"| {label} | failed (see above) | | | | | | | |")
                 continue
             blocks = f"{r['failing_blocks']} / {r['blocks']}" if "blocks" in r else "n/a"
             L.append(f"| {label} | {fmt(r.get('relmse'))} | {fmt(r.get('mae'))} | "
                      f"{fmt(r.get('mean_luminance_ratio'), '.4f')} | {blocks} | {fmt(r.get('render_s'), '.2f')} s | "
-                     f"{fmt(r.get('cpu_s'), '.2f')} s | {fmt(r.get('wall_s'), '.2f', '—')}{' s' if r.get('wall_s') else ''} |")
+                     f"{fmt(r.get('cpu_s'), '.2f')} s | {fmt(r.get('wall_s'), '.2f', '—')}{' s' if r.get('wall_s') else ''} | {r.get('runs', 1)} |")
         if "mitsuba" in rows and "btfpt-raw" in rows and rows["btfpt-raw"].get("render_s"):
             mi_t, bt_t = rows["mitsuba"]["render_s"], rows["btfpt-raw"]["render_s"]
-            mi_c, bt_c = rows["mitsuba"]["cpu_s"], rows["btfpt-raw"]["cpu_s"]
-            L += ["", f"Render time Mitsuba / btfpt (raw, {a.spp} spp): wall {mi_t / bt_t:.2f}×, "
-                  f"CPU {mi_c / bt_c:.2f}× (btfpt CPU is the whole process). Mitsuba scene load "
+            L += ["", f"Render wall time Mitsuba / btfpt (raw, {a.spp} spp, medians): {mi_t / bt_t:.2f}× "
+                  "(> 1: btfpt faster). Mitsuba scene load "
                   f"{rows['mitsuba']['load_s']:.2f} s, first render incl. JIT {rows['mitsuba']['first_render_s']:.2f} s."]
         me = s.get("model_error") or {}
         if is_btf and any(k in me for k in MODELS):
@@ -385,14 +416,15 @@ def markdown(res: dict, a) -> str:
                          f"{fmt(e.get('render_s'), '.2f')} s |")
             if me.get("raw_render_s"):
                 L.append(f"| raw | — | — | — | — | {me['raw_render_s']:.2f} s |")
-        imgs = [("reference.png", "Mitsuba reference"), ("mitsuba.png", f"Mitsuba {a.spp} spp"),
-                ("mitsuba-diff.png", "its difference")]
-        for k in ["raw"] + (MODELS if is_btf else []):
-            imgs += [(f"btfpt-{k}.png", f"btfpt {MODEL_LABEL[k]}"), (f"btfpt-{k}-diff.png", "difference")]
-        have = [(f, t) for f, t in imgs if (a.images / name / f).is_file()]
-        if have:
-            L += ["", "| " + " | ".join(t for _, t in have) + " |", "|" + " --- |" * len(have),
-                  "| " + " | ".join(f"![{t}]({rel}/{name}/{f})" for f, t in have) + " |"]
+        cols = [("reference.png", None, "Mitsuba reference"), ("mitsuba.png", "mitsuba-diff.png", f"Mitsuba {a.spp} spp")]
+        cols += [(f"btfpt-{k}.png", f"btfpt-{k}-diff.png", f"btfpt {MODEL_LABEL[k]}")
+                 for k in ["raw"] + (MODELS if is_btf else [])]
+        cols = [c for c in cols if (a.images / name / c[0]).is_file()]
+        if cols:
+            cell = lambda f, t: f"![{t}]({rel}/{name}/{f})" if f and (a.images / name / f).is_file() else ""  # noqa: E731
+            L += ["", "| " + " | ".join(t for _, _, t in cols) + " |", "|" + " --- |" * len(cols),
+                  "| " + " | ".join(cell(f, t) for f, _, t in cols) + " |",
+                  "| " + " | ".join(cell(d, "difference") for _, d, _ in cols) + " |"]
         L.append("")
     return "\n".join(L)
 
