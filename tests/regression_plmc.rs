@@ -10,22 +10,29 @@
 //!
 //! A PLM-C render differs from the raw reference by noise *and* by the model's own error (a fitted
 //! model does not reproduce the measured values), so the raw test's bounds (block z-test, mean z)
-//! cannot hold: the model error is systematic and the z-test sees it at any spp. The bounds here
-//! add a measured model term to the noise term, per scene (see [`bounds`] for the numbers and
-//! `reference-images/make_report.sh` for the measurement, rerun whenever the fitter changes):
-//! - relMSE = noise + model: E[relMSE(t, r)] ≈ relMSE_noise(spp) + relMSE_model, since the noise is
-//!   independent of the model error. Noise: the raw test's bound (1.5 × the largest calibrated
-//!   Mitsuba-vs-reference relMSE at 64 spp). Model: relMSE(PLM-C, ref) − relMSE(raw, ref), both
-//!   btfpt at 1024 spp, times 2.
-//! - mean luminance ratio within 1 ± (|measured model bias| + 0.5 %): a fitted model may shift the
-//!   brightness a little (Lafortune lobes, polynomial range clamps), not by several percent.
-//! - the fraction of failing 4×4 blocks ≤ 2 × the measured fraction + 2 %: the z-test sees where
-//!   the model is locally wrong; a broken model is wrong almost everywhere.
+//! cannot hold: the model error is systematic and the z-test sees it at any spp. The bounds add a
+//! measured model term to the noise term, per scene ([`bounds`], [`model_error`]; the measurement
+//! is `reference-images/make_report.sh`, rerun whenever the fitter changes):
+//! - relMSE vs the Mitsuba raw reference = noise + model: E[relMSE(t, r)] ≈ relMSE_noise(spp) +
+//!   relMSE_model, the noise being independent of the model error. Noise: the raw test's bound
+//!   (1.5 × the largest calibrated Mitsuba-vs-reference relMSE at 64 spp); model: 2 ×
+//!   [relMSE(PLM-C, ref) − relMSE(raw, ref)], both btfpt at 1024 spp.
+//! - relMSE vs btfpt's own raw render with the same seed and spp (common random numbers: PLM-C and
+//!   raw share the camera paths and nearly all sampling decisions, so most of the noise cancels
+//!   and what remains is the model error): ≤ 2 × its value at 1024 spp. This is what gives the test
+//!   power on the noisy sphere (at 64 spp the noise there is 10× the model term in relMSE vs
+//!   Mitsuba); btfpt raw itself is held to Mitsuba by tests/regression_btf.rs.
+//! - mean luminance ratio within 1 ± (|measured model bias| + 0.5 %).
+//! - failing 4×4 blocks ≤ 2 × the measured fraction + 2 % of the blocks: the z-test sees where the
+//!   model is locally wrong; a broken model is wrong almost everywhere.
 //!
 //! Negative tests: the same fitted model broken on purpose must fail — texel rows flipped (v
 //! flipped in the model's addressing), every texel given another cluster (perturbed cluster
-//! indices), the PLM polynomials dropped (LM lobes of the clusters only), and a wrong model file
-//! (a model fitted to another material).
+//! indices), the PLM polynomials dropped (the clusters' Lafortune lobes alone), and a wrong model
+//! file (a model fitted to another material). Measured at 64 spp (plane / sphere): a correct model
+//! scores relMSE vs btfpt raw 2.1e-4 / 4.6e-4 (bounds 3.9e-4 / 7.5e-4); v flipped 7.3e-4 / 1.2e-3,
+//! polynomials dropped 1.2e-3 / 1.9e-3, perturbed clusters and wrong model 7e-2…2e-1 (these also
+//! fail luminance and blocks).
 
 use btfpt::bsdf::Bsdf;
 use btfpt::btf::format;
@@ -318,16 +325,16 @@ struct ModelError {
 fn model_error(name: &str) -> ModelError {
     match name {
         "btf-plane" => ModelError {
-            excess_relmse: 1.95e-4,
-            crn_relmse: 1.95e-4,
+            excess_relmse: 1.948e-4,
+            crn_relmse: 1.949e-4,
             luminance_ratio: 1.0041,
-            failing_block_fraction: 44.0 / 768.0,
+            failing_block_fraction: 43.0 / 768.0,
         },
         "btf-sphere" => ModelError {
-            excess_relmse: 3.64e-4,
-            crn_relmse: 3.73e-4,
-            luminance_ratio: 1.0015,
-            failing_block_fraction: 6.0 / 768.0,
+            excess_relmse: 3.723e-4,
+            crn_relmse: 3.710e-4,
+            luminance_ratio: 1.0014,
+            failing_block_fraction: 9.0 / 768.0,
         },
         _ => panic!("no measured model error for {name}"),
     }
