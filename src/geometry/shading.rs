@@ -70,18 +70,11 @@ pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2
     (p, n, ns, uv, dpdu, dpdv)
 }
 
-/// The full interaction for a hit of the unit-direction ray `o + t d`.
-pub fn surface_interaction(meshes: &[Mesh], o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
+/// The full interaction for a hit of the unit-direction ray `o + t d` (the hit's barycentrics
+/// place the point; the origin is unused but kept so callers need not change).
+pub fn surface_interaction(meshes: &[Mesh], _o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
     let mesh = &meshes[hit.mesh as usize];
-    let [i0, i1, i2] = mesh.indices[hit.prim as usize].map(|i| i as usize);
-    let b = barycentrics(
-        mesh.positions[i0],
-        mesh.positions[i1],
-        mesh.positions[i2],
-        o,
-        d,
-    );
-    let (p, n, ns, uv, dpdu, dpdv) = eval_triangle(mesh, hit.prim, b);
+    let (p, n, ns, uv, dpdu, dpdv) = eval_triangle(mesh, hit.prim, hit.b);
     let sh_frame = Frame::from_normal_tangent(ns, dpdu);
     SurfaceInteraction {
         p,
@@ -149,10 +142,13 @@ mod tests {
     fn uv_derivatives_and_shading_normal() {
         let meshes = vec![tri(true, true)];
         let o = Vec3::new(0.0, 0.0, 3.0) + Vec3::new(1e-3, 1e-3, 0.0);
+        let m = &meshes[0];
+        let b = barycentrics(m.positions[0], m.positions[1], m.positions[2], o, -Vec3::Z);
         let h = Hit {
             t: 3.0,
             mesh: 0,
             prim: 0,
+            b,
         };
         let si = surface_interaction(&meshes, o, -Vec3::Z, &h);
         // uv(p) = (y/2, 1 - x/2)  ⇒ ∂p/∂u = (0, 2, 0), ∂p/∂v = (-2, 0, 0).
