@@ -279,6 +279,34 @@ impl Accel {
     /// Closest hit along `o + t d` for t in (0, tmax]; `d` must be unit length.
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
+        let (i, t, u, v) = self.traverse::<false>(o, d, tmax)?;
+        let [mesh, prim] = self.ids[i as usize];
+        Some(Hit {
+            t,
+            mesh,
+            prim,
+            b: Vec2::new(u, v),
+        })
+    }
+
+    /// True if anything blocks `o + t d` for t in (0, tmax] (shadow rays).
+    #[inline]
+    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
+        self.traverse::<true>(o, d, tmax).is_some()
+    }
+
+    /// Front-to-back traversal. Closest hit (`ANY` = false): (triangle slot, t, b1, b2) of the
+    /// nearest hit; any hit (`ANY` = true): the first hit found. Leaf children are intersected
+    /// as soon as their box is entered (shrinking tmax); inner children are visited nearest
+    /// first and the others stacked with their entry distance, dropped on pop once a closer
+    /// hit is known.
+    #[inline(always)]
+    fn traverse<const ANY: bool>(
+        &self,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+    ) -> Option<(u32, f32, f32, f32)> {
         if self.nodes.is_empty() {
             return None;
         }
@@ -292,8 +320,6 @@ impl Accel {
             let n = &self.nodes[node as usize];
             let (tn, mut mask) = rb.test(n, tmax);
             let tn = tn.to_array();
-            // Leaves are intersected at once (shrinking tmax); inner children are kept with
-            // their entry distance and visited nearest first.
             let mut inner = [Entry { node: 0, t: 0.0 }; WIDTH];
             let mut k = 0;
             while mask != 0 {
@@ -310,40 +336,36 @@ impl Accel {
                     let first = n.child[i] as usize;
                     for (j, tri) in self.tris[first..first + count as usize].iter().enumerate() {
                         if let Some((t, u, v)) = tri.intersect(oa, da, tmax) {
+                            if ANY {
+                                return Some(((first + j) as u32, t, u, v));
+                            }
                             tmax = t;
                             best = Some(((first + j) as u32, u, v));
                         }
                     }
                 }
             }
-            // Children entered beyond a closer hit found in a sibling leaf are dropped.
-            let inner = &mut inner[..k];
-            // Insertion sort, farthest first (at most four entries).
-            for a in 1..inner.len() {
-                let mut j = a;
-                while j > 0 && inner[j - 1].t < inner[j].t {
-                    inner.swap(j - 1, j);
+            // Sort the entered inner children farthest first (insertion sort, at most four),
+            // dropping those entered beyond a hit found in a sibling leaf.
+            let mut m = 0;
+            for a in 0..k {
+                let e = inner[a];
+                if e.t > tmax {
+                    continue;
+                }
+                let mut j = m;
+                while j > 0 && inner[j - 1].t < e.t {
+                    inner[j] = inner[j - 1];
                     j -= 1;
                 }
+                inner[j] = e;
+                m += 1;
             }
-            let mut next = None;
-            for e in inner.iter().rev() {
-                if e.t <= tmax {
-                    next = Some(e.node);
-                    break;
+            if m > 0 {
+                for e in &inner[..m - 1] {
+                    stack.push(*e);
                 }
-            }
-            if let Some(nx) = next {
-                // Push the farther ones (farthest first), descend into the nearest.
-                for e in inner.iter() {
-                    if e.node == nx {
-                        break;
-                    }
-                    if e.t <= tmax {
-                        stack.push(*e);
-                    }
-                }
-                node = nx;
+                node = inner[m - 1].node;
                 continue;
             }
             loop {
@@ -355,53 +377,9 @@ impl Accel {
                     Some(_) => {}
                     None => {
                         let (i, u, v) = best?;
-                        let [mesh, prim] = self.ids[i as usize];
-                        return Some(Hit {
-                            t: tmax,
-                            mesh,
-                            prim,
-                            b: Vec2::new(u, v),
-                        });
+                        return Some((i, tmax, u, v));
                     }
                 }
-            }
-        }
-    }
-
-    /// True if anything blocks `o + t d` for t in (0, tmax] (shadow rays).
-    #[inline]
-    pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        if self.nodes.is_empty() {
-            return false;
-        }
-        let rb = RayBox::new(o, d);
-        let (oa, da) = (Vec3A::from(o), Vec3A::from(d));
-        let mut stack = Stack::new();
-        let mut node = 0u32;
-        loop {
-            let n = &self.nodes[node as usize];
-            let (_, mut mask) = rb.test(n, tmax);
-            while mask != 0 {
-                let i = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                let count = n.count[i];
-                if count == 0 {
-                    stack.push(Entry {
-                        node: n.child[i],
-                        t: 0.0,
-                    });
-                } else {
-                    let first = n.child[i] as usize;
-                    for tri in &self.tris[first..first + count as usize] {
-                        if tri.intersect(oa, da, tmax).is_some() {
-                            return true;
-                        }
-                    }
-                }
-            }
-            match stack.pop() {
-                Some(e) => node = e.node,
-                None => return false,
             }
         }
     }
