@@ -10,7 +10,9 @@
 
 use super::Mesh;
 use crate::math::{Vec2, Vec3};
-use glam::{Vec3A, Vec4};
+#[cfg(test)]
+use glam::Vec3A;
+use glam::{BVec4A, Vec4};
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
@@ -46,9 +48,9 @@ const FAR_SCALE: f32 = 1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32
 struct Node4 {
     /// [min x, max x, min y, max y, min z, max z] of the four children.
     bounds: [[f32; WIDTH]; 6],
-    /// Internal child: index into `nodes`. Leaf child: first triangle in `tris`.
+    /// Internal child: index into `nodes`. Leaf child: first packet in `tris`.
     child: [u32; WIDTH],
-    /// 0 for an internal child (or an empty slot), else the number of triangles of the leaf.
+    /// 0 for an internal child (or an empty slot), else the number of packets of the leaf.
     count: [u32; WIDTH],
 }
 
@@ -67,10 +69,76 @@ impl Node4 {
     };
 }
 
-/// A triangle laid out for the Möller–Trumbore variant of Áfra/madmann91 (one cross product per
-/// test): e1 = p0 − p1, e2 = p2 − p0, n = e1 × e2. One cache line.
-#[derive(Clone, Copy, Debug)]
+/// Up to four triangles of a leaf, SoA, laid out for the Möller–Trumbore variant of
+/// Áfra/madmann91 (one cross product per test): e1 = p0 − p1, e2 = p2 − p0, n = e1 × e2, each
+/// as [x lanes, y lanes, z lanes]. Unused lanes are all zero: their determinant is 0, the
+/// weights NaN, and they never hit. 192 bytes, three cache lines.
+#[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
+struct Tri4 {
+    p0: [[f32; 4]; 3],
+    e1: [[f32; 4]; 3],
+    e2: [[f32; 4]; 3],
+    n: [[f32; 4]; 3],
+}
+
+/// Loads three SoA lanes as x, y, z vectors.
+#[inline(always)]
+fn lanes(a: &[[f32; 4]; 3]) -> [Vec4; 3] {
+    [
+        Vec4::from_array(a[0]),
+        Vec4::from_array(a[1]),
+        Vec4::from_array(a[2]),
+    ]
+}
+
+#[inline(always)]
+fn dot4(a: &[Vec4; 3], b: &[Vec4; 3]) -> Vec4 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+impl Tri4 {
+    /// Stores triangle (p0, p1, p2) in lane `k`.
+    fn set(&mut self, k: usize, p0: Vec3, p1: Vec3, p2: Vec3) {
+        let e1 = p0 - p1;
+        let e2 = p2 - p0;
+        let n = e1.cross(e2);
+        for a in 0..3 {
+            self.p0[a][k] = p0[a];
+            self.e1[a][k] = e1[a];
+            self.e2[a][k] = e2[a];
+            self.n[a][k] = n[a];
+        }
+    }
+
+    /// Which of the four lanes are hit at t in (0, tmax], with t, b1, b2 per lane.
+    #[inline(always)]
+    fn intersect(&self, o: &[Vec4; 3], d: &[Vec4; 3], tmax: f32) -> (BVec4A, Vec4, Vec4, Vec4) {
+        let p0 = lanes(&self.p0);
+        let c = [p0[0] - o[0], p0[1] - o[1], p0[2] - o[2]];
+        // r = d × c
+        let r = [
+            d[1] * c[2] - d[2] * c[1],
+            d[2] * c[0] - d[0] * c[2],
+            d[0] * c[1] - d[1] * c[0],
+        ];
+        let n = lanes(&self.n);
+        let inv_det = Vec4::ONE / dot4(&n, d);
+        let u = dot4(&r, &lanes(&self.e2)) * inv_det;
+        let v = dot4(&r, &lanes(&self.e1)) * inv_det;
+        let t = dot4(&n, &c) * inv_det;
+        let ok = u.cmpge(Vec4::ZERO)
+            & v.cmpge(Vec4::ZERO)
+            & (u + v).cmple(Vec4::ONE)
+            & t.cmpgt(Vec4::ZERO)
+            & t.cmple(Vec4::splat(tmax));
+        (ok, t, u, v)
+    }
+}
+
+/// The scalar form of [`Tri4`]: the reference the packet code is tested against.
+#[cfg(test)]
+#[derive(Clone, Copy, Debug)]
 struct Tri {
     p0: Vec3A,
     e1: Vec3A,
@@ -78,6 +146,7 @@ struct Tri {
     n: Vec3A,
 }
 
+#[cfg(test)]
 impl Tri {
     fn new(p0: Vec3, p1: Vec3, p2: Vec3) -> Tri {
         let (p0, p1, p2) = (Vec3A::from(p0), Vec3A::from(p1), Vec3A::from(p2));
@@ -199,9 +268,9 @@ impl RayBox {
 /// The scene's bounding volume hierarchy (4-wide, built from obvhs's binary BVH).
 pub struct Accel {
     nodes: Vec<Node4>,
-    /// Triangles in leaf order.
-    tris: Vec<Tri>,
-    /// (mesh, triangle) of each entry of `tris`.
+    /// Triangle packets in leaf order.
+    tris: Vec<Tri4>,
+    /// (mesh, triangle) of each packet lane (4 per packet; padding lanes are never hit).
     ids: Vec<[u32; 2]>,
     /// World-space bounds of all geometry (min, max); both zero for an empty scene.
     bounds: (Vec3, Vec3),
@@ -250,14 +319,17 @@ impl Accel {
         };
         let bvh2 = build_bvh2_from_tris(&src, params, &mut std::time::Duration::default());
         let (nodes, order) = flatten(&bvh2);
-        let tris = order
-            .iter()
-            .map(|&i| {
-                let t = &src[i as usize];
-                Tri::new(t.v0.into(), t.v1.into(), t.v2.into())
-            })
-            .collect();
-        let ids = order.iter().map(|&i| src_ids[i as usize]).collect();
+        let mut tris = vec![Tri4::default(); order.len()];
+        let mut ids = vec![[u32::MAX; 2]; 4 * order.len()];
+        for (pk, lanes) in order.iter().enumerate() {
+            for (k, &i) in lanes.iter().enumerate() {
+                if i != u32::MAX {
+                    let t = &src[i as usize];
+                    tris[pk].set(k, t.v0.into(), t.v1.into(), t.v2.into());
+                    ids[4 * pk + k] = src_ids[i as usize];
+                }
+            }
+        }
         Accel {
             nodes,
             tris,
@@ -268,7 +340,7 @@ impl Accel {
 
     /// Number of triangles in the hierarchy.
     pub fn triangle_count(&self) -> usize {
-        self.ids.len()
+        self.ids.iter().filter(|i| i[0] != u32::MAX).count()
     }
 
     /// Axis-aligned bounds (min, max) of all geometry in world units.
@@ -311,7 +383,7 @@ impl Accel {
             return None;
         }
         let rb = RayBox::new(o, d);
-        let (oa, da) = (Vec3A::from(o), Vec3A::from(d));
+        let da = [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)];
         let mut tmax = tmax;
         let mut best: Option<(u32, f32, f32)> = None;
         let mut stack = Stack::new();
@@ -335,13 +407,20 @@ impl Accel {
                 } else {
                     let first = n.child[i] as usize;
                     for (j, tri) in self.tris[first..first + count as usize].iter().enumerate() {
-                        if let Some((t, u, v)) = tri.intersect(oa, da, tmax) {
-                            if ANY {
-                                return Some(((first + j) as u32, t, u, v));
-                            }
-                            tmax = t;
-                            best = Some(((first + j) as u32, u, v));
+                        let (hit, t, u, v) = tri.intersect(&rb.o, &da, tmax);
+                        if !hit.any() {
+                            continue;
                         }
+                        // Nearest lane that hit.
+                        let t = Vec4::select(hit, t, Vec4::INFINITY);
+                        let tm = t.min_element();
+                        let lane = t.cmpeq(Vec4::splat(tm)).bitmask().trailing_zeros() as usize;
+                        let slot = (4 * (first + j) + lane) as u32;
+                        if ANY {
+                            return Some((slot, tm, u[lane], v[lane]));
+                        }
+                        tmax = tm;
+                        best = Some((slot, u[lane], v[lane]));
                     }
                 }
             }
@@ -387,12 +466,13 @@ impl Accel {
 
 /// Flattens obvhs's binary BVH into 4-wide nodes: each wide node takes a binary node and
 /// repeatedly opens its largest-area inner child until it has four children (the usual BVH2 →
-/// BVH4 collapse). Returns the nodes (root first) and, per leaf-ordered triangle slot, the
-/// index of the source triangle. Iterative, so deep trees cannot overflow the call stack.
-fn flatten(bvh2: &Bvh2) -> (Vec<Node4>, Vec<u32>) {
+/// BVH4 collapse). Returns the nodes (root first) and the leaf-ordered triangle packets as
+/// source triangle indices (u32::MAX in unused lanes). Iterative, so deep trees cannot overflow
+/// the call stack.
+fn flatten(bvh2: &Bvh2) -> (Vec<Node4>, Vec<[u32; 4]>) {
     let b = &bvh2.nodes;
     let mut nodes = Vec::with_capacity(b.len() / 2 + 1);
-    let mut order = Vec::with_capacity(bvh2.primitive_indices.len());
+    let mut order: Vec<[u32; 4]> = Vec::with_capacity(bvh2.primitive_indices.len() / 2);
     // (binary node to turn into a wide node, wide parent and slot to link it from)
     let mut work: Vec<(u32, Option<(usize, usize)>)> = vec![(0, None)];
     while let Some((bi, parent)) = work.pop() {
@@ -434,10 +514,15 @@ fn flatten(bvh2: &Bvh2) -> (Vec<Node4>, Vec<u32>) {
             if bn.prim_count == 0 {
                 work.push((k, Some((me, slot))));
             } else {
-                n.child[slot] = order.len() as u32;
-                n.count[slot] = bn.prim_count;
                 let f = bn.first_index as usize;
-                order.extend_from_slice(&bvh2.primitive_indices[f..f + bn.prim_count as usize]);
+                let prims = &bvh2.primitive_indices[f..f + bn.prim_count as usize];
+                n.child[slot] = order.len() as u32;
+                n.count[slot] = prims.len().div_ceil(4) as u32;
+                for chunk in prims.chunks(4) {
+                    let mut pk = [u32::MAX; 4];
+                    pk[..chunk.len()].copy_from_slice(chunk);
+                    order.push(pk);
+                }
             }
         }
     }
