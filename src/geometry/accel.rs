@@ -10,7 +10,6 @@
 
 use super::Mesh;
 use crate::math::{Vec2, Vec3};
-#[cfg(test)]
 use glam::Vec3A;
 use glam::{BVec4A, Vec4};
 use obvhs::BvhBuildParams;
@@ -189,7 +188,7 @@ struct Entry {
 /// Fixed-size traversal stack that spills to the heap only for pathologically deep trees, so
 /// the common case never allocates and no tree depth can overflow it.
 struct Stack {
-    buf: [Entry; 64],
+    buf: [Entry; 32],
     len: usize,
     spill: Vec<Entry>,
 }
@@ -198,7 +197,7 @@ impl Stack {
     #[inline(always)]
     fn new() -> Stack {
         Stack {
-            buf: [Entry { node: 0, t: 0.0 }; 64],
+            buf: [Entry { node: 0, t: 0.0 }; 32],
             len: 0,
             spill: Vec::new(),
         }
