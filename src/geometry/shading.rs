@@ -30,6 +30,25 @@ pub fn barycentrics(p0: Vec3, p1: Vec3, p2: Vec3, o: Vec3, d: Vec3) -> Vec2 {
     }
 }
 
+/// Position, unit geometric normal and unit shading normal at barycentrics `b` of triangle
+/// `prim` (what light sampling needs; the same arithmetic as [`eval_triangle`]).
+#[inline]
+pub fn eval_position_normals(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3) {
+    let [i0, i1, i2] = mesh.indices[prim as usize].map(|i| i as usize);
+    let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+    let b0 = 1.0 - b.x - b.y;
+    let p = p0 * b0 + p1 * b.x + p2 * b.y;
+    let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+    let ns = if mesh.normals.is_empty() {
+        n
+    } else {
+        let s = mesh.normals[i0] * b0 + mesh.normals[i1] * b.x + mesh.normals[i2] * b.y;
+        let s = s.normalize_or_zero();
+        if s == Vec3::ZERO { n } else { s }
+    };
+    (p, n, ns)
+}
+
 /// Surface data at barycentrics `b` of triangle `prim` of `mesh`: (p, n_geo, n_shading, uv, dpdu, dpdv).
 #[inline]
 pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2, Vec3, Vec3) {
@@ -160,5 +179,14 @@ mod tests {
         // At vertex 1 the shading normal tilts toward +x.
         let (_, _, ns, _, _, _) = eval_triangle(&meshes[0], 0, Vec2::new(1.0, 0.0));
         assert!((ns - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6);
+        // The light-sampling subset is bit-identical to the full evaluation.
+        for b in [
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.2, 0.3),
+            Vec2::new(0.0, 0.9),
+        ] {
+            let (p, n, ns, _, _, _) = eval_triangle(&meshes[0], 0, b);
+            assert_eq!(eval_position_normals(&meshes[0], 0, b), (p, n, ns));
+        }
     }
 }
