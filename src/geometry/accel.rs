@@ -16,6 +16,7 @@ use obvhs::BvhBuildParams;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;
+use std::mem::MaybeUninit;
 
 /// A closest hit: distance along the (unit) ray direction, the triangle that was hit and where.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -186,9 +187,10 @@ struct Entry {
 }
 
 /// Fixed-size traversal stack that spills to the heap only for pathologically deep trees, so
-/// the common case never allocates and no tree depth can overflow it.
+/// the common case never allocates and no tree depth can overflow it. The buffer is left
+/// uninitialised (zeroing it cost a memset per ray).
 struct Stack {
-    buf: [Entry; 32],
+    buf: [MaybeUninit<Entry>; 32],
     len: usize,
     spill: Vec<Entry>,
 }
@@ -197,7 +199,7 @@ impl Stack {
     #[inline(always)]
     fn new() -> Stack {
         Stack {
-            buf: [Entry { node: 0, t: 0.0 }; 32],
+            buf: [const { MaybeUninit::uninit() }; 32],
             len: 0,
             spill: Vec::new(),
         }
@@ -206,7 +208,7 @@ impl Stack {
     #[inline(always)]
     fn push(&mut self, e: Entry) {
         if self.len < self.buf.len() {
-            self.buf[self.len] = e;
+            self.buf[self.len].write(e);
             self.len += 1;
         } else {
             self.spill.push(e);
@@ -222,7 +224,9 @@ impl Stack {
             return None;
         }
         self.len -= 1;
-        Some(self.buf[self.len])
+        // SAFETY: slots below `len` were written by `push` (len only grows there) and Entry is
+        // Copy, so reading one leaves nothing to drop twice.
+        Some(unsafe { self.buf[self.len].assume_init_read() })
     }
 }
 
@@ -696,6 +700,21 @@ mod tests {
         assert!((h.b - b).length() < 1e-6, "{:?} vs {b:?}", h.b);
         let x = p[0] * (1.0 - b.x - b.y) + p[1] * b.x + p[2] * b.y;
         assert!((o + d * h.t - x).length() < 1e-5);
+    }
+
+    #[test]
+    fn stack_is_lifo_across_the_heap_spill() {
+        let mut st = Stack::new();
+        for i in 0..100u32 {
+            st.push(Entry {
+                node: i,
+                t: i as f32,
+            });
+        }
+        for i in (0..100u32).rev() {
+            assert_eq!(st.pop().map(|e| e.node), Some(i));
+        }
+        assert!(st.pop().is_none());
     }
 
     #[test]
