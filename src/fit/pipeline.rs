@@ -285,25 +285,40 @@ fn sorted_planes(data: &[f32], texels: usize, lights: usize) -> Vec<f32> {
 }
 
 /// Polynomials `[light][channel]` mapping the model image `model(texel, channel, u)` onto the
-/// original image (given sorted, see [`sorted_planes`]) by histogram matching.
+/// original image (given sorted, see [`sorted_planes`]) by histogram matching. Each mapping is
+/// conditioned on [0, the largest model value of its channel over all lights] (the range the
+/// renderer evaluates it on between measured directions).
 fn fit_polys(
     lights: &DirectionSet,
     sorted: &[f32],
     texels: usize,
     model: impl Fn(usize, usize, crate::math::Vec3) -> f32 + Sync,
 ) -> Vec<Poly> {
+    let images: Vec<f32> = (0..lights.len() * 3)
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let (l, c) = (i / 3, i % 3);
+            let u = lights.dirs[l];
+            (0..texels).map(move |t| (t, c, u))
+        })
+        .map(|(t, c, u)| model(t, c, u))
+        .collect();
+    let mut floor = [0.0f32; 3];
+    for (i, img) in images.chunks(texels.max(1)).enumerate() {
+        let m = img.iter().fold(0.0f32, |m, &v| m.max(v));
+        floor[i % 3] = floor[i % 3].max(m);
+    }
     (0..lights.len() * 3)
         .into_par_iter()
-        .map_init(
-            || (Vec::new(), polynomial::Scratch::default()),
-            |(m, s), i| {
-                let (l, c) = (i / 3, i % 3);
-                let u = lights.dirs[l];
-                m.clear();
-                m.extend((0..texels).map(|t| model(t, c, u)));
-                polynomial::fit_mapping_sorted(m, &sorted[i * texels..(i + 1) * texels], s)
-            },
-        )
+        .map_init(polynomial::Scratch::default, |s, i| {
+            let img = &images[i * texels..(i + 1) * texels];
+            polynomial::fit_mapping_sorted(
+                img,
+                &sorted[i * texels..(i + 1) * texels],
+                floor[i % 3],
+                s,
+            )
+        })
         .collect()
 }
 
@@ -344,7 +359,7 @@ pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) ->
 }
 
 /// Bumped whenever the fitting code changes results, so stale parts are refitted.
-const FIT_CODE_VERSION: u64 = 2;
+const FIT_CODE_VERSION: u64 = 3;
 
 /// The sidecar directory holding finished views of an interrupted fit: `mat.plmc.parts/`.
 pub fn parts_dir(output: &Path) -> PathBuf {
@@ -689,5 +704,62 @@ mod tests {
                 .resumed_views,
             0
         );
+    }
+
+    /// Sharp lobes over a constant floor: at grazing lights the LM images are ~1e-18 while the
+    /// measured images are 0.02, the case where the old mapping fit (scaled by the image's own
+    /// largest value) wrote coefficients up to 1e38.
+    #[test]
+    fn sharp_lobes_give_bounded_polynomial_coefficients() {
+        let lights = DirectionSet::ubo2003();
+        let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0)]);
+        let mut rng = Pcg32::new(5, 5);
+        let side = 8;
+        let lobes: Vec<Lobe> = (0..side * side)
+            .map(|_| {
+                let th = 0.1 * rng.next_f32();
+                [
+                    0.5 + 0.5 * rng.next_f32(),
+                    th.sin(),
+                    0.0,
+                    th.cos(),
+                    20.0 + 40.0 * rng.next_f32(),
+                ]
+            })
+            .collect();
+        let mut data = Vec::new();
+        for l in 0..81 {
+            for lobe in &lobes {
+                for _ in 0..3 {
+                    let y = lafortune::eval(lobe, lights.dirs[l]);
+                    data.push(y + 0.02 + 0.004 * rng.next_f32());
+                }
+            }
+        }
+        let btf =
+            RawBtf::from_f32(views, lights, side, side, StoredEncoding::Linear, &data).unwrap();
+        for kind in [ModelKind::Plm, ModelKind::PlmC] {
+            let o = FitOptions {
+                kind,
+                clusters: 16,
+                ..FitOptions::default()
+            };
+            let m = fit_model(&btf, &o, None, &|_, _| {}).unwrap().model;
+            // Lobe values reach ~1: every mapping must stay within a few times the data there.
+            for a in &m.polys {
+                let growth: f32 = a.iter().map(|v| v.abs()).sum();
+                assert!(growth < 100.0, "{kind:?} {a:?}");
+            }
+            let lm = fit_model(
+                &btf,
+                &FitOptions {
+                    kind: ModelKind::Lm,
+                    ..o
+                },
+                None,
+                &|_, _| {},
+            );
+            assert!(mae(&btf, &m) < mae(&btf, &lm.unwrap().model), "{kind:?}");
+        }
     }
 }
