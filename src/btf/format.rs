@@ -1,7 +1,7 @@
 //! The `.plmc` model file (DESIGN §3): little-endian, versioned, one CRC32 per section.
 //!
 //! ```text
-//! file    := "PLMC" u32 version(=1) section* END
+//! file    := "PLMC" u32 version(=2; 1 is still read) section* END
 //! section := tag[4] u64 len payload[len] u32 crc32(tag ‖ payload)
 //! HEAD    := u8 kind(0 LM,1 PLM,2 PLM-C) u8 index_bytes(0|1|2) u8 space(0 linear,1 sRGB) u8 reserved
 //!            u32 width u32 height u32 tile_w u32 tile_h u32 clusters u32 views u32 lights
@@ -9,18 +9,26 @@
 //! VIEW    := u32 view u32 k  (k = 0: per-texel lobes)
 //!            k > 0: table k × 3 × lobe, u8 coding (0 raw, 1 deflate), u32 n, index data[n]
 //!            k = 0: W·H·3 × lobe
-//! POLY    := views × lights × 3 × 5 f32 a_0..a_4       (PLM and PLM-C only)
+//! POLY    := version 2: views × lights × 3 × record      (PLM and PLM-C only)
+//!            record := i8 e, i8 s, 5 × i16 q   (Bernstein coefficients q_k·2^s on [0, 2^e],
+//!                      see `fit::polynomial::PackedPoly`)
+//!                    | i8 −128, 5 × f32 a_0..a_4  (coefficients without an exact packed form)
+//!            version 1: views × lights × 3 × 5 f32 a_0..a_4
 //! TILE    := optional: how the tiles were cut from the sample (see `fit::tiling::Stitch`)
 //! "END!"  := empty payload
 //! lobe    := u16 ρ (f16 bits) u16 oct_x u16 oct_y u16 n (f16 bits)      (see PackedLobe)
 //! ```
 //! Index data are the index planes `[channel][texel]` (u8 or u16 little-endian), raw or, when
 //! smaller, zlib-deflated after a channel-delta filter (G−R, B−G modulo 2⁸ or 2¹⁶). Lobes are
-//! f16/u16 (8 bytes: enough precision, see [`PackedLobe`]); polynomial coefficients are f32
-//! because a degree-4 mapping in f16 would lose most digits to cancellation and they are small.
+//! f16/u16 (8 bytes: enough precision, see [`PackedLobe`]). Polynomials are not stored in the power
+//! basis (a degree-4 mapping in f16 would lose most digits to cancellation) but as quantised
+//! Bernstein coefficients (12 bytes instead of 20, error ≤ half a step on the domain); the fitter
+//! snaps its mappings to that form, so the file reproduces the in-memory model bit for bit, and
+//! any other coefficients fall back to f32 records.
 
 use crate::btf::DirectionSet;
 use crate::fit::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
+use crate::fit::polynomial::{self, PackedPoly, Poly};
 use crate::{Error, Result};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -28,7 +36,9 @@ use std::path::Path;
 /// File magic.
 pub const MAGIC: &[u8; 4] = b"PLMC";
 /// Current format version.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
+/// Marker of a POLY record holding f32 coefficients (version 2).
+const RAW_POLY: i8 = i8::MIN;
 /// Largest direction count a reader accepts (guards allocations on corrupt headers).
 const MAX_DIRECTIONS: usize = 1 << 16;
 
@@ -77,6 +87,15 @@ pub fn to_bytes(model: &PlmcModel) -> Result<Vec<u8>> {
 
 /// Serialises a model with an optional TILE section (its tile size goes into HEAD).
 pub fn to_bytes_tiled(model: &PlmcModel, tile: Option<&TileSection>) -> Result<Vec<u8>> {
+    to_bytes_version(model, tile, VERSION)
+}
+
+/// The bytes of `model` in format `version` (1 or 2; only tests write version 1).
+fn to_bytes_version(
+    model: &PlmcModel,
+    tile: Option<&TileSection>,
+    version: u32,
+) -> Result<Vec<u8>> {
     model.validate()?;
     let tile_size = match tile {
         Some(t) => {
@@ -96,16 +115,18 @@ pub fn to_bytes_tiled(model: &PlmcModel, tile: Option<&TileSection>) -> Result<V
     };
     let mut out = Vec::new();
     out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&version.to_le_bytes());
     push_section(&mut out, b"HEAD", &head_payload(model, tile_size));
     for (v, p) in model.params.iter().enumerate() {
         push_section(&mut out, b"VIEW", &view_payload(v, p, model.clusters)?);
     }
     if model.kind.has_polys() {
-        let mut p = Vec::with_capacity(model.polys.len() * 20);
+        let mut p = Vec::with_capacity(model.polys.len() * 12);
         for a in &model.polys {
-            for x in a {
-                p.extend_from_slice(&x.to_le_bytes());
+            if version == 1 {
+                a.iter().for_each(|x| p.extend_from_slice(&x.to_le_bytes()));
+            } else {
+                push_poly(&mut p, a);
             }
         }
         push_section(&mut out, b"POLY", &p);
@@ -117,11 +138,16 @@ pub fn to_bytes_tiled(model: &PlmcModel, tile: Option<&TileSection>) -> Result<V
     Ok(out)
 }
 
-/// Bytes the file of a model with these per-view sections would take: used to size models that
-/// are evaluated without being written, one view at a time.
-pub fn file_size(model_without_views: &PlmcModel, view_section_bytes: usize) -> usize {
+/// Bytes the file of a model with these per-view sections and POLY records (see
+/// [`poly_bytes`]) would take: used to size models that are evaluated without being written, one
+/// view at a time.
+pub fn file_size(
+    model_without_views: &PlmcModel,
+    view_section_bytes: usize,
+    poly_record_bytes: usize,
+) -> usize {
     let polys = if model_without_views.kind.has_polys() {
-        SECTION_OVERHEAD + model_without_views.views.len() * model_without_views.lights.len() * 60
+        SECTION_OVERHEAD + poly_record_bytes
     } else {
         0
     };
@@ -166,6 +192,38 @@ fn head_payload(m: &PlmcModel, tile: (usize, usize)) -> Vec<u8> {
         p.extend_from_slice(&f.to_le_bytes());
     }
     p
+}
+
+/// Bytes of the POLY records of these polynomials (12 each where packed, 21 otherwise).
+pub fn poly_bytes(polys: &[Poly]) -> usize {
+    polys
+        .iter()
+        .map(|a| {
+            if polynomial::encode(a).is_some() {
+                12
+            } else {
+                21
+            }
+        })
+        .sum()
+}
+
+fn push_poly(p: &mut Vec<u8>, a: &Poly) {
+    match polynomial::encode(a) {
+        Some(q) => {
+            p.push(q.e as u8);
+            p.push(q.s as u8);
+            for v in q.q {
+                p.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+        None => {
+            p.push(RAW_POLY as u8);
+            for x in a {
+                p.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+    }
 }
 
 fn push_lobe(p: &mut Vec<u8>, l: &PackedLobe) {
@@ -290,6 +348,31 @@ impl<'a> Cursor<'a> {
     fn f32(&mut self) -> Result<f32> {
         Ok(f32::from_bits(self.u32()?))
     }
+    /// Five f32 coefficients, all finite.
+    fn raw_poly(&mut self) -> Result<Poly> {
+        let mut a = [0f32; 5];
+        for x in a.iter_mut() {
+            *x = self.f32()?;
+            if !x.is_finite() {
+                return Err(self.err("non-finite polynomial coefficient"));
+            }
+        }
+        Ok(a)
+    }
+    /// One version-2 POLY record.
+    fn poly_record(&mut self) -> Result<Poly> {
+        let e = self.u8()? as i8;
+        if e == RAW_POLY {
+            return self.raw_poly();
+        }
+        let s = self.u8()? as i8;
+        let mut q = [0i16; 5];
+        for v in q.iter_mut() {
+            *v = self.u16()? as i16;
+        }
+        polynomial::decode(&PackedPoly { e, s, q })
+            .ok_or_else(|| self.err("packed polynomial overflows f32"))
+    }
     fn lobe(&mut self) -> Result<PackedLobe> {
         let l = PackedLobe {
             rho: self.u16()?,
@@ -372,9 +455,9 @@ pub fn from_bytes_tiled(bytes: &[u8], path: &Path) -> Result<(PlmcModel, Option<
         ));
     }
     let version = c.u32()?;
-    if version != VERSION {
+    if version != 1 && version != VERSION {
         return Err(c.err(format!(
-            "unsupported format version {version} (this build reads {VERSION})"
+            "unsupported format version {version} (this build reads 1..={VERSION})"
         )));
     }
     let (tag, head) = next_section(&mut c)?;
@@ -543,11 +626,15 @@ pub fn from_bytes_tiled(bytes: &[u8], path: &Path) -> Result<(PlmcModel, Option<
             return Err(c.err("missing POLY section"));
         }
         let n = nv * nl * 3;
-        if payload.len() != n * 20 {
+        let (least, most) = if version == 1 {
+            (n * 20, n * 20)
+        } else {
+            (n * 12, n * 21)
+        };
+        if payload.len() < least || payload.len() > most {
             return Err(c.err(format!(
-                "POLY has {} bytes, expected {}",
-                payload.len(),
-                n * 20
+                "POLY has {} bytes, expected {least}..={most} for {n} polynomials",
+                payload.len()
             )));
         }
         let mut s = Cursor {
@@ -558,15 +645,13 @@ pub fn from_bytes_tiled(bytes: &[u8], path: &Path) -> Result<(PlmcModel, Option<
         };
         polys.reserve(n);
         for _ in 0..n {
-            let mut a = [0f32; 5];
-            for x in a.iter_mut() {
-                *x = s.f32()?;
-                if !x.is_finite() {
-                    return Err(s.err("non-finite polynomial coefficient"));
-                }
-            }
-            polys.push(a);
+            polys.push(if version == 1 {
+                s.raw_poly()?
+            } else {
+                s.poly_record()?
+            });
         }
+        s.done()?;
     }
     let (mut tag, mut payload) = next_section(&mut c)?;
     let mut tile = None;
@@ -720,6 +805,36 @@ mod tests {
             assert_eq!(r, m);
             assert_eq!(to_bytes(&r).unwrap(), std::fs::read(&p).unwrap());
         }
+    }
+
+    #[test]
+    fn version_1_files_are_read_and_snapped_polynomials_take_12_bytes() {
+        let mut m = model(ModelKind::PlmC, 7);
+        let p = Path::new("old.plmc");
+        let v1 = to_bytes_version(&m, None, 1).unwrap();
+        assert_eq!(v1[4..8], 1u32.to_le_bytes());
+        assert_eq!(from_bytes(&v1, p).unwrap(), m);
+        // Arbitrary coefficients have no packed form: f32 records keep them exact.
+        let raw = to_bytes(&m).unwrap();
+        assert_eq!(raw.len(), v1.len() + m.polys.len());
+        // Mappings as the fitter leaves them (snapped) are packed, and still exact.
+        let mut rng = Pcg32::new(2, 2);
+        for a in m.polys.iter_mut() {
+            let x: Vec<f32> = (0..100).map(|i| i as f32 / 99.0).collect();
+            let g = 0.5 + rng.next_f32();
+            let y: Vec<f32> = x.iter().map(|&v| 0.9 * v.powf(g) + 0.02).collect();
+            *a = polynomial::fit_pairs_in(&x, &y, 1.0);
+        }
+        let packed = to_bytes(&m).unwrap();
+        assert_eq!(from_bytes(&packed, p).unwrap(), m);
+        assert_eq!(
+            packed.len() + 8 * m.polys.len(),
+            to_bytes_version(&m, None, 1).unwrap().len()
+        );
+        let mut future = packed.clone();
+        future[4] = 3;
+        let e = from_bytes(&future, p).unwrap_err().to_string();
+        assert!(e.contains("version 3") && e.contains("old.plmc"), "{e}");
     }
 
     #[test]
