@@ -72,6 +72,10 @@ pub struct ViewStats {
     pub clusters: usize,
     /// Lloyd iterations (summed over channels).
     pub kmeans_iterations: usize,
+    /// Mappings (PLM and PLM-C) kept from histogram matching, the paper's method.
+    pub matched_polys: usize,
+    /// Mappings where the texel-wise least-squares regression had the lower MAE and was kept.
+    pub regression_polys: usize,
 }
 
 /// One view's result: the parameters at the requested level, its polynomials and the
@@ -142,7 +146,7 @@ pub fn fit_view(
     if opts.kind == ModelKind::Lm {
         return out;
     }
-    out.plm_polys = fit_polys(lights, &sorted, texels, |t, c, u| {
+    out.plm_polys = fit_polys(lights, data, &sorted, texels, &mut out.stats, |t, c, u| {
         lafortune::eval(&lm_lobes[3 * t + c], u)
     });
     stage(Stage::Plm);
@@ -150,7 +154,9 @@ pub fn fit_view(
         return out;
     }
 
-    // PLM-C, per channel.
+    // PLM-C, per channel (the mapping counts then describe the PLM-C mappings only).
+    out.stats.matched_polys = 0;
+    out.stats.regression_polys = 0;
     let mut tables: [Vec<Lobe>; 3] = Default::default();
     let mut index = vec![0u16; texels * 3];
     let mut planes: Vec<Vec<f32>> = vec![Vec::new(); nl];
@@ -254,7 +260,7 @@ pub fn fit_view(
         }
     }
     let unpacked: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
-    let polys = fit_polys(lights, &sorted, texels, |t, c, u| {
+    let polys = fit_polys(lights, data, &sorted, texels, &mut out.stats, |t, c, u| {
         lafortune::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
     });
     out.plmc = Some((ViewParams::Clustered { k, table, index }, polys));
@@ -285,13 +291,22 @@ fn sorted_planes(data: &[f32], texels: usize, lights: usize) -> Vec<f32> {
 }
 
 /// Polynomials `[light][channel]` mapping the model image `model(texel, channel, u)` onto the
-/// original image (given sorted, see [`sorted_planes`]) by histogram matching. Each mapping is
-/// conditioned on [0, the largest model value of its channel over all lights] (the range the
-/// renderer evaluates it on between measured directions).
+/// original image `data` (`[light][texel][rgb]`, also given sorted, see [`sorted_planes`]).
+///
+/// Per image two mappings are fitted and the one with the lower MAE on the image is kept (counted
+/// in `stats`): the paper's histogram matching (rank k of the model ↦ rank k of the original; it
+/// keeps the original's histogram, hence its contrast) and the texel-wise least-squares regression
+/// of the original on the model value (E[original | model value]; with an imperfect model, above
+/// all a clustered one, matching reproduces the full contrast at the wrong texels and its error is
+/// up to 2σ²(1 − ρ) against the regression's σ²(1 − ρ²)). Each mapping is conditioned on [0, the
+/// largest model value of its channel over all lights] (the range the renderer evaluates it on
+/// between measured directions).
 fn fit_polys(
     lights: &DirectionSet,
+    data: &[f32],
     sorted: &[f32],
     texels: usize,
+    stats: &mut ViewStats,
     model: impl Fn(usize, usize, crate::math::Vec3) -> f32 + Sync,
 ) -> Vec<Poly> {
     let images: Vec<f32> = (0..lights.len() * 3)
@@ -308,18 +323,57 @@ fn fit_polys(
         let m = img.iter().fold(0.0f32, |m, &v| m.max(v));
         floor[i % 3] = floor[i % 3].max(m);
     }
-    (0..lights.len() * 3)
+    let fits: Vec<(Poly, bool)> = (0..lights.len() * 3)
         .into_par_iter()
-        .map_init(polynomial::Scratch::default, |s, i| {
-            let img = &images[i * texels..(i + 1) * texels];
-            polynomial::fit_mapping_sorted(
-                img,
-                &sorted[i * texels..(i + 1) * texels],
-                floor[i % 3],
-                s,
-            )
-        })
-        .collect()
+        .map_init(
+            || {
+                (
+                    polynomial::Scratch::default(),
+                    Vec::new(),
+                    Vec::new(),
+                    Vec::new(),
+                )
+            },
+            |(s, pairs, xs, ys), i| {
+                let (l, c) = (i / 3, i % 3);
+                let img = &images[i * texels..(i + 1) * texels];
+                let f = floor[c];
+                let matched = polynomial::fit_mapping_sorted(
+                    img,
+                    &sorted[i * texels..(i + 1) * texels],
+                    f,
+                    s,
+                );
+                pairs.clear();
+                pairs.extend(
+                    img.iter()
+                        .enumerate()
+                        .map(|(t, &m)| (m, data[(l * texels + t) * 3 + c])),
+                );
+                pairs.sort_unstable_by(|a: &(f32, f32), b| a.0.total_cmp(&b.0));
+                xs.clear();
+                ys.clear();
+                xs.extend(pairs.iter().map(|p| p.0));
+                ys.extend(pairs.iter().map(|p| p.1));
+                let regressed = polynomial::fit_pairs_in(xs, ys, f);
+                let mae = |a: &Poly| {
+                    pairs
+                        .iter()
+                        .map(|&(m, o)| (polynomial::eval(a, m).max(0.0) - o).abs() as f64)
+                        .sum::<f64>()
+                };
+                if mae(&regressed) < mae(&matched) {
+                    (regressed, true)
+                } else {
+                    (matched, false)
+                }
+            },
+        )
+        .collect();
+    let regression = fits.iter().filter(|f| f.1).count();
+    stats.regression_polys += regression;
+    stats.matched_polys += fits.len() - regression;
+    fits.into_iter().map(|f| f.0).collect()
 }
 
 /// A hash of everything that determines a view's fit, so parts of another fit are not reused.
@@ -535,6 +589,8 @@ pub fn fit_model_keyed(
         stats.average_wins += s.average_wins;
         stats.clusters += s.clusters;
         stats.kmeans_iterations += s.kmeans_iterations;
+        stats.matched_polys += s.matched_polys;
+        stats.regression_polys += s.regression_polys;
     }
     model.validate()?;
     Ok(FitOutcome {
