@@ -7,7 +7,10 @@
 //!            u32 width u32 height u32 tile_w u32 tile_h u32 clusters u32 views u32 lights
 //!            views × (f32 θ°, f32 φ°)  lights × (f32 θ°, f32 φ°)
 //! VIEW    := u32 view u32 k  (k = 0: per-texel lobes)
-//!            k > 0: table k × 3 × lobe, u8 coding (0 raw, 1 deflate), u32 n, index data[n]
+//!            k > 0: table, u8 coding (0 raw, 1 deflate), u32 n, index data[n]
+//!                   table := version 2: u8 coding (0 raw, 1 deflated byte planes) u32 n data[n]
+//!                            (the k × 3 lobes, as planes: byte b of every lobe for b = 0..8)
+//!                          | version 1: k × 3 × lobe
 //!            k = 0: W·H·3 × lobe
 //! POLY    := version 2: views × lights × 3 × record      (PLM and PLM-C only)
 //!            record := i8 e, i8 s, 5 × i16 q   (Bernstein coefficients q_k·2^s on [0, 2^e],
@@ -118,7 +121,11 @@ fn to_bytes_version(
     out.extend_from_slice(&version.to_le_bytes());
     push_section(&mut out, b"HEAD", &head_payload(model, tile_size));
     for (v, p) in model.params.iter().enumerate() {
-        push_section(&mut out, b"VIEW", &view_payload(v, p, model.clusters)?);
+        push_section(
+            &mut out,
+            b"VIEW",
+            &view_payload_version(v, p, model.clusters, version)?,
+        );
     }
     if model.kind.has_polys() {
         let mut p = Vec::with_capacity(model.polys.len() * 12);
@@ -234,6 +241,24 @@ fn push_lobe(p: &mut Vec<u8>, l: &PackedLobe) {
 
 /// The payload of one VIEW section.
 pub fn view_payload(view: usize, params: &ViewParams, clusters: usize) -> Result<Vec<u8>> {
+    view_payload_version(view, params, clusters, VERSION)
+}
+
+/// Zlib-deflates `data` at the best level.
+fn deflate(data: &[u8], what: &str) -> Result<Vec<u8>> {
+    let mut enc = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+    enc.write_all(data)
+        .map_err(|e| Error::Invalid(format!("deflating {what}: {e}")))?;
+    enc.finish()
+        .map_err(|e| Error::Invalid(format!("deflating {what}: {e}")))
+}
+
+fn view_payload_version(
+    view: usize,
+    params: &ViewParams,
+    clusters: usize,
+    version: u32,
+) -> Result<Vec<u8>> {
     let mut p = Vec::new();
     p.extend_from_slice(&(view as u32).to_le_bytes());
     match params {
@@ -245,8 +270,27 @@ pub fn view_payload(view: usize, params: &ViewParams, clusters: usize) -> Result
         }
         ViewParams::Clustered { k, table, index } => {
             p.extend_from_slice(&(*k as u32).to_le_bytes());
+            let mut lobes = Vec::with_capacity(table.len() * 8);
             for l in table {
-                push_lobe(&mut p, l);
+                push_lobe(&mut lobes, l);
+            }
+            if version == 1 {
+                p.extend_from_slice(&lobes);
+            } else {
+                // Version 2: u8 coding (0 raw, 1 deflated byte planes), u32 n, data[n]. The
+                // planes (byte b of every lobe, b = 0..8) deflate ~13 % smaller than the lobes.
+                let planes: Vec<u8> = (0..8)
+                    .flat_map(|b| lobes.iter().skip(b).step_by(8).copied())
+                    .collect();
+                let deflated = deflate(&planes, "cluster table")?;
+                let (coding, data) = if deflated.len() < lobes.len() {
+                    (1u8, deflated)
+                } else {
+                    (0u8, lobes)
+                };
+                p.push(coding);
+                p.extend_from_slice(&(data.len() as u32).to_le_bytes());
+                p.extend_from_slice(&data);
             }
             let wide = index_bytes(clusters) == 2;
             let texels = index.len() / 3;
@@ -270,12 +314,7 @@ pub fn view_payload(view: usize, params: &ViewParams, clusters: usize) -> Result
                     }
                 }
             }
-            let mut enc = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
-            enc.write_all(&filtered)
-                .map_err(|e| Error::Invalid(format!("deflating index image: {e}")))?;
-            let deflated = enc
-                .finish()
-                .map_err(|e| Error::Invalid(format!("deflating index image: {e}")))?;
+            let deflated = deflate(&filtered, "index image")?;
             let (coding, data) = if deflated.len() < raw.len() {
                 (1u8, deflated)
             } else {
@@ -551,7 +590,49 @@ pub fn from_bytes_tiled(bytes: &[u8], path: &Path) -> Result<(PlmcModel, Option<
                     "view {v} has {k} clusters (1..={clusters} allowed)"
                 )));
             }
-            let table = (0..3 * k).map(|_| s.lobe()).collect::<Result<Vec<_>>>()?;
+            let table = if version == 1 {
+                (0..3 * k).map(|_| s.lobe()).collect::<Result<Vec<_>>>()?
+            } else {
+                let coding = s.u8()?;
+                let n = s.u32()? as usize;
+                let data = s.take(n)?;
+                let lobes = match coding {
+                    0 => data.to_vec(),
+                    1 => {
+                        let mut planes = Vec::with_capacity(24 * k);
+                        flate2::read::ZlibDecoder::new(data)
+                            .take(24 * k as u64 + 1)
+                            .read_to_end(&mut planes)
+                            .map_err(|e| {
+                                s.err(format!("view {v}: cluster table does not inflate: {e}"))
+                            })?;
+                        if planes.len() != 24 * k {
+                            return Err(s.err(format!(
+                                "view {v}: cluster table has {} bytes, expected {}",
+                                planes.len(),
+                                24 * k
+                            )));
+                        }
+                        (0..24 * k)
+                            .map(|i| planes[(i % 8) * 3 * k + i / 8])
+                            .collect()
+                    }
+                    _ => return Err(s.err(format!("view {v}: unknown table coding {coding}"))),
+                };
+                if lobes.len() != 24 * k {
+                    return Err(s.err(format!(
+                        "view {v}: raw cluster table is {} bytes",
+                        lobes.len()
+                    )));
+                }
+                let mut t = Cursor {
+                    buf: &lobes,
+                    pos: 0,
+                    path,
+                    what: "VIEW table",
+                };
+                (0..3 * k).map(|_| t.lobe()).collect::<Result<Vec<_>>>()?
+            };
             let coding = s.u8()?;
             let n = s.u32()? as usize;
             let data = s.take(n)?;
@@ -816,7 +897,8 @@ mod tests {
         assert_eq!(from_bytes(&v1, p).unwrap(), m);
         // Arbitrary coefficients have no packed form: f32 records keep them exact.
         let raw = to_bytes(&m).unwrap();
-        assert_eq!(raw.len(), v1.len() + m.polys.len());
+        assert_eq!(from_bytes(&raw, p).unwrap(), m);
+        assert_eq!(poly_bytes(&m.polys), 21 * m.polys.len());
         // Mappings as the fitter leaves them (snapped) are packed, and still exact.
         let mut rng = Pcg32::new(2, 2);
         for a in m.polys.iter_mut() {
@@ -827,10 +909,8 @@ mod tests {
         }
         let packed = to_bytes(&m).unwrap();
         assert_eq!(from_bytes(&packed, p).unwrap(), m);
-        assert_eq!(
-            packed.len() + 8 * m.polys.len(),
-            to_bytes_version(&m, None, 1).unwrap().len()
-        );
+        assert_eq!(poly_bytes(&m.polys), 12 * m.polys.len());
+        assert_eq!(packed.len() + 9 * m.polys.len(), raw.len());
         let mut future = packed.clone();
         future[4] = 3;
         let e = from_bytes(&future, p).unwrap_err().to_string();
