@@ -103,7 +103,7 @@ pub fn evaluate(
                     section[i] = format::view_section_size(v, &model.params[v], model.clusters)?;
                     if kind.has_polys() {
                         let n = model.lights.len() * 3;
-                        poly[i] = format::poly_bytes(&model.polys[v * n..(v + 1) * n]);
+                        poly[i] = format::poly_bytes(&model.polys[v * n..(v + 1) * n])?;
                     }
                 } else {
                     let m = pipeline::view_model(
@@ -119,7 +119,7 @@ pub fn evaluate(
                     })?;
                     m.reconstruct_view(0, &mut recon);
                     section[i] = format::view_section_size(v, &m.params[0], m.clusters)?;
-                    poly[i] = format::poly_bytes(&m.polys);
+                    poly[i] = format::poly_bytes(&m.polys)?;
                 }
                 err[i] = view_error(&data, &recon, enc);
             }
