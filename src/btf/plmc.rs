@@ -26,7 +26,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::bsdf::{BsdfFlags, BsdfSample, BtfMaterial};
-use crate::btf::directions::DirectionInterp;
 use crate::btf::{RawBtf, StoredEncoding};
 use crate::fit::lafortune;
 use crate::fit::model::{ModelKind, PlmcModel, ValueSpace, ViewParams};
@@ -38,24 +37,30 @@ use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Lanes of one evaluation: 3 views × 3 channels = 9, padded to a multiple of 4.
-pub const LANES: usize = 12;
+/// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
+pub const LANES: usize = 4;
 /// Texels per axis averaged (at most) per image when building the sampling tables.
 const TABLE_TEXELS: usize = 64;
+
+/// Four f32 lanes (R, G, B, pad) of one view; LLVM keeps them in one SSE register.
+type V4 = [f32; 4];
 
 /// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(32))]
 pub struct LobeRec(pub [f32; 8]);
 
-/// Polynomial coefficients of one (view, light): `[a_0..a_4 of R, of G, of B, pad]`.
+/// Polynomial coefficients of one (view, light), coefficient-major: `[a_j of R, G, B]` for
+/// j = 0..4 then one pad. `a_j` of the 3 channels is the 4-lane window starting at `3 j` (its pad
+/// lane reads the next coefficient, harmless: that lane is discarded).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
 pub struct PolyRow(pub [f32; 16]);
 
 /// How the per-texel lobes are stored.
 enum Params {
-    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[view][texel][4]`.
+    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[texel][view][R, G, B, pad]`
+    /// (the 3 views of one evaluation are a few hundred bytes apart: one or two cache lines).
     Clustered8 {
         k: usize,
         records: Vec<LobeRec>,
@@ -71,24 +76,30 @@ enum Params {
     Texel { lobes: Vec<[f32; 5]> },
 }
 
-/// Gathers the lobe of (view, texel, channel): the only part that differs between the layouts.
+/// The lobes (R, G, B) of one (view, texel), transposed to lanes: ρ, Dx, Dy, Dz, n.
+type LaneLobes = [V4; 5];
+
+/// Gathers the lobes of (view, texel): the only part that differs between the layouts.
 trait LobeAt {
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5];
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes;
 }
 
 struct Clustered<'a, I> {
     k: usize,
-    texels: usize,
+    views: usize,
     records: &'a [LobeRec],
     index: &'a [[I; 4]],
 }
 
 impl<I: Copy + Into<usize>> LobeAt for Clustered<'_, I> {
     #[inline(always)]
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
-        let i: usize = self.index[view * self.texels + texel][channel].into();
-        let r = &self.records[(view * 3 + channel) * self.k + i].0;
-        [r[0], r[1], r[2], r[3], r[4]]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let i = self.index[texel * self.views + view];
+        let base = view * 3 * self.k;
+        let r = &self.records[base + i[0].into()].0;
+        let g = &self.records[base + self.k + i[1].into()].0;
+        let b = &self.records[base + 2 * self.k + i[2].into()].0;
+        std::array::from_fn(|p| [r[p], g[p], b[p], 0.0])
     }
 }
 
@@ -99,9 +110,19 @@ struct PerTexel<'a> {
 
 impl LobeAt for PerTexel<'_> {
     #[inline(always)]
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
-        self.lobes[(view * self.texels + texel) * 3 + channel]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let l = &self.lobes[(view * self.texels + texel) * 3..][..3];
+        std::array::from_fn(|p| [l[0][p], l[1][p], l[2][p], 0.0])
     }
+}
+
+/// Per view of one evaluation: the light-interpolated polynomial `a_0..a_4` and the two range
+/// clamps (lobe value Y, polynomial output), as lanes.
+#[derive(Clone, Copy, Default)]
+struct ViewPoly {
+    a: [V4; 5],
+    y_max: V4,
+    out_max: V4,
 }
 
 /// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
@@ -111,23 +132,24 @@ pub struct PlmcMaterial {
     space: ValueSpace,
     width: usize,
     height: usize,
+    n_views: usize,
     n_lights: usize,
-    lights: DirectionInterp,
     params: Params,
     /// `[view][light]`; empty for LM.
     polys: Vec<PolyRow>,
-    /// `[view][channel]`: the largest lobe value Y over the measured lights (and the clusters /
+    /// `[view]` (R, G, B, 0): the largest lobe value Y over the measured lights (and the clusters /
     /// sampled texels). The polynomials were fitted on Y in this range; Y is clamped to it before
     /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
     /// light directions near a sharp lobe's peak.
-    y_max: Vec<[f32; 3]>,
+    y_max: Vec<[f32; 4]>,
     /// `[view][light]`: the largest polynomial output (model space) per channel over the
     /// clusters / sampled texels at that measured (view, light). Between measured lights the
     /// output is clamped to the largest bound of the 3 lights: a guard against ill-conditioned
     /// fitted polynomials (|a_j| up to 1e38 occur) that are harmless at the measured directions
     /// but explode for lobe values in between; values at measured directions are unchanged.
     out_max: Vec<[f32; 4]>,
-    /// Sampling tables (and the view interpolator) built from the model's texel-mean values.
+    /// Sampling tables and the view and light interpolators, built from the model's texel-mean
+    /// values (its light interpolator is the model's: the same direction set).
     sampler: BtfMaterial,
 }
 
@@ -137,10 +159,6 @@ impl PlmcMaterial {
         model.validate()?;
         let (nv, nl) = (model.views.len(), model.lights.len());
         let texels = model.width * model.height;
-        let lights = model
-            .lights
-            .interpolator()
-            .map_err(|e| Error::Invalid(format!("model light directions: {e}")))?;
         let rec = |l: [f32; 5]| LobeRec([l[0], l[1], l[2], l[3], l[4], 0.0, 0.0, 0.0]);
         let params = match model.kind {
             ModelKind::PlmC => {
@@ -164,7 +182,7 @@ impl PlmcMaterial {
                         }
                     }
                     for t in 0..texels {
-                        let d = &mut idx16[v * texels + t];
+                        let d = &mut idx16[t * nv + v];
                         d[..3].copy_from_slice(&index[3 * t..3 * t + 3]);
                     }
                 }
@@ -201,7 +219,10 @@ impl PlmcMaterial {
             for v in 0..nv {
                 for l in 0..nl {
                     for c in 0..3 {
-                        rows[v * nl + l].0[5 * c..5 * c + 5].copy_from_slice(&model.poly(v, l, c));
+                        let a = model.poly(v, l, c);
+                        for j in 0..5 {
+                            rows[v * nl + l].0[3 * j + c] = a[j];
+                        }
                     }
                 }
             }
@@ -210,6 +231,7 @@ impl PlmcMaterial {
             Vec::new()
         };
         let (means, y_max, out_max) = mean_values(model);
+        let y_max = y_max.iter().map(|m| [m[0], m[1], m[2], 0.0]).collect();
         let table = RawBtf::from_f32(
             model.views.clone(),
             model.lights.clone(),
@@ -224,8 +246,8 @@ impl PlmcMaterial {
             space: model.space,
             width: model.width,
             height: model.height,
+            n_views: nv,
             n_lights: nl,
-            lights,
             params,
             polys,
             y_max,
@@ -261,12 +283,19 @@ impl PlmcMaterial {
         self.sampler.view_interp().lookup(wi)
     }
 
+    /// Interpolation indices and weights of the 3 measured lights around `wo` (local frame).
+    #[inline]
+    pub fn light_lookup(&self, wo: Vec3) -> ([u32; 3], [f32; 3]) {
+        self.sampler.light_interp().lookup(wo)
+    }
+
     /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
     /// (column `x`, row `y`); both directions must be in the upper hemisphere.
     #[inline]
     pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
         let (vi, vw) = self.view_lookup(wi);
-        self.eval_b_with_views(vi, vw, wo, &[(y * self.width + x, 1.0)])
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
     }
 
     /// B blended over `texels` (texel index, weight) with the view lookup already done.
@@ -278,29 +307,47 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, texels)
+    }
+
+    /// B blended over `texels` with both direction lookups done (views `vi`/`vw`, lights
+    /// `li`/`lw` around `wo`).
+    #[inline]
+    pub fn eval_b_with(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
         let texel_count = self.width * self.height;
         match &self.params {
             Params::Clustered8 { k, records, index } => self.eval_texels(
                 &Clustered {
                     k: *k,
-                    texels: texel_count,
+                    views: self.n_views,
                     records,
                     index,
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
             Params::Clustered16 { k, records, index } => self.eval_texels(
                 &Clustered {
                     k: *k,
-                    texels: texel_count,
+                    views: self.n_views,
                     records,
                     index,
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
@@ -311,9 +358,34 @@ impl PlmcMaterial {
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
+        }
+    }
+
+    /// The light-interpolated polynomial and clamps of view `v` (lights `li` with weights `lw`).
+    #[inline(always)]
+    fn view_poly(&self, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
+        let base = v * self.n_lights;
+        let r = li.map(|l| &self.polys[base + l as usize].0);
+        let m = li.map(|l| &self.out_max[base + l as usize]);
+        let mut a = [[0f32; 4]; 5];
+        for j in 0..5 {
+            for c in 0..4 {
+                let o = 3 * j + c;
+                a[j][c] = lw[0] * r[0][o] + lw[1] * r[1][o] + lw[2] * r[2][o];
+            }
+        }
+        let mut out_max = [0f32; 4];
+        for c in 0..4 {
+            out_max[c] = m[0][c].max(m[1][c]).max(m[2][c]);
+        }
+        ViewPoly {
+            a,
+            y_max: self.y_max[v],
+            out_max,
         }
     }
 
@@ -323,120 +395,53 @@ impl PlmcMaterial {
         p: &P,
         vi: [u32; 3],
         vw: [f32; 3],
+        (li, lw): ([u32; 3], [f32; 3]),
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
         // Light interpolation of the polynomial rows: once per evaluation, shared by all texels.
-        let mut coef = [[0f32; 16]; 3];
-        let mut bound = [[f32::INFINITY; 3]; 3];
         let has_polys = !self.polys.is_empty();
+        let mut vp = [ViewPoly::default(); 3];
         if has_polys {
-            let (li, lw) = self.lights.lookup(wo);
             for a in 0..3 {
-                let base = vi[a] as usize * self.n_lights;
-                // Output bound: the largest of the 3 measured lights' maxima.
-                let m = [
-                    &self.out_max[base + li[0] as usize],
-                    &self.out_max[base + li[1] as usize],
-                    &self.out_max[base + li[2] as usize],
-                ];
-                let r = [
-                    &self.polys[base + li[0] as usize].0,
-                    &self.polys[base + li[1] as usize].0,
-                    &self.polys[base + li[2] as usize].0,
-                ];
-                for j in 0..16 {
-                    coef[a][j] = lw[0] * r[0][j] + lw[1] * r[1][j] + lw[2] * r[2][j];
-                }
-                bound[a] = [0, 1, 2].map(|c| m[0][c].max(m[1][c]).max(m[2][c]));
+                vp[a] = self.view_poly(vi[a] as usize, li, lw);
             }
         }
-        let mut out = [0f32; 3];
+        let mut out = [0f32; 4];
         for &(t, tw) in texels {
-            let v = self.eval_lanes(p, vi, &coef, &bound, has_polys, wo, t);
-            for c in 0..3 {
-                out[c] += tw * (vw[0] * v[c] + vw[1] * v[3 + c] + vw[2] * v[6 + c]);
+            for a in 0..3 {
+                let y = self.eval_view(&p.lobes(vi[a] as usize, t), &vp[a], has_polys, wo);
+                let w = tw * vw[a];
+                for c in 0..4 {
+                    out[c] += w * y[c];
+                }
             }
         }
-        out
+        [out[0], out[1], out[2]]
     }
 
-    /// The 9 (view, channel) values of one texel, linear, lane `3·view + channel`.
+    /// The (R, G, B, pad) values of one view's lobes at light `wo`, linear.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the per-evaluation state, passed in registers
-    fn eval_lanes<P: LobeAt>(
-        &self,
-        p: &P,
-        vi: [u32; 3],
-        coef: &[[f32; 16]; 3],
-        bound: &[[f32; 3]; 3],
-        has_polys: bool,
-        wo: Vec3,
-        texel: usize,
-    ) -> [f32; LANES] {
-        let mut rho = [0f32; LANES];
-        let mut dx = [0f32; LANES];
-        let mut dy = [0f32; LANES];
-        let mut dz = [0f32; LANES];
-        let mut n = [1f32; LANES];
-        for a in 0..3 {
-            for c in 0..3 {
-                let l = p.lobe(vi[a] as usize, texel, c);
-                let i = 3 * a + c;
-                rho[i] = l[0];
-                dx[i] = l[1];
-                dy[i] = l[2];
-                dz[i] = l[3];
-                n[i] = l[4];
-            }
-        }
-        let mut y = [0f32; LANES];
-        for i in 0..LANES {
+    fn eval_view(&self, l: &LaneLobes, vp: &ViewPoly, has_polys: bool, wo: Vec3) -> V4 {
+        let [rho, dx, dy, dz, n] = l;
+        let mut y = [0f32; 4];
+        for i in 0..4 {
             let b = dx[i] * wo.x + dy[i] * wo.y + dz[i] * wo.z;
             let pw = fast_pow(b.max(1e-30), n[i]);
             y[i] = if b > 0.0 { rho[i] * pw } else { 0.0 };
         }
         if has_polys {
-            let mut y_max = [0f32; LANES];
-            for v in 0..3 {
-                y_max[3 * v..3 * v + 3].copy_from_slice(&self.y_max[vi[v] as usize]);
-            }
-            for i in 0..LANES {
-                y[i] = y[i].min(y_max[i]);
-            }
-            let mut a = [[0f32; LANES]; 5];
-            for v in 0..3 {
-                for c in 0..3 {
-                    for j in 0..5 {
-                        a[j][3 * v + c] = coef[v][5 * c + j];
-                    }
-                }
-            }
-            for i in 0..LANES {
-                y[i] = (((a[4][i] * y[i] + a[3][i]) * y[i] + a[2][i]) * y[i] + a[1][i]) * y[i]
-                    + a[0][i];
-            }
-            let mut hi = [0f32; LANES];
-            for v in 0..3 {
-                hi[3 * v..3 * v + 3].copy_from_slice(&bound[v]);
-            }
-            for i in 0..LANES {
-                y[i] = y[i].min(hi[i]);
+            let a = &vp.a;
+            for i in 0..4 {
+                let x = y[i].min(vp.y_max[i]);
+                let o = (((a[4][i] * x + a[3][i]) * x + a[2][i]) * x + a[1][i]) * x + a[0][i];
+                y[i] = o.min(vp.out_max[i]);
             }
         }
         match self.space {
-            ValueSpace::Linear => {
-                for v in y.iter_mut() {
-                    *v = v.max(0.0);
-                }
-            }
-            ValueSpace::Srgb => {
-                for v in y.iter_mut() {
-                    *v = fast_srgb_to_linear(*v);
-                }
-            }
+            ValueSpace::Linear => y.map(|v| v.max(0.0)),
+            ValueSpace::Srgb => y.map(fast_srgb_to_linear),
         }
-        y
     }
 }
 
@@ -682,10 +687,22 @@ impl PlmcBsdf {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
+    /// f·cos θ_o and the pdf at `wo` for the views `vi`/`vw`: one light-triangulation search
+    /// serves both (the model and its sampling tables share the light direction set).
     #[inline]
-    fn f_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3, uv: Vec2) -> Spectrum {
-        let (t, n) = self.texels(uv);
-        Spectrum::from(self.material.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
+    fn eval_pdf_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        uv: Vec2,
+    ) -> (Spectrum, f32) {
+        let m = &*self.material;
+        let (t, w) = self.texels(uv);
+        let located = m.sampler.light_interp().locate([wo.x, wo.y]);
+        let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
+        let f = Spectrum::from(m.eval_b_with(vi, vw, li, lw, wo, &t[..w])) * INV_PI;
+        (f, m.sampler.light_pdf_located(vi, vw, wo, located))
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
@@ -694,8 +711,10 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
-        let (vi, vw) = self.material.view_lookup(si.wi);
-        self.f_with_views(vi, vw, wo, si.uv)
+        let m = &*self.material;
+        let (vi, vw) = m.view_lookup(si.wi);
+        let (t, n) = self.texels(si.uv);
+        Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
     }
 
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
@@ -708,17 +727,14 @@ impl PlmcBsdf {
         self.material.sampler.light_pdf(vi, vw, wo)
     }
 
-    /// `(eval, pdf)` sharing the view lookup.
+    /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        (
-            self.f_with_views(vi, vw, wo, si.uv),
-            self.material.sampler.light_pdf(vi, vw, wo),
-        )
+        self.eval_pdf_with_views(vi, vw, wo, si.uv)
     }
 
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
@@ -737,18 +753,17 @@ impl PlmcBsdf {
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = m.sampler.light_pdf(vi, vw, wo);
+        let (f, pdf) = self.eval_pdf_with_views(vi, vw, wo, si.uv);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let weight = self.f_with_views(vi, vw, wo, si.uv) / pdf;
         let s = BsdfSample {
             wo,
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
-        Some((s, weight))
+        Some((s, f / pdf))
     }
 }
 

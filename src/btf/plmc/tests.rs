@@ -1,5 +1,6 @@
 use super::*;
 use crate::btf::DirectionSet;
+use crate::btf::directions::DirectionInterp;
 use crate::fit::lafortune::Lobe;
 use crate::fit::model::PackedLobe;
 use crate::fit::polynomial::Poly;
