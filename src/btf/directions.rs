@@ -135,6 +135,9 @@ pub struct DirectionInterp {
     tris: Vec<TriGeom>,
     /// Cells per side of the grid over [−1, 1]².
     grid: u32,
+    /// Per cell, one load for the common case: `(t << 1) | 1` if triangle t is the cell's only
+    /// candidate, else `0` (look in `cell_start`).
+    cells: Vec<u32>,
     /// Candidate lists: triangles of cell k are `cell_tris[cell_start[k]..cell_start[k + 1]]`.
     cell_start: Vec<u32>,
     cell_tris: Vec<u32>,
@@ -183,9 +186,20 @@ impl DirectionInterp {
             let k = ((cy / REFINE) * coarse + cx / REFINE) as usize;
             &ct[cs[k] as usize..cs[k + 1] as usize]
         });
+        let cells = cell_start
+            .windows(2)
+            .map(|r| {
+                if r[1] - r[0] == 1 {
+                    (cell_tris[r[0] as usize] << 1) | 1
+                } else {
+                    0
+                }
+            })
+            .collect();
         Ok(DirectionInterp {
             tris,
             grid,
+            cells,
             cell_start,
             cell_tris,
             n_dirs: set.len(),
@@ -230,16 +244,18 @@ impl DirectionInterp {
         let cx = (((q[0] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cy = (((q[1] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cell = (cy * self.grid + cx) as usize;
+        let single = self.cells[cell];
+        if single & 1 == 1 {
+            // The only triangle that wins anywhere in this cell (most cells of the fine grid).
+            let t = (single >> 1) as usize;
+            return (t, self.tris[t].weights(q));
+        }
         let (s, e) = (
             self.cell_start[cell] as usize,
             self.cell_start[cell + 1] as usize,
         );
         let mut best_t = self.cell_tris[s] as usize;
         let mut best_w = self.tris[best_t].weights(q);
-        if e - s == 1 {
-            // The only triangle that wins anywhere in this cell (most cells of the fine grid).
-            return (best_t, best_w);
-        }
         let mut best_min = best_w[0].min(best_w[1]).min(best_w[2]);
         if best_min >= 0.0 {
             return (best_t, best_w);

@@ -33,17 +33,17 @@ use crate::fit::polynomial;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
+use f4::F4;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
+pub const FLUSH: f32 = 1e-20;
 /// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
 pub const LANES: usize = 4;
 /// Texels per axis averaged (at most) per image when building the sampling tables.
 const TABLE_TEXELS: usize = 64;
-
-/// Four f32 lanes (R, G, B, pad) of one view; LLVM keeps them in one SSE register.
-type V4 = [f32; 4];
 
 /// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
 #[derive(Clone, Copy, Debug, Default)]
@@ -77,7 +77,7 @@ enum Params {
 }
 
 /// The lobes (R, G, B) of one (view, texel), transposed to lanes: ρ, Dx, Dy, Dz, n.
-type LaneLobes = [V4; 5];
+type LaneLobes = [F4; 5];
 
 /// Gathers the lobes of (view, texel): the only part that differs between the layouts.
 trait LobeAt {
@@ -99,7 +99,7 @@ impl<I: Copy + Into<usize>> LobeAt for Clustered<'_, I> {
         let r = &self.records[base + i[0].into()].0;
         let g = &self.records[base + self.k + i[1].into()].0;
         let b = &self.records[base + 2 * self.k + i[2].into()].0;
-        std::array::from_fn(|p| [r[p], g[p], b[p], 0.0])
+        F4::transpose3(r, g, b)
     }
 }
 
@@ -112,17 +112,17 @@ impl LobeAt for PerTexel<'_> {
     #[inline(always)]
     fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
         let l = &self.lobes[(view * self.texels + texel) * 3..][..3];
-        std::array::from_fn(|p| [l[0][p], l[1][p], l[2][p], 0.0])
+        std::array::from_fn(|p| F4::from_array([l[0][p], l[1][p], l[2][p], 0.0]))
     }
 }
 
 /// Per view of one evaluation: the light-interpolated polynomial `a_0..a_4` and the two range
 /// clamps (lobe value Y, polynomial output), as lanes.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy)]
 struct ViewPoly {
-    a: [V4; 5],
-    y_max: V4,
-    out_max: V4,
+    a: [F4; 5],
+    y_max: F4,
+    out_max: F4,
 }
 
 /// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
@@ -370,22 +370,16 @@ impl PlmcMaterial {
     fn view_poly(&self, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
         let base = v * self.n_lights;
         let r = li.map(|l| &self.polys[base + l as usize].0);
-        let m = li.map(|l| &self.out_max[base + l as usize]);
-        let mut a = [[0f32; 4]; 5];
-        for j in 0..5 {
-            for c in 0..4 {
-                let o = 3 * j + c;
-                a[j][c] = lw[0] * r[0][o] + lw[1] * r[1][o] + lw[2] * r[2][o];
-            }
-        }
-        let mut out_max = [0f32; 4];
-        for c in 0..4 {
-            out_max[c] = m[0][c].max(m[1][c]).max(m[2][c]);
-        }
+        let m = li.map(|l| F4::load(&self.out_max[base + l as usize]));
+        let w = lw.map(F4::splat);
+        // a_j of R, G, B is the 4-lane window at 3 j of the row (the pad lane is discarded).
+        let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
         ViewPoly {
-            a,
-            y_max: self.y_max[v],
-            out_max,
+            a: std::array::from_fn(|j| {
+                w[0] * win(r[0], j) + w[1] * win(r[1], j) + w[2] * win(r[2], j)
+            }),
+            y_max: F4::load(&self.y_max[v]),
+            out_max: m[0].max(m[1]).max(m[2]),
         }
     }
 
@@ -399,48 +393,46 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
-        // Light interpolation of the polynomial rows: once per evaluation, shared by all texels.
         let has_polys = !self.polys.is_empty();
-        let mut vp = [ViewPoly::default(); 3];
-        if has_polys {
-            for a in 0..3 {
-                vp[a] = self.view_poly(vi[a] as usize, li, lw);
-            }
-        }
-        let mut out = [0f32; 4];
+        let vi = vi.map(|v| v as usize);
+        let mut out = F4::splat(0.0);
         for &(t, tw) in texels {
+            // All 9 lobes first: their cache misses overlap instead of stalling view by view.
+            let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
             for a in 0..3 {
-                let y = self.eval_view(&p.lobes(vi[a] as usize, t), &vp[a], has_polys, wo);
-                let w = tw * vw[a];
-                for c in 0..4 {
-                    out[c] += w * y[c];
-                }
+                // Light interpolation of the polynomial rows (per texel: bilinear is the rare
+                // case and recomputing is cheaper than keeping 3 rows live across the gathers).
+                let vp = has_polys.then(|| self.view_poly(vi[a], li, lw));
+                let y = self.eval_view(&lobes[a], vp.as_ref(), wo);
+                out = out + F4::splat(tw * vw[a]) * y;
             }
         }
-        [out[0], out[1], out[2]]
+        let o = out.to_array();
+        [o[0], o[1], o[2]]
     }
 
     /// The (R, G, B, pad) values of one view's lobes at light `wo`, linear.
     #[inline(always)]
-    fn eval_view(&self, l: &LaneLobes, vp: &ViewPoly, has_polys: bool, wo: Vec3) -> V4 {
-        let [rho, dx, dy, dz, n] = l;
-        let mut y = [0f32; 4];
-        for i in 0..4 {
-            let b = dx[i] * wo.x + dy[i] * wo.y + dz[i] * wo.z;
-            let pw = fast_pow(b.max(1e-30), n[i]);
-            y[i] = if b > 0.0 { rho[i] * pw } else { 0.0 };
-        }
-        if has_polys {
+    fn eval_view(&self, l: &LaneLobes, vp: Option<&ViewPoly>, wo: Vec3) -> F4 {
+        let [rho, dx, dy, dz, n] = *l;
+        let zero = F4::splat(0.0);
+        let b = dx * F4::splat(wo.x) + dy * F4::splat(wo.y) + dz * F4::splat(wo.z);
+        // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
+        // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
+        // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
+        // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
+        let y = rho * pow_f4(b.max(F4::splat(1e-30)), n);
+        let mut y = b.gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y));
+        if let Some(vp) = vp {
+            let x = y.min(vp.y_max);
             let a = &vp.a;
-            for i in 0..4 {
-                let x = y[i].min(vp.y_max[i]);
-                let o = (((a[4][i] * x + a[3][i]) * x + a[2][i]) * x + a[1][i]) * x + a[0][i];
-                y[i] = o.min(vp.out_max[i]);
-            }
+            let o = (((a[4] * x + a[3]) * x + a[2]) * x + a[1]) * x + a[0];
+            y = o.min(vp.out_max);
         }
         match self.space {
-            ValueSpace::Linear => y.map(|v| v.max(0.0)),
-            ValueSpace::Srgb => y.map(fast_srgb_to_linear),
+            // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
+            ValueSpace::Linear => y.max(zero),
+            ValueSpace::Srgb => srgb_to_linear_f4(y),
         }
     }
 }
@@ -542,54 +534,21 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
     )
 }
 
-/// log2 of a positive normal f32, branch-free (exponent + odd series in (m−1)/(m+1) on
-/// [√½, √2)); absolute error below 1e-7.
+/// `srgb_to_linear(max(0, v))` lane-wise, branch-free.
 #[inline(always)]
-pub fn fast_log2(x: f32) -> f32 {
-    let bits = x.to_bits();
-    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
-    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
-    let big = m > std::f32::consts::SQRT_2;
-    m = if big { m * 0.5 } else { m };
-    e += big as i32;
-    let t = (m - 1.0) / (m + 1.0);
-    let t2 = t * t;
-    const C: f32 = 2.0 / std::f32::consts::LN_2;
-    let s = t * (C + t2 * (C / 3.0 + t2 * (C / 5.0 + t2 * (C / 7.0 + t2 * (C / 9.0)))));
-    e as f32 + s
+fn srgb_to_linear_f4(y: F4) -> F4 {
+    let v = y.max(F4::splat(0.0));
+    let lo = v * F4::splat(1.0 / 12.92);
+    let base = ((v + F4::splat(0.055)) * F4::splat(1.0 / 1.055)).max(F4::splat(1e-30));
+    let hi = (F4::splat(2.4) * base.log2()).exp2();
+    v.le_select(F4::splat(0.04045), lo, hi)
 }
 
-/// 2^x, branch-free, for x clamped to [−125, 127] (round-to-nearest split + degree-6 series on
-/// [−½, ½]); relative error below 3e-7.
+/// b^n = exp2(n · log2 b) lane-wise for b > 0 (normal) and n ≥ 0; results below 2^−100 are
+/// 2^−100 (never a denormal, see `eval_view`).
 #[inline(always)]
-pub fn fast_exp2(x: f32) -> f32 {
-    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2^23: adding it rounds to an integer
-    let x = x.clamp(-125.0, 127.0);
-    let r = x + MAGIC;
-    let i = (r.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32);
-    let f = x - (r - MAGIC);
-    let l = std::f32::consts::LN_2;
-    let p = 1.0
-        + f * (l + f
-            * (l * l / 2.0
-                + f * (l * l * l / 6.0
-                    + f * (l * l * l * l / 24.0
-                        + f * (l * l * l * l * l / 120.0 + f * (l * l * l * l * l * l / 720.0))))));
-    f32::from_bits((p.to_bits() as i32).wrapping_add(i << 23) as u32)
-}
-
-/// b^n for b > 0 (normal) and n ≥ 0: exp2(n · log2 b).
-#[inline(always)]
-pub fn fast_pow(b: f32, n: f32) -> f32 {
-    fast_exp2(n * fast_log2(b))
-}
-
-/// `srgb_to_linear(max(0, v))`, branch-free.
-#[inline(always)]
-pub fn fast_srgb_to_linear(v: f32) -> f32 {
-    let v = v.max(0.0);
-    let hi = fast_pow(((v + 0.055) * (1.0 / 1.055)).max(1e-30), 2.4);
-    if v <= 0.04045 { v * (1.0 / 12.92) } else { hi }
+fn pow_f4(b: F4, n: F4) -> F4 {
+    (n * b.log2()).max(F4::splat(-100.0)).exp2()
 }
 
 /// Summary only: the tables can be large.
@@ -858,5 +817,6 @@ pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
     crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
 }
 
+mod f4;
 #[cfg(test)]
 mod tests;
