@@ -83,7 +83,7 @@ impl DirectionSet {
 }
 
 /// Refinement factor per axis from the coarse candidate grid to the lookup grid.
-const REFINE: u32 = 4;
+const REFINE: u32 = 3;
 
 /// Precomputed geometry of one triangle of the disk triangulation (one cache line).
 #[derive(Clone, Copy, Debug)]
@@ -127,7 +127,7 @@ impl TriGeom {
 ///
 /// Lookup is O(1): a uniform grid over [−1, 1]² lists per cell every triangle that can win the
 /// rule somewhere in the cell (bounds of the concave min-weight function over the cell's corners),
-/// so a query tests a handful of triangles and never allocates. The grid is fine (about 12 cells
+/// so a query tests a handful of triangles and never allocates. The grid is fine (about 9 cells
 /// per triangle edge length) so that most cells hold a single candidate, which is returned without
 /// any test.
 #[derive(Clone, Debug)]
@@ -135,9 +135,9 @@ pub struct DirectionInterp {
     tris: Vec<TriGeom>,
     /// Cells per side of the grid over [−1, 1]².
     grid: u32,
-    /// Per cell, one load for the common case: `(t << 1) | 1` if triangle t is the cell's only
-    /// candidate, else `0` (look in `cell_start`).
-    cells: Vec<u32>,
+    /// Per cell, one small load for the common case: `(t << 1) | 1` if triangle t (< 2^15) is
+    /// the cell's only candidate, else `0` (look in `cell_start`). u16 keeps the table L1-sized.
+    cells: Vec<u16>,
     /// Candidate lists: triangles of cell k are `cell_tris[cell_start[k]..cell_start[k + 1]]`.
     cell_start: Vec<u32>,
     cell_tris: Vec<u32>,
@@ -188,12 +188,9 @@ impl DirectionInterp {
         });
         let cells = cell_start
             .windows(2)
-            .map(|r| {
-                if r[1] - r[0] == 1 {
-                    (cell_tris[r[0] as usize] << 1) | 1
-                } else {
-                    0
-                }
+            .map(|r| match cell_tris[r[0] as usize..r[1] as usize] {
+                [t] if t < 1 << 15 => ((t << 1) | 1) as u16,
+                _ => 0,
             })
             .collect();
         Ok(DirectionInterp {
@@ -244,10 +241,10 @@ impl DirectionInterp {
         let cx = (((q[0] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cy = (((q[1] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cell = (cy * self.grid + cx) as usize;
-        let single = self.cells[cell];
+        let single = self.cells[cell] as usize;
         if single & 1 == 1 {
             // The only triangle that wins anywhere in this cell (most cells of the fine grid).
-            let t = (single >> 1) as usize;
+            let t = single >> 1;
             return (t, self.tris[t].weights(q));
         }
         let (s, e) = (
