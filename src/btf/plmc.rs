@@ -396,13 +396,19 @@ impl PlmcMaterial {
         let has_polys = !self.polys.is_empty();
         let vi = vi.map(|v| v as usize);
         let mut out = F4::splat(0.0);
+        // Light interpolation of the polynomial rows: once per evaluation when several texels
+        // share it (bilinear); for one texel after the gathers, so that their cache misses are
+        // issued first and the rows need not stay live across them.
+        let shared = (has_polys && texels.len() > 1)
+            .then(|| [0, 1, 2].map(|a| self.view_poly(vi[a], li, lw)));
         for &(t, tw) in texels {
             // All 9 lobes first: their cache misses overlap instead of stalling view by view.
             let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
             for a in 0..3 {
-                // Light interpolation of the polynomial rows (per texel: bilinear is the rare
-                // case and recomputing is cheaper than keeping 3 rows live across the gathers).
-                let vp = has_polys.then(|| self.view_poly(vi[a], li, lw));
+                let vp = match &shared {
+                    Some(s) => Some(s[a]),
+                    None => has_polys.then(|| self.view_poly(vi[a], li, lw)),
+                };
                 let y = self.eval_view(&lobes[a], vp.as_ref(), wo);
                 out = out + F4::splat(tw * vw[a]) * y;
             }
