@@ -9,6 +9,7 @@ pub mod distribution;
 pub mod envmap;
 
 use crate::geometry::shading::eval_position_normals;
+use crate::geometry::sphere::Sphere;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::{INV_FOUR_PI, Mat4, Spectrum, Vec2, Vec3, warp};
 use crate::scene::{Emitter, Scene};
@@ -25,6 +26,11 @@ pub enum Light {
         radiance: Spectrum,
         tris: Distribution1D,
         inv_area: f32,
+    },
+    /// An area emitter on an analytic sphere (Mitsuba: cone sampling from outside).
+    SphereArea {
+        sphere: Sphere,
+        radiance: Spectrum,
     },
     Point {
         position: Vec3,
@@ -100,6 +106,11 @@ impl LightSet {
             let Some(radiance) = mesh.emitter else {
                 continue;
             };
+            if let Some(sphere) = mesh.sphere {
+                mesh_light[mi] = Some(lights.len() as u32);
+                lights.push(Light::SphereArea { sphere, radiance });
+                continue;
+            }
             let areas = (0..mesh.indices.len()).map(|t| mesh.triangle_area(t) as f64);
             let Some(tris) = Distribution1D::new(areas) else {
                 // A zero-area emitter can neither be hit nor sampled: it contributes nothing.
@@ -244,6 +255,21 @@ impl LightSet {
                     delta: false,
                 }
             }
+            Light::SphereArea { sphere, radiance } => {
+                let s = sphere.sample(p, u)?;
+                // One-sided: emits toward the side of the (possibly flipped) normal.
+                if !(s.d.dot(s.n) < 0.0 && s.pdf > 0.0) {
+                    return None;
+                }
+                LightSample {
+                    wi: s.d,
+                    dist: s.dist,
+                    n_geo: s.n,
+                    weight: *radiance / s.pdf,
+                    pdf: s.pdf,
+                    delta: false,
+                }
+            }
             Light::Point {
                 position,
                 intensity,
@@ -365,8 +391,12 @@ impl LightSet {
         let Some(li) = self.mesh_light[si.mesh as usize] else {
             return 0.0;
         };
-        let Light::Area { inv_area, .. } = &self.lights[li as usize] else {
-            return 0.0;
+        let inv_area = match &self.lights[li as usize] {
+            Light::Area { inv_area, .. } => inv_area,
+            Light::SphereArea { sphere, .. } => {
+                return self.select_pdf() * sphere.pdf(p_ref, si.p, si.n);
+            }
+            _ => return 0.0,
         };
         let d2 = (si.p - p_ref).length_squared();
         let cos_l = si.wi.z.abs();
