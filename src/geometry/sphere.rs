@@ -61,6 +61,19 @@ impl Sphere {
         })
     }
 
+    /// Squared radius beyond which a reference point counts as outside (Mitsuba's
+    /// `sample_direction`: points on the surface are outside a sphere, inside a flipped one).
+    #[inline]
+    fn adjusted_radius2(&self) -> f32 {
+        let f = if self.flip_normals {
+            1.0 + RAY_EPSILON
+        } else {
+            1.0 - RAY_EPSILON
+        };
+        let r = self.radius * f;
+        r * r
+    }
+
     /// Surface area in world units².
     pub fn area(&self) -> f32 {
         4.0 * PI * self.radius * self.radius
@@ -137,14 +150,7 @@ impl Sphere {
     pub fn sample(&self, p_ref: Vec3, u: Vec2) -> Option<SphereSample> {
         let dc = self.center - p_ref;
         let dc2 = dc.length_squared();
-        let eps = RAY_EPSILON;
-        let r_adj = self.radius
-            * if self.flip_normals {
-                1.0 + eps
-            } else {
-                1.0 - eps
-            };
-        let (p, n_out, pdf_cone) = if dc2 > r_adj * r_adj {
+        let (p, n_out, pdf_cone) = if dc2 > self.adjusted_radius2() {
             let inv_dc = 1.0 / dc2.sqrt();
             let sin_max = self.radius * inv_dc;
             let sin_max2 = sin_max * sin_max;
@@ -195,10 +201,14 @@ impl Sphere {
     }
 
     /// Solid-angle pdf with which [`Sphere::sample`] from `p_ref` yields the surface point `p`
-    /// with unit normal `n` (Mitsuba `Sphere::pdf_direction`).
+    /// with unit normal `n` (Mitsuba `Sphere::pdf_direction`). Inside/outside is decided exactly
+    /// as in `sample` (radius × (1 ∓ RayEpsilon)): Mitsuba's pdf_direction uses sin α < 1 − ulp
+    /// instead, which for reference points on the sphere itself (an inward-facing emissive
+    /// sphere) flips at random between the cone and the area pdf and biases MIS.
     pub fn pdf(&self, p_ref: Vec3, p: Vec3, n: Vec3) -> f32 {
-        let sin_a = self.radius / (self.center - p_ref).length();
-        if sin_a < 1.0 - f32::EPSILON * 0.5 {
+        let dc2 = (self.center - p_ref).length_squared();
+        if dc2 > self.adjusted_radius2() {
+            let sin_a = self.radius / dc2.sqrt();
             let cos_a = (1.0 - sin_a * sin_a).max(0.0).sqrt();
             warp::square_to_uniform_cone_pdf(Vec3::Z, cos_a)
         } else {
