@@ -125,6 +125,30 @@ fn bench_eval(c: &mut Criterion) {
             })
         });
         if kind == ModelKind::PlmC {
+            g.bench_function("plmc_eval_pdf", |b| {
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, wo) in &q {
+                        let (f, pdf) = bsdf.eval_pdf(black_box(si), black_box(*wo));
+                        acc += f * pdf;
+                    }
+                    acc
+                })
+            });
+            g.bench_function("plmc_sample", |b| {
+                let mut rng = Pcg32::new(7, 3);
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, _) in &q {
+                        if let Some((_, w)) =
+                            bsdf.sample(black_box(si), rng.next_f32(), rng.next_2d())
+                        {
+                            acc += w;
+                        }
+                    }
+                    acc
+                })
+            });
             let bilinear = PlmcBsdf::new(bsdf.material().clone(), 1.0, true).unwrap();
             g.bench_function("plmc_bilinear", |b| {
                 b.iter(|| {
