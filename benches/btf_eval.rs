@@ -8,7 +8,9 @@
 //! is 81·81·256²·3 f16 = 2.6 GB in memory (what the raw path really costs). Set
 //! `BTF_EVAL_SKIP_RAW=1` to skip it on machines short of memory.
 //!
-//! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries.
+//! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries. The
+//! evaluation group measures thread CPU time (the machine is shared); the render group, whose
+//! work runs on a pool thread, wall time.
 
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::plmc::PlmcMaterial;
@@ -20,6 +22,10 @@ use btfpt::math::{Frame, Mat4, Pcg32, Spectrum, Vec3, warp};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::scene::{Camera, IntegratorSettings, Scene};
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+
+use cpu_time::ThreadCpuTime;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::sync::Arc;
@@ -106,7 +112,7 @@ fn queries() -> Vec<(SurfaceInteraction, Vec3)> {
         .collect()
 }
 
-fn bench_eval(c: &mut Criterion) {
+fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
     let q = queries();
     let mut g = c.benchmark_group("btf_eval_256");
     g.throughput(Throughput::Elements(QUERIES as u64));
@@ -125,6 +131,22 @@ fn bench_eval(c: &mut Criterion) {
             })
         });
         if kind == ModelKind::PlmC {
+            // The same model on the baseline SSE2 kernel (equal to `plmc` on CPUs without AVX2+FMA).
+            let sse2 = PlmcBsdf::new(
+                Arc::new(PlmcMaterial::new(&model(kind)).unwrap().without_avx2()),
+                1.0,
+                false,
+            )
+            .unwrap();
+            g.bench_function("plmc_sse2", |b| {
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, wo) in &q {
+                        acc += sse2.eval(black_box(si), black_box(*wo));
+                    }
+                    acc
+                })
+            });
             g.bench_function("plmc_eval_pdf", |b| {
                 b.iter(|| {
                     let mut acc = Spectrum::ZERO;
@@ -291,5 +313,10 @@ fn bench_render(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_eval, bench_render);
-criterion_main!(benches);
+criterion_group! {
+    name = eval;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = bench_eval
+}
+criterion_group!(render, bench_render);
+criterion_main!(eval, render);

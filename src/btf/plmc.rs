@@ -435,13 +435,13 @@ impl PlmcMaterial {
     #[inline(always)]
     fn view_poly<I: Isa>(&self, isa: I, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
         let base = v * self.n_lights;
-        let r = li.map(|l| &self.polys[base + l as usize].0);
-        let m = li.map(|l| F4::load(&self.out_max[base + l as usize]));
-        let w = lw.map(F4::splat);
+        let r = each3(|b| &self.polys[base + li[b] as usize].0);
+        let m = each3(|b| F4::load(&self.out_max[base + li[b] as usize]));
+        let w = each3(|b| F4::splat(lw[b]));
         // a_j of R, G, B is the 4-lane window at 3 j of the row (the pad lane is discarded).
         let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
         ViewPoly {
-            a: std::array::from_fn(|j| {
+            a: each5(|j| {
                 isa.fma(
                     w[2],
                     win(r[2], j),
@@ -451,6 +451,23 @@ impl PlmcMaterial {
             y_max: F4::load(&self.y_max[v]),
             out_max: m[0].max(m[1]).max(m[2]),
         }
+    }
+
+    /// [`PlmcMaterial::view_poly`] of the 3 views (no closure: too big for the inliner, it
+    /// stays an out-of-line call per view).
+    #[inline(always)]
+    fn view_polys<I: Isa>(
+        &self,
+        isa: I,
+        vi: [usize; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+    ) -> [ViewPoly; 3] {
+        [
+            self.view_poly(isa, vi[0], li, lw),
+            self.view_poly(isa, vi[1], li, lw),
+            self.view_poly(isa, vi[2], li, lw),
+        ]
     }
 
     #[inline(always)]
@@ -464,19 +481,19 @@ impl PlmcMaterial {
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
         let has_polys = !self.polys.is_empty();
-        let vi = vi.map(|v| v as usize);
+        let vi = each3(|a| vi[a] as usize);
         let mut out = F4::splat(0.0);
         // Light interpolation of the polynomial rows: once per evaluation when several texels
         // share it (bilinear); for one texel after the gathers, so that their cache misses are
         // issued first and the rows need not stay live across them.
-        let shared = (has_polys && texels.len() > 1)
-            .then(|| [0, 1, 2].map(|a| self.view_poly(isa, vi[a], li, lw)));
+        let shared = (has_polys && texels.len() > 1).then(|| self.view_polys(isa, vi, li, lw));
         for &(t, tw) in texels {
             // All 9 lobes first: their cache misses overlap instead of stalling view by view.
             let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
             let vp = match shared {
                 Some(s) => Some(s),
-                None => has_polys.then(|| [0, 1, 2].map(|a| self.view_poly(isa, vi[a], li, lw))),
+                None if has_polys => Some(self.view_polys(isa, vi, li, lw)),
+                None => None,
             };
             let y = self.eval_views(isa, &lobes, vp.as_ref(), wo);
             for a in 0..3 {
@@ -500,21 +517,19 @@ impl PlmcMaterial {
     ) -> [F4; 3] {
         let zero = F4::splat(0.0);
         let (wx, wy, wz) = (F4::splat(wo.x), F4::splat(wo.y), F4::splat(wo.z));
-        let b: [F4; 3] =
-            std::array::from_fn(|a| isa.fma(l[a][3], wz, isa.fma(l[a][2], wy, l[a][1] * wx)));
+        let b: [F4; 3] = each3(|a| isa.fma(l[a][3], wz, isa.fma(l[a][2], wy, l[a][1] * wx)));
         // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
         // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
         // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
         // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
-        let lg: [F4; 3] = std::array::from_fn(|a| b[a].max(F4::splat(1e-30)).log2(isa));
-        let pw: [F4; 3] =
-            std::array::from_fn(|a| (l[a][4] * lg[a]).max(F4::splat(-100.0)).exp2(isa));
-        let mut y: [F4; 3] = std::array::from_fn(|a| {
+        let lg: [F4; 3] = each3(|a| b[a].max(F4::splat(1e-30)).log2(isa));
+        let pw: [F4; 3] = each3(|a| (l[a][4] * lg[a]).max(F4::splat(-100.0)).exp2(isa));
+        let mut y: [F4; 3] = each3(|a| {
             let y = l[a][0] * pw[a];
             b[a].gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y))
         });
         if let Some(vp) = vp {
-            y = std::array::from_fn(|a| {
+            y = each3(|a| {
                 let x = y[a].min(vp[a].y_max);
                 let c = &vp[a].a;
                 // Estrin: (a0 + a1 x) + x² ((a2 + a3 x) + x² a4): 3 dependent steps, not 4.
@@ -526,8 +541,8 @@ impl PlmcMaterial {
         }
         match self.space {
             // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
-            ValueSpace::Linear => y.map(|v| v.max(zero)),
-            ValueSpace::Srgb => y.map(|v| srgb_to_linear_f4(isa, v)),
+            ValueSpace::Linear => each3(|a| y[a].max(zero)),
+            ValueSpace::Srgb => each3(|a| srgb_to_linear_f4(isa, y[a])),
         }
     }
 }
@@ -627,6 +642,19 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
         y_max,
         out_max,
     )
+}
+
+/// `[f(0), f(1), f(2)]`, always inlined (`array::map` and `from_fn` are not always, and in
+/// the AVX2 kernel an out-of-line closure is a call per view).
+#[inline(always)]
+fn each3<T>(mut f: impl FnMut(usize) -> T) -> [T; 3] {
+    [f(0), f(1), f(2)]
+}
+
+/// `[f(0), …, f(4)]`, always inlined (see [`each3`]).
+#[inline(always)]
+fn each5<T>(mut f: impl FnMut(usize) -> T) -> [T; 5] {
+    [f(0), f(1), f(2), f(3), f(4)]
 }
 
 /// `srgb_to_linear(max(0, v))` lane-wise, branch-free.

@@ -55,8 +55,16 @@ impl Avx2Fma {
 impl Isa for Avx2Fma {
     #[inline(always)]
     fn fma(self, a: F4, b: F4, c: F4) -> F4 {
-        // SAFETY: an `Avx2Fma` exists only if `detect` found FMA on this CPU.
-        unsafe { F4(_mm_fmadd_ps(a.0, b.0, c.0)) }
+        // Lane-wise `mul_add` (llvm.fma), which the `fma`-enabled caller compiles to one
+        // `vfmadd…ps`. Not `_mm_fmadd_ps`: a `#[target_feature]` intrinsic is never inlined
+        // into this feature-less method, so it stays a function call per multiply-add.
+        let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
+        F4::from_array([
+            a[0].mul_add(b[0], c[0]),
+            a[1].mul_add(b[1], c[1]),
+            a[2].mul_add(b[2], c[2]),
+            a[3].mul_add(b[3], c[3]),
+        ])
     }
 }
 
