@@ -10,7 +10,7 @@
 //!
 //! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries. The
 //! evaluation group measures thread CPU time (the machine is shared); the render group, whose
-//! work runs on a pool thread, wall time.
+//! work runs on a pool thread, process CPU time.
 
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::plmc::PlmcMaterial;
@@ -25,7 +25,7 @@ use btfpt::scene::{Camera, IntegratorSettings, Scene};
 #[path = "common/cpu_time.rs"]
 mod cpu_time;
 
-use cpu_time::ThreadCpuTime;
+use cpu_time::{ProcessCpuTime, ThreadCpuTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::sync::Arc;
@@ -271,7 +271,7 @@ fn scene(bsdf: Bsdf) -> RenderScene {
     RenderScene::new(scene).expect("valid scene")
 }
 
-fn bench_render(c: &mut Criterion) {
+fn bench_render(c: &mut Criterion<ProcessCpuTime>) {
     let plmc = Arc::new(PlmcMaterial::new(&model(ModelKind::PlmC)).unwrap());
     let settings = RenderSettings {
         width: 64,
@@ -300,6 +300,14 @@ fn bench_render(c: &mut Criterion) {
             "plmc",
             Bsdf::Plmc(PlmcBsdf::new(plmc.clone(), 4.0, false).unwrap()),
         ),
+        (
+            "plmc_no_prefetch",
+            Bsdf::Plmc(
+                PlmcBsdf::new(plmc.clone(), 4.0, false)
+                    .unwrap()
+                    .without_prefetch(),
+            ),
+        ),
     ] {
         let rs = scene(bsdf);
         g.bench_function(name, |b| {
@@ -318,5 +326,9 @@ criterion_group! {
     config = Criterion::default().with_measurement(ThreadCpuTime);
     targets = bench_eval
 }
-criterion_group!(render, bench_render);
+criterion_group! {
+    name = render;
+    config = Criterion::default().with_measurement(ProcessCpuTime);
+    targets = bench_render
+}
 criterion_main!(eval, render);

@@ -300,6 +300,38 @@ impl PlmcMaterial {
         self.height
     }
 
+    /// Starts loading the index entries of `texel` (all views: a few cache lines) into the
+    /// cache, without waiting; a no-op for per-texel models, whose views are far apart.
+    #[inline]
+    pub fn prefetch_texel(&self, texel: usize) {
+        let nv = self.n_views;
+        let (ptr, bytes) = match &self.params {
+            Params::Clustered8 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Clustered16 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Texel { .. } => return,
+        };
+        if bytes == 0 {
+            return;
+        }
+        for line in (ptr & !63..ptr + bytes).step_by(64) {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: a prefetch never faults, and this line holds part of the slice anyway.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    line as *const i8,
+                );
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = line;
+        }
+    }
+
     /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
     #[inline]
     pub fn view_lookup(&self, wi: Vec3) -> ([u32; 3], [f32; 3]) {
@@ -701,6 +733,8 @@ pub struct PlmcBsdf {
     uv_scale: f32,
     /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
     bilinear: bool,
+    /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).
+    prefetch: bool,
 }
 
 impl PlmcBsdf {
@@ -715,7 +749,14 @@ impl PlmcBsdf {
             material,
             uv_scale,
             bilinear,
+            prefetch: true,
         })
+    }
+
+    /// The same instance with [`PlmcBsdf::prefetch`] a no-op (to measure what it saves).
+    pub fn without_prefetch(mut self) -> Self {
+        self.prefetch = false;
+        self
     }
 
     /// The shared material.
@@ -763,6 +804,19 @@ impl PlmcBsdf {
             ],
             4,
         )
+    }
+
+    /// Starts loading the index entries of the texels that filter `si.uv` (see
+    /// [`PlmcMaterial::prefetch_texel`]); only a cache hint.
+    #[inline]
+    pub fn prefetch(&self, si: &SurfaceInteraction) {
+        if !self.prefetch {
+            return;
+        }
+        let (t, n) = self.texels(si.uv);
+        for &(texel, _) in &t[..n] {
+            self.material.prefetch_texel(texel);
+        }
     }
 
     /// Lobes: measured reflection, glossy in general, varying over the surface.
