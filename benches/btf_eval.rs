@@ -117,6 +117,17 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
     let mut g = c.benchmark_group("btf_eval_256");
     g.throughput(Throughput::Elements(QUERIES as u64));
     g.sample_size(30);
+    let interp = DirectionSet::ubo2003().interpolator().unwrap();
+    g.bench_function("direction_lookup", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for (_, wo) in &q {
+                let (i, w) = interp.lookup(black_box(*wo));
+                acc += w[0] + i[0] as f32;
+            }
+            acc
+        })
+    });
     for kind in [ModelKind::PlmC, ModelKind::Plm, ModelKind::Lm] {
         let m = model(kind);
         let bsdf = PlmcBsdf::new(Arc::new(PlmcMaterial::new(&m).unwrap()), 1.0, false).unwrap();
