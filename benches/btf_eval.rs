@@ -8,7 +8,9 @@
 //! is 81·81·256²·3 f16 = 2.6 GB in memory (what the raw path really costs). Set
 //! `BTF_EVAL_SKIP_RAW=1` to skip it on machines short of memory.
 //!
-//! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries.
+//! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries. The
+//! evaluation group measures thread CPU time (the machine is shared); the render group, whose
+//! work runs on a pool thread, process CPU time.
 
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::plmc::PlmcMaterial;
@@ -20,6 +22,10 @@ use btfpt::math::{Frame, Mat4, Pcg32, Spectrum, Vec3, warp};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::scene::{Camera, IntegratorSettings, Scene};
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+
+use cpu_time::{ProcessCpuTime, ThreadCpuTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::sync::Arc;
@@ -106,11 +112,22 @@ fn queries() -> Vec<(SurfaceInteraction, Vec3)> {
         .collect()
 }
 
-fn bench_eval(c: &mut Criterion) {
+fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
     let q = queries();
     let mut g = c.benchmark_group("btf_eval_256");
     g.throughput(Throughput::Elements(QUERIES as u64));
     g.sample_size(30);
+    let interp = DirectionSet::ubo2003().interpolator().unwrap();
+    g.bench_function("direction_lookup", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for (_, wo) in &q {
+                let (i, w) = interp.lookup(black_box(*wo));
+                acc += w[0] + i[0] as f32;
+            }
+            acc
+        })
+    });
     for kind in [ModelKind::PlmC, ModelKind::Plm, ModelKind::Lm] {
         let m = model(kind);
         let bsdf = PlmcBsdf::new(Arc::new(PlmcMaterial::new(&m).unwrap()), 1.0, false).unwrap();
@@ -125,6 +142,46 @@ fn bench_eval(c: &mut Criterion) {
             })
         });
         if kind == ModelKind::PlmC {
+            // The same model on the baseline SSE2 kernel (equal to `plmc` on CPUs without AVX2+FMA).
+            let sse2 = PlmcBsdf::new(
+                Arc::new(PlmcMaterial::new(&model(kind)).unwrap().without_avx2()),
+                1.0,
+                false,
+            )
+            .unwrap();
+            g.bench_function("plmc_sse2", |b| {
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, wo) in &q {
+                        acc += sse2.eval(black_box(si), black_box(*wo));
+                    }
+                    acc
+                })
+            });
+            g.bench_function("plmc_eval_pdf", |b| {
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, wo) in &q {
+                        let (f, pdf) = bsdf.eval_pdf(black_box(si), black_box(*wo));
+                        acc += f * pdf;
+                    }
+                    acc
+                })
+            });
+            g.bench_function("plmc_sample", |b| {
+                let mut rng = Pcg32::new(7, 3);
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, _) in &q {
+                        if let Some((_, w)) =
+                            bsdf.sample(black_box(si), rng.next_f32(), rng.next_2d())
+                        {
+                            acc += w;
+                        }
+                    }
+                    acc
+                })
+            });
             let bilinear = PlmcBsdf::new(bsdf.material().clone(), 1.0, true).unwrap();
             g.bench_function("plmc_bilinear", |b| {
                 b.iter(|| {
@@ -225,7 +282,7 @@ fn scene(bsdf: Bsdf) -> RenderScene {
     RenderScene::new(scene).expect("valid scene")
 }
 
-fn bench_render(c: &mut Criterion) {
+fn bench_render(c: &mut Criterion<ProcessCpuTime>) {
     let plmc = Arc::new(PlmcMaterial::new(&model(ModelKind::PlmC)).unwrap());
     let settings = RenderSettings {
         width: 64,
@@ -254,6 +311,14 @@ fn bench_render(c: &mut Criterion) {
             "plmc",
             Bsdf::Plmc(PlmcBsdf::new(plmc.clone(), 4.0, false).unwrap()),
         ),
+        (
+            "plmc_no_prefetch",
+            Bsdf::Plmc(
+                PlmcBsdf::new(plmc.clone(), 4.0, false)
+                    .unwrap()
+                    .without_prefetch(),
+            ),
+        ),
     ] {
         let rs = scene(bsdf);
         g.bench_function(name, |b| {
@@ -267,5 +332,14 @@ fn bench_render(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench_eval, bench_render);
-criterion_main!(benches);
+criterion_group! {
+    name = eval;
+    config = Criterion::default().with_measurement(ThreadCpuTime);
+    targets = bench_eval
+}
+criterion_group! {
+    name = render;
+    config = Criterion::default().with_measurement(ProcessCpuTime);
+    targets = bench_render
+}
+criterion_main!(eval, render);

@@ -43,6 +43,10 @@ pub struct BtfMaterial {
     lights: DirectionInterp,
     /// Per view: cumulative distribution over light triangles, `[view][triangle]`, last = 1.
     tri_cdf: Vec<f32>,
+    /// Per view: guide table over the CDF, `[view][GUIDE_CELLS]`: cell i holds the triangle
+    /// sampled at u = i / GUIDE_CELLS, so a sample starts its scan next to its answer instead of
+    /// a ~8-step binary search whose branches mispredict (equal results).
+    tri_guide: Vec<u32>,
     /// Per view: density over disk area of each light triangle, `[view][triangle]` (∫ dA = 1).
     tri_density: Vec<f32>,
     /// Per view: false if the table is empty (black view); cosine sampling is used instead.
@@ -136,11 +140,21 @@ impl BtfMaterial {
                 tri_cdf[v * nt + nt - 1] = 1.0;
             }
         }
+        let gc = guide_cells(nt);
+        let mut tri_guide = vec![0u32; nv * gc];
+        for v in 0..nv {
+            let cdf = &tri_cdf[v * nt..(v + 1) * nt];
+            for i in 0..gc {
+                let u = i as f32 / gc as f32;
+                tri_guide[v * gc + i] = cdf.partition_point(|&c| c <= u).min(nt - 1) as u32;
+            }
+        }
         Ok(BtfMaterial {
             btf,
             views,
             lights,
             tri_cdf,
+            tri_guide,
             tri_density,
             table_ok,
             table_prob,
@@ -205,9 +219,22 @@ impl BtfMaterial {
     /// Shared by the raw material and the fitted models (whose tables are built the same way).
     #[inline]
     pub fn sample_light(&self, vi: [u32; 3], vw: [f32; 3], sample1: f32, sample2: Vec2) -> Vec3 {
+        self.sample_light_located(vi, vw, sample1, sample2).0
+    }
+
+    /// [`BtfMaterial::sample_light`] and, when the direction was drawn inside a light triangle,
+    /// that triangle (so the caller's eval and pdf need not search for it again).
+    #[inline]
+    pub fn sample_light_located(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        sample1: f32,
+        sample2: Vec2,
+    ) -> (Vec3, Option<usize>) {
         let m = self;
         if sample1 < DEFENSIVE_FRACTION {
-            warp::square_to_uniform_hemisphere(sample2)
+            (warp::square_to_uniform_hemisphere(sample2), None)
         } else {
             // Choose one of the 3 views by its weight, then a triangle of its table.
             let mut u = (sample1 - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION);
@@ -220,24 +247,27 @@ impl BtfMaterial {
             let u = (u / vw[k].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
             let v = vi[k] as usize;
             if !m.table_ok[v] {
-                warp::square_to_cosine_hemisphere(sample2)
+                (warp::square_to_cosine_hemisphere(sample2), None)
             } else if u >= m.table_prob[v] {
                 // Grazing band, uniform in solid angle.
                 let z = m.band_cos * sample2.x;
                 let r = (1.0 - z * z).max(0.0).sqrt();
                 let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
-                Vec3::new(r * cp, r * sp, z)
+                (Vec3::new(r * cp, r * sp, z), None)
             } else {
                 let u = u / m.table_prob[v];
                 let nt = m.lights.num_triangles();
                 let cdf = &m.tri_cdf[v * nt..(v + 1) * nt];
-                let t = cdf.partition_point(|&c| c <= u).min(nt - 1);
+                let t = guided_search(cdf, &m.tri_guide[v * guide_cells(nt)..], u);
                 let b = warp::square_to_uniform_triangle(sample2);
                 let p = m.lights.triangle_disk(t);
                 let (b0, b1, b2) = (1.0 - b.x - b.y, b.x, b.y);
                 let x = b0 * p[0][0] + b1 * p[1][0] + b2 * p[2][0];
                 let y = b0 * p[0][1] + b1 * p[1][1] + b2 * p[2][1];
-                Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt())
+                (
+                    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt()),
+                    Some(t),
+                )
             }
         }
     }
@@ -314,6 +344,30 @@ impl BtfMaterial {
         }
         d
     }
+}
+
+/// Cells of a guide table over a CDF of `n` entries: one per entry (on average one step of
+/// scan per sample).
+fn guide_cells(n: usize) -> usize {
+    n.max(1)
+}
+
+/// `cdf.partition_point(|c| c <= u).min(n − 1)` for the non-decreasing `cdf` (n ≥ 1), started
+/// from its guide table entry: a scan of about one step in either direction (backward only if
+/// the rounding of `u · cells` put `u` in the cell after its own).
+#[inline]
+fn guided_search(cdf: &[f32], guide: &[u32], u: f32) -> usize {
+    let n = cdf.len();
+    let cells = guide_cells(n);
+    let cell = ((u.max(0.0) * cells as f32) as usize).min(cells - 1);
+    let mut t = guide[cell] as usize;
+    while t > 0 && cdf[t - 1] > u {
+        t -= 1;
+    }
+    while t + 1 < n && cdf[t] <= u {
+        t += 1;
+    }
+    t
 }
 
 /// The grazing band not covered by the light triangulation: (cos θ of the largest circle around
@@ -487,6 +541,57 @@ mod tests {
     use crate::btf::{DirectionSet, StoredEncoding};
     use crate::math::{Pcg32, frame::from_spherical};
     use std::sync::OnceLock;
+
+    #[test]
+    fn guided_search_is_the_binary_search() {
+        let mut rng = Pcg32::new(5, 9);
+        for n in [1usize, 2, 3, 7, 144] {
+            for _ in 0..50 {
+                // Non-decreasing, with flat runs (black triangles) and a jump to 1.
+                let mut acc = 0f32;
+                let mut cdf: Vec<f32> = (0..n)
+                    .map(|_| {
+                        if rng.next_f32() < 0.6 {
+                            acc += rng.next_f32();
+                        }
+                        acc
+                    })
+                    .collect();
+                let total = acc.max(1e-3);
+                cdf.iter_mut().for_each(|c| *c /= total);
+                cdf[n - 1] = 1.0;
+                let cells = guide_cells(n);
+                let guide: Vec<u32> = (0..cells)
+                    .map(|i| {
+                        let u = i as f32 / cells as f32;
+                        cdf.partition_point(|&c| c <= u).min(n - 1) as u32
+                    })
+                    .collect();
+                let mut us: Vec<f32> = (0..200).map(|_| rng.next_f32()).collect();
+                // Exactly the CDF values, the cell borders and their float neighbours.
+                us.extend(cdf.iter().copied());
+                us.extend((0..cells).map(|i| i as f32 / cells as f32));
+                let near: Vec<f32> = us
+                    .iter()
+                    .flat_map(|&u| {
+                        [
+                            f32::from_bits(u.to_bits() + 1),
+                            f32::from_bits(u.to_bits().max(1) - 1),
+                        ]
+                    })
+                    .collect();
+                us.extend(near);
+                for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
+                    let want = cdf.partition_point(|&c| c <= u).min(n - 1);
+                    assert_eq!(
+                        guided_search(&cdf, &guide, u),
+                        want,
+                        "n {n} u {u} cdf {cdf:?}"
+                    );
+                }
+            }
+        }
+    }
 
     /// A BTF tabulated from `f(view, light, column, row)` on the UBO2003 directions.
     fn table(w: usize, h: usize, f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3]) -> RawBtf {

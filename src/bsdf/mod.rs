@@ -111,6 +111,21 @@ impl Bsdf {
         }
     }
 
+    /// Hint at a new hit, before light sampling: starts the memory loads the first evaluation
+    /// at `si` will need (a PLM-C texel's index entries, usually a DRAM miss), so they overlap
+    /// with the work in between. No effect on results; a no-op for analytic BSDFs.
+    #[inline]
+    pub fn prefetch(&self, si: &SurfaceInteraction) {
+        match self {
+            Bsdf::Plmc(b) => b.prefetch(si),
+            Bsdf::TwoSided(b) => {
+                b.front.prefetch(si);
+                b.back.prefetch(si);
+            }
+            _ => {}
+        }
+    }
+
     /// f(wi, wo) · |cos θ_o|; zero for delta lobes and for direction pairs the model does not cover.
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         match self {

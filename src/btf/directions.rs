@@ -233,6 +233,14 @@ impl DirectionInterp {
         0.5 / self.tris[t].inv_area2
     }
 
+    /// Unclamped barycentric weights of the disk point `q` in triangle `t` (what
+    /// [`DirectionInterp::locate`] returns when it picks `t`): for a point already known to lie
+    /// in `t`, e.g. one sampled inside it, without the grid search.
+    #[inline]
+    pub fn triangle_weights(&self, t: usize, q: [f32; 2]) -> [f32; 3] {
+        self.tris[t].weights(q)
+    }
+
     /// The triangle chosen by the DESIGN rule for the disk point `q`, with its unclamped
     /// barycentric weights (all ≥ 0 iff `q` is inside the hull, up to rounding).
     #[inline]

@@ -33,7 +33,7 @@ use crate::fit::polynomial;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
-use f4::F4;
+use f4::{F4, Isa, Sse2};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -151,6 +151,9 @@ pub struct PlmcMaterial {
     /// Sampling tables and the view and light interpolators, built from the model's texel-mean
     /// values (its light interpolator is the model's: the same direction set).
     sampler: BtfMaterial,
+    /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
+    #[cfg(target_arch = "x86_64")]
+    avx2: Option<f4::Avx2Fma>,
 }
 
 impl PlmcMaterial {
@@ -253,7 +256,27 @@ impl PlmcMaterial {
             y_max,
             out_max,
             sampler,
+            #[cfg(target_arch = "x86_64")]
+            avx2: f4::Avx2Fma::detect(),
         })
+    }
+
+    /// The same material evaluated by the baseline SSE2 kernel even on an AVX2+FMA CPU (to
+    /// compare the two builds; results agree to float rounding).
+    pub fn without_avx2(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx2 = None;
+        }
+        self
+    }
+
+    /// True if evaluations run the AVX2+FMA build of the kernel.
+    pub fn uses_avx2(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.avx2.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
     }
 
     /// Reads a `.plmc` file and builds the material; errors name the file.
@@ -275,6 +298,38 @@ impl PlmcMaterial {
     /// Rows of texels.
     pub fn height(&self) -> usize {
         self.height
+    }
+
+    /// Starts loading the index entries of `texel` (all views: a few cache lines) into the
+    /// cache, without waiting; a no-op for per-texel models, whose views are far apart.
+    #[inline]
+    pub fn prefetch_texel(&self, texel: usize) {
+        let nv = self.n_views;
+        let (ptr, bytes) = match &self.params {
+            Params::Clustered8 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Clustered16 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Texel { .. } => return,
+        };
+        if bytes == 0 {
+            return;
+        }
+        for line in (ptr & !63..ptr + bytes).step_by(64) {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: a prefetch never faults, and this line holds part of the slice anyway.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    line as *const i8,
+                );
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = line;
+        }
     }
 
     /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
@@ -323,15 +378,52 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(isa) = self.avx2 {
+            // SAFETY: the token exists only if this CPU has AVX2 and FMA.
+            return unsafe { self.eval_b_avx2(isa, vi, vw, (li, lw), wo, texels) };
+        }
+        self.eval_b_isa(Sse2, vi, vw, (li, lw), wo, texels)
+    }
+
+    /// [`PlmcMaterial::eval_b_with`] compiled for AVX2 + FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn eval_b_avx2(
+        &self,
+        isa: f4::Avx2Fma,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        lights: ([u32; 3], [f32; 3]),
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        self.eval_b_isa(isa, vi, vw, lights, wo, texels)
+    }
+
+    /// The kernel for the instruction set `isa`, dispatched on the index layout.
+    #[inline(always)]
+    fn eval_b_isa<I: Isa>(
+        &self,
+        isa: I,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        (li, lw): ([u32; 3], [f32; 3]),
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
         let texel_count = self.width * self.height;
         match &self.params {
             Params::Clustered8 { k, records, index } => self.eval_texels(
-                &Clustered {
-                    k: *k,
-                    views: self.n_views,
-                    records,
-                    index,
-                },
+                (
+                    &Clustered {
+                        k: *k,
+                        views: self.n_views,
+                        records,
+                        index,
+                    },
+                    isa,
+                ),
                 vi,
                 vw,
                 (li, lw),
@@ -339,12 +431,15 @@ impl PlmcMaterial {
                 texels,
             ),
             Params::Clustered16 { k, records, index } => self.eval_texels(
-                &Clustered {
-                    k: *k,
-                    views: self.n_views,
-                    records,
-                    index,
-                },
+                (
+                    &Clustered {
+                        k: *k,
+                        views: self.n_views,
+                        records,
+                        index,
+                    },
+                    isa,
+                ),
                 vi,
                 vw,
                 (li, lw),
@@ -352,10 +447,13 @@ impl PlmcMaterial {
                 texels,
             ),
             Params::Texel { lobes } => self.eval_texels(
-                &PerTexel {
-                    texels: texel_count,
-                    lobes,
-                },
+                (
+                    &PerTexel {
+                        texels: texel_count,
+                        lobes,
+                    },
+                    isa,
+                ),
                 vi,
                 vw,
                 (li, lw),
@@ -367,26 +465,47 @@ impl PlmcMaterial {
 
     /// The light-interpolated polynomial and clamps of view `v` (lights `li` with weights `lw`).
     #[inline(always)]
-    fn view_poly(&self, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
+    fn view_poly<I: Isa>(&self, isa: I, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
         let base = v * self.n_lights;
-        let r = li.map(|l| &self.polys[base + l as usize].0);
-        let m = li.map(|l| F4::load(&self.out_max[base + l as usize]));
-        let w = lw.map(F4::splat);
+        let r = each3(|b| &self.polys[base + li[b] as usize].0);
+        let m = each3(|b| F4::load(&self.out_max[base + li[b] as usize]));
+        let w = each3(|b| F4::splat(lw[b]));
         // a_j of R, G, B is the 4-lane window at 3 j of the row (the pad lane is discarded).
         let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
         ViewPoly {
-            a: std::array::from_fn(|j| {
-                w[0] * win(r[0], j) + w[1] * win(r[1], j) + w[2] * win(r[2], j)
+            a: each5(|j| {
+                isa.fma(
+                    w[2],
+                    win(r[2], j),
+                    isa.fma(w[1], win(r[1], j), w[0] * win(r[0], j)),
+                )
             }),
             y_max: F4::load(&self.y_max[v]),
             out_max: m[0].max(m[1]).max(m[2]),
         }
     }
 
+    /// [`PlmcMaterial::view_poly`] of the 3 views (no closure: too big for the inliner, it
+    /// stays an out-of-line call per view).
     #[inline(always)]
-    fn eval_texels<P: LobeAt>(
+    fn view_polys<I: Isa>(
         &self,
-        p: &P,
+        isa: I,
+        vi: [usize; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+    ) -> [ViewPoly; 3] {
+        [
+            self.view_poly(isa, vi[0], li, lw),
+            self.view_poly(isa, vi[1], li, lw),
+            self.view_poly(isa, vi[2], li, lw),
+        ]
+    }
+
+    #[inline(always)]
+    fn eval_texels<P: LobeAt, I: Isa>(
+        &self,
+        (p, isa): (&P, I),
         vi: [u32; 3],
         vw: [f32; 3],
         (li, lw): ([u32; 3], [f32; 3]),
@@ -394,51 +513,68 @@ impl PlmcMaterial {
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
         let has_polys = !self.polys.is_empty();
-        let vi = vi.map(|v| v as usize);
+        let vi = each3(|a| vi[a] as usize);
         let mut out = F4::splat(0.0);
         // Light interpolation of the polynomial rows: once per evaluation when several texels
         // share it (bilinear); for one texel after the gathers, so that their cache misses are
         // issued first and the rows need not stay live across them.
-        let shared = (has_polys && texels.len() > 1)
-            .then(|| [0, 1, 2].map(|a| self.view_poly(vi[a], li, lw)));
+        let shared = (has_polys && texels.len() > 1).then(|| self.view_polys(isa, vi, li, lw));
         for &(t, tw) in texels {
             // All 9 lobes first: their cache misses overlap instead of stalling view by view.
             let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
+            let vp = match shared {
+                Some(s) => Some(s),
+                None if has_polys => Some(self.view_polys(isa, vi, li, lw)),
+                None => None,
+            };
+            let y = self.eval_views(isa, &lobes, vp.as_ref(), wo);
             for a in 0..3 {
-                let vp = match &shared {
-                    Some(s) => Some(s[a]),
-                    None => has_polys.then(|| self.view_poly(vi[a], li, lw)),
-                };
-                let y = self.eval_view(&lobes[a], vp.as_ref(), wo);
-                out = out + F4::splat(tw * vw[a]) * y;
+                out = isa.fma(F4::splat(tw * vw[a]), y[a], out);
             }
         }
         let o = out.to_array();
         [o[0], o[1], o[2]]
     }
 
-    /// The (R, G, B, pad) values of one view's lobes at light `wo`, linear.
+    /// The (R, G, B, pad) values of the 3 views' lobes at light `wo`, linear. Stage by stage
+    /// over the views, so their independent dependency chains (log2 → exp2 → polynomial →
+    /// decode) are interleaved in the instruction stream rather than run one after the other.
     #[inline(always)]
-    fn eval_view(&self, l: &LaneLobes, vp: Option<&ViewPoly>, wo: Vec3) -> F4 {
-        let [rho, dx, dy, dz, n] = *l;
+    fn eval_views<I: Isa>(
+        &self,
+        isa: I,
+        l: &[LaneLobes; 3],
+        vp: Option<&[ViewPoly; 3]>,
+        wo: Vec3,
+    ) -> [F4; 3] {
         let zero = F4::splat(0.0);
-        let b = dx * F4::splat(wo.x) + dy * F4::splat(wo.y) + dz * F4::splat(wo.z);
+        let (wx, wy, wz) = (F4::splat(wo.x), F4::splat(wo.y), F4::splat(wo.z));
+        let b: [F4; 3] = each3(|a| isa.fma(l[a][3], wz, isa.fma(l[a][2], wy, l[a][1] * wx)));
         // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
         // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
         // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
         // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
-        let y = rho * pow_f4(b.max(F4::splat(1e-30)), n);
-        let mut y = b.gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y));
+        let lg: [F4; 3] = each3(|a| b[a].max(F4::splat(1e-30)).log2(isa));
+        let pw: [F4; 3] = each3(|a| (l[a][4] * lg[a]).max(F4::splat(-100.0)).exp2(isa));
+        let mut y: [F4; 3] = each3(|a| {
+            let y = l[a][0] * pw[a];
+            b[a].gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y))
+        });
         if let Some(vp) = vp {
-            let x = y.min(vp.y_max);
-            let a = &vp.a;
-            let o = (((a[4] * x + a[3]) * x + a[2]) * x + a[1]) * x + a[0];
-            y = o.min(vp.out_max);
+            y = each3(|a| {
+                let x = y[a].min(vp[a].y_max);
+                let c = &vp[a].a;
+                // Estrin: (a0 + a1 x) + x² ((a2 + a3 x) + x² a4): 3 dependent steps, not 4.
+                let x2 = x * x;
+                let lo = isa.fma(c[1], x, c[0]);
+                let hi = isa.fma(c[4], x2, isa.fma(c[3], x, c[2]));
+                isa.fma(hi, x2, lo).min(vp[a].out_max)
+            });
         }
         match self.space {
             // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
-            ValueSpace::Linear => y.max(zero),
-            ValueSpace::Srgb => srgb_to_linear_f4(y),
+            ValueSpace::Linear => each3(|a| y[a].max(zero)),
+            ValueSpace::Srgb => each3(|a| srgb_to_linear_f4(isa, y[a])),
         }
     }
 }
@@ -540,21 +676,35 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
     )
 }
 
+/// `[f(0), f(1), f(2)]`, always inlined (`array::map` and `from_fn` are not always, and in
+/// the AVX2 kernel an out-of-line closure is a call per view).
+#[inline(always)]
+fn each3<T>(mut f: impl FnMut(usize) -> T) -> [T; 3] {
+    [f(0), f(1), f(2)]
+}
+
+/// `[f(0), …, f(4)]`, always inlined (see [`each3`]).
+#[inline(always)]
+fn each5<T>(mut f: impl FnMut(usize) -> T) -> [T; 5] {
+    [f(0), f(1), f(2), f(3), f(4)]
+}
+
 /// `srgb_to_linear(max(0, v))` lane-wise, branch-free.
 #[inline(always)]
-fn srgb_to_linear_f4(y: F4) -> F4 {
+fn srgb_to_linear_f4<I: Isa>(isa: I, y: F4) -> F4 {
     let v = y.max(F4::splat(0.0));
     let lo = v * F4::splat(1.0 / 12.92);
     let base = ((v + F4::splat(0.055)) * F4::splat(1.0 / 1.055)).max(F4::splat(1e-30));
-    let hi = (F4::splat(2.4) * base.log2()).exp2();
+    let hi = (F4::splat(2.4) * base.log2(isa)).exp2(isa);
     v.le_select(F4::splat(0.04045), lo, hi)
 }
 
 /// b^n = exp2(n · log2 b) lane-wise for b > 0 (normal) and n ≥ 0; results below 2^−100 are
 /// 2^−100 (never a denormal, see `eval_view`).
+#[cfg(test)]
 #[inline(always)]
-fn pow_f4(b: F4, n: F4) -> F4 {
-    (n * b.log2()).max(F4::splat(-100.0)).exp2()
+fn pow_f4<I: Isa>(isa: I, b: F4, n: F4) -> F4 {
+    (n * b.log2(isa)).max(F4::splat(-100.0)).exp2(isa)
 }
 
 /// Summary only: the tables can be large.
@@ -583,6 +733,8 @@ pub struct PlmcBsdf {
     uv_scale: f32,
     /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
     bilinear: bool,
+    /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).
+    prefetch: bool,
 }
 
 impl PlmcBsdf {
@@ -597,7 +749,14 @@ impl PlmcBsdf {
             material,
             uv_scale,
             bilinear,
+            prefetch: true,
         })
+    }
+
+    /// The same instance with [`PlmcBsdf::prefetch`] a no-op (to measure what it saves).
+    pub fn without_prefetch(mut self) -> Self {
+        self.prefetch = false;
+        self
     }
 
     /// The shared material.
@@ -647,6 +806,19 @@ impl PlmcBsdf {
         )
     }
 
+    /// Starts loading the index entries of the texels that filter `si.uv` (see
+    /// [`PlmcMaterial::prefetch_texel`]); only a cache hint.
+    #[inline]
+    pub fn prefetch(&self, si: &SurfaceInteraction) {
+        if !self.prefetch {
+            return;
+        }
+        let (t, n) = self.texels(si.uv);
+        for &(texel, _) in &t[..n] {
+            self.material.prefetch_texel(texel);
+        }
+    }
+
     /// Lobes: measured reflection, glossy in general, varying over the surface.
     pub fn flags(&self) -> BsdfFlags {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
@@ -662,9 +834,22 @@ impl PlmcBsdf {
         wo: Vec3,
         uv: Vec2,
     ) -> (Spectrum, f32) {
+        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
+        self.eval_pdf_located(vi, vw, wo, uv, located)
+    }
+
+    /// [`PlmcBsdf::eval_pdf_with_views`] with `wo` already located in the light triangulation.
+    #[inline]
+    fn eval_pdf_located(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        uv: Vec2,
+        located: (usize, [f32; 3]),
+    ) -> (Spectrum, f32) {
         let m = &*self.material;
         let (t, w) = self.texels(uv);
-        let located = m.sampler.light_interp().locate([wo.x, wo.y]);
         let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
         let f = Spectrum::from(m.eval_b_with(vi, vw, li, lw, wo, &t[..w])) * INV_PI;
         (f, m.sampler.light_pdf_located(vi, vw, wo, located))
@@ -714,11 +899,18 @@ impl PlmcBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.view_lookup(si.wi);
-        let wo = m.sampler.sample_light(vi, vw, sample1, sample2);
+        let (wo, tri) = m.sampler.sample_light_located(vi, vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
-        let (f, pdf) = self.eval_pdf_with_views(vi, vw, wo, si.uv);
+        // Drawn inside a light triangle: that is the triangle the search would find (up to ties
+        // on its edges, where both sides interpolate alike), so only its weights are computed.
+        let lights = m.sampler.light_interp();
+        let located = match tri {
+            Some(t) => (t, lights.triangle_weights(t, [wo.x, wo.y])),
+            None => lights.locate([wo.x, wo.y]),
+        };
+        let (f, pdf) = self.eval_pdf_located(vi, vw, wo, si.uv, located);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }

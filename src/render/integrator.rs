@@ -134,6 +134,7 @@ impl PathTracer {
             let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
                 break;
             };
+            bsdf.prefetch(&si);
             // ------------------------- emitter sampling -------------------------
             if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
                 let u_sel = rng.next_f32();

@@ -87,7 +87,10 @@ fn model(kind: ModelKind, space: ValueSpace, w: usize, h: usize, k: usize, seed:
 
 struct Fixture {
     model: PlmcModel,
+    /// The material as built (the AVX2+FMA kernel where the CPU has it).
     bsdf: PlmcBsdf,
+    /// The same model forced onto the baseline SSE2 kernel.
+    sse2: PlmcBsdf,
 }
 
 fn fixture(kind: ModelKind, space: ValueSpace) -> &'static Fixture {
@@ -106,7 +109,10 @@ fn fixture(kind: ModelKind, space: ValueSpace) -> &'static Fixture {
             let model = model(kind, space, 5, 3, 7, 11 + i as u64);
             let mat = Arc::new(PlmcMaterial::new(&model).unwrap());
             let bsdf = PlmcBsdf::new(mat, 1.0, false).unwrap();
-            v.push((kind, space, Fixture { model, bsdf }));
+            let plain = Arc::new(PlmcMaterial::new(&model).unwrap().without_avx2());
+            assert!(!plain.uses_avx2());
+            let sse2 = PlmcBsdf::new(plain, 1.0, false).unwrap();
+            v.push((kind, space, Fixture { model, bsdf, sse2 }));
         }
         v
     });
@@ -137,13 +143,19 @@ fn fast_math_matches_libm() {
         let b: [f32; 4] =
             std::array::from_fn(|_| (-12.0 * rng.next_f32()).exp2() * (0.5 + 0.5 * rng.next_f32()));
         let n: [f32; 4] = std::array::from_fn(|_| 0.1 + 199.9 * rng.next_f32());
-        let got = pow_f4(F4::from_array(b), F4::from_array(n)).to_array();
-        for k in 0..4 {
-            let want = (b[k] as f64).powf(n[k] as f64);
-            if want < 1e-30 {
-                continue;
+        let mut check = |got: [f32; 4]| {
+            for k in 0..4 {
+                let want = (b[k] as f64).powf(n[k] as f64);
+                if want < 1e-30 {
+                    continue;
+                }
+                worst = worst.max(((got[k] as f64 - want) / want).abs() as f32);
             }
-            worst = worst.max(((got[k] as f64 - want) / want).abs() as f32);
+        };
+        check(pow_f4(Sse2, F4::from_array(b), F4::from_array(n)).to_array());
+        #[cfg(target_arch = "x86_64")]
+        if let Some(isa) = f4::Avx2Fma::detect() {
+            check(pow_f4(isa, F4::from_array(b), F4::from_array(n)).to_array());
         }
     }
     // n · |Δlog2 b| · ln 2 with |Δlog2| ≲ 2e-7 at n = 200, plus the exp2 series.
@@ -151,8 +163,13 @@ fn fast_math_matches_libm() {
     for i in 0..=2000 {
         let v = i as f32 / 1000.0 - 0.5;
         let want = srgb_to_linear(v.max(0.0));
-        let got = srgb_to_linear_f4(F4::splat(v)).to_array()[0];
+        let got = srgb_to_linear_f4(Sse2, F4::splat(v)).to_array()[0];
         assert!(close(got, want, 2e-5), "{v}");
+        #[cfg(target_arch = "x86_64")]
+        if let Some(isa) = f4::Avx2Fma::detect() {
+            let got = srgb_to_linear_f4(isa, F4::splat(v)).to_array()[0];
+            assert!(close(got, want, 2e-5), "{v} fma");
+        }
     }
 }
 
@@ -174,15 +191,18 @@ fn eval_at_measured_directions_is_the_reconstruction() {
                         Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32),
                     );
                     si.wi = set.dirs[v];
-                    let got = f.bsdf.eval(&si, set.dirs[l]) * std::f32::consts::PI;
-                    let i = 3 * ((l * h + y) * w + x);
-                    for c in 0..3 {
-                        assert!(
-                            close(got[c], img[i + c], 2e-4),
-                            "{kind:?} {space:?} view {v} light {l} texel ({x},{y}) ch {c}: {} vs {}",
-                            got[c],
-                            img[i + c]
-                        );
+                    for b in [&f.bsdf, &f.sse2] {
+                        let got = b.eval(&si, set.dirs[l]) * std::f32::consts::PI;
+                        let i = 3 * ((l * h + y) * w + x);
+                        for c in 0..3 {
+                            assert!(
+                                close(got[c], img[i + c], 2e-4),
+                                "{kind:?} {space:?} view {v} light {l} texel ({x},{y}) ch {c}: {} vs {} (avx2 {})",
+                                got[c],
+                                img[i + c],
+                                b.material().uses_avx2()
+                            );
+                        }
                     }
                 }
             }
@@ -257,12 +277,15 @@ fn eval_between_directions_matches_the_scalar_reference() {
             let si = SurfaceInteraction::for_tests(wi, uv);
             let (x, y) = f.bsdf.texel(uv);
             let want = reference_b(&f.model, &interp, wi, wo, y * w + x);
-            let got = f.bsdf.eval(&si, wo) * std::f32::consts::PI;
-            for c in 0..3 {
-                assert!(
-                    close(got[c], want[c], 3e-4),
-                    "{kind:?} {space:?} wi {wi} wo {wo}: {got} vs {want:?}"
-                );
+            for b in [&f.bsdf, &f.sse2] {
+                let got = b.eval(&si, wo) * std::f32::consts::PI;
+                for c in 0..3 {
+                    assert!(
+                        close(got[c], want[c], 3e-4),
+                        "{kind:?} {space:?} wi {wi} wo {wo}: {got} vs {want:?} (avx2 {})",
+                        b.material().uses_avx2()
+                    );
+                }
             }
             assert!(x < w && y < h);
         }
