@@ -201,5 +201,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             s.clusters, s.refit_wins, s.average_wins, s.kmeans_iterations
         );
     }
+    if opts.kind.has_polys() && outcome.resumed_views == 0 {
+        let s = outcome.stats;
+        println!(
+            "mappings: histogram matching kept for {}, texel-wise regression (lower MAE) for {}",
+            s.matched_polys, s.regression_polys
+        );
+    }
     Ok(())
 }

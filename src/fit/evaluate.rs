@@ -72,10 +72,11 @@ pub fn evaluate(
         },
         ..*opts
     };
-    let poly_bytes_per_view = nl * 3 * 20;
     struct PerView {
         err: [ViewError; 4],
         section: [usize; 3],
+        /// POLY record bytes of the view, per kind.
+        poly: [usize; 3],
         k: usize,
     }
     let kinds = [ModelKind::Lm, ModelKind::Plm, ModelKind::PlmC];
@@ -95,10 +96,15 @@ pub fn evaluate(
             let mut recon = Vec::new();
             let mut err = [ViewError::default(); 4];
             let mut section = [0usize; 3];
+            let mut poly = [0usize; 3];
             for (i, &kind) in kinds.iter().enumerate() {
                 if kind == model.kind {
                     model.reconstruct_view(v, &mut recon);
                     section[i] = format::view_section_size(v, &model.params[v], model.clusters)?;
+                    if kind.has_polys() {
+                        let n = model.lights.len() * 3;
+                        poly[i] = format::poly_bytes(&model.polys[v * n..(v + 1) * n])?;
+                    }
                 } else {
                     let m = pipeline::view_model(
                         source,
@@ -113,16 +119,20 @@ pub fn evaluate(
                     })?;
                     m.reconstruct_view(0, &mut recon);
                     section[i] = format::view_section_size(v, &m.params[0], m.clusters)?;
+                    poly[i] = format::poly_bytes(&m.polys)?;
                 }
                 err[i] = view_error(&data, &recon, enc);
             }
-            let k = pca_k.unwrap_or_else(|| {
-                pca::k_for_budget(dims, texels, section[2] + poly_bytes_per_view)
-            });
+            let k = pca_k.unwrap_or_else(|| pca::k_for_budget(dims, texels, section[2] + poly[2]));
             pca::reconstruct_view(&data, texels, k, &mut recon);
             err[3] = view_error(&data, &recon, enc);
             progress(v);
-            Ok(PerView { err, section, k })
+            Ok(PerView {
+                err,
+                section,
+                poly,
+                k,
+            })
         })
         .collect::<Result<_>>()?;
     let raw = raw_bytes(source.views().len(), nl, texels);
@@ -140,7 +150,11 @@ pub fn evaluate(
             } else {
                 0
             };
-            format::file_size(&skel, per_view.iter().map(|p| p.section[i]).sum())
+            format::file_size(
+                &skel,
+                per_view.iter().map(|p| p.section[i]).sum(),
+                per_view.iter().map(|p| p.poly[i]).sum(),
+            )
         };
         let errs: Vec<ViewError> = per_view.iter().map(|p| p.err[i]).collect();
         models.insert(

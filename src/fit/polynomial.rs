@@ -118,8 +118,9 @@ pub fn fit_mapping(model: &[f32], orig: &[f32], s: &mut Scratch) -> Poly {
 }
 
 /// [`fit_mapping`] with the original image already sorted ascending (it is shared by the PLM and
-/// PLM-C fits of one image, so it is sorted once).
-pub fn fit_mapping_sorted(model: &[f32], orig_sorted: &[f32], s: &mut Scratch) -> Poly {
+/// PLM-C fits of one image, so it is sorted once), conditioned on the domain [0, max(model, `floor`)]
+/// (see [`fit_pairs_in`]; `floor` is the largest model value of the view and channel).
+pub fn fit_mapping_sorted(model: &[f32], orig_sorted: &[f32], floor: f32, s: &mut Scratch) -> Poly {
     debug_assert_eq!(model.len(), orig_sorted.len());
     if model.is_empty() {
         return IDENTITY;
@@ -127,25 +128,54 @@ pub fn fit_mapping_sorted(model: &[f32], orig_sorted: &[f32], s: &mut Scratch) -
     s.model.clear();
     s.model.extend_from_slice(model);
     radix_sort(&mut s.model, &mut s.keys, &mut s.tmp);
-    fit_pairs(&s.model, orig_sorted)
+    fit_pairs_in(&s.model, orig_sorted, floor)
 }
 
-/// Least-squares polynomial through sorted (x, y) pairs, degree ≤ 4, monotone over the x range.
+/// Least-squares polynomial through sorted (x, y) pairs, degree ≤ 4, monotone over the x range;
+/// the domain the mapping is conditioned on is `[0, max(|x|, floor)]` (see [`fit_pairs_in`]).
 pub fn fit_pairs(x: &[f32], y: &[f32]) -> Poly {
-    let n = x.len();
+    fit_pairs_in(x, y, 0.0)
+}
+
+/// Largest growth of a kept mapping over its domain: Σ_j |a_j|·D^j ≤ `MAX_GROWTH`·max|y|. It bounds
+/// both the cancellation of a power-basis evaluation in f32 (error ≲ 5·2⁻²⁴·`MAX_GROWTH`·max|y|)
+/// and what the mapping does for lobe values between the measured ones anywhere in `[0, D]`.
+const MAX_GROWTH: f64 = 64.0;
+
+/// [`fit_pairs`] with the mapping conditioned on the domain `[0, D]`, D = max(|x|, `floor`).
+///
+/// The fit is solved in the normalised variable t = (x − centre)/half-range ∈ [−1, 1] (well
+/// conditioned even for a narrow x range far from 0) with degree ≤ min(4, distinct x − 1); a
+/// degree is kept only if its mapping is non-decreasing over the x range and its power-basis
+/// coefficients satisfy the growth bound on `[0, D]`. `floor` is the scale the model values of
+/// the other images of the view reach (the renderer evaluates the mapping anywhere up to it): an
+/// image whose model values are all tiny relative to it gets a low-degree or constant mapping
+/// instead of coefficients of 10³⁸. Constant, all-zero and single-valued images map to the mean.
+/// The result is snapped to the file's quantised encoding ([`PackedPoly`]) when that costs less than
+/// [`SNAP_TOLERANCE`] of the output scale on the image's range of model values.
+pub fn fit_pairs_in(x: &[f32], y: &[f32], floor: f32) -> Poly {
+    let n = x.len().min(y.len());
+    let (x, y) = (&x[..n], &y[..n]);
     let mean_y = y.iter().map(|&v| v as f64).sum::<f64>() / n.max(1) as f64;
+    let constant = [mean_y as f32, 0.0, 0.0, 0.0, 0.0];
     let lo = x.iter().copied().fold(f32::INFINITY, f32::min) as f64;
     let hi = x.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-    let scale = hi.abs().max(lo.abs());
-    if n == 0 || scale.is_nan() || scale <= 0.0 || hi - lo <= 1e-9 * scale {
-        // A constant model image carries no ordering: map everything to the mean.
-        return [mean_y as f32, 0.0, 0.0, 0.0, 0.0];
+    let y_abs = y.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()));
+    if n == 0 || !lo.is_finite() || !hi.is_finite() || !mean_y.is_finite() {
+        return constant;
     }
-    // Moments of t = x / scale ∈ [-1, 1] (in practice [0, 1]).
+    // Distinct x values (the pairs are sorted): a polynomial of degree ≥ distinct is not determined.
+    let distinct = 1 + x.windows(2).filter(|w| w[1] != w[0]).take(4).count();
+    let max_degree = (distinct - 1).min(4);
+    let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    if max_degree == 0 || half <= 1e-7 * hi.abs().max(lo.abs()) || y_abs == 0.0 {
+        return constant;
+    }
+    let domain = hi.abs().max(lo.abs()).max(floor as f64);
     let mut mom = [0.0f64; 9];
     let mut rhs = [0.0f64; 5];
     for (&xi, &yi) in x.iter().zip(y) {
-        let t = xi as f64 / scale;
+        let t = (xi as f64 - centre) / half;
         let mut p = 1.0;
         for (k, m) in mom.iter_mut().enumerate() {
             *m += p;
@@ -155,24 +185,173 @@ pub fn fit_pairs(x: &[f32], y: &[f32]) -> Poly {
             p *= t;
         }
     }
-    for degree in (1..=4usize).rev() {
+    for degree in (1..=max_degree).rev() {
         let Some(b) = solve_moments(&mom, &rhs, degree + 1) else {
             continue;
         };
-        if degree > 1 && !monotone(&b, degree, lo / scale, hi / scale) {
+        if degree > 1 && !monotone(&b, degree, -1.0, 1.0) {
             continue;
         }
-        let mut a = [0.0f32; 5];
-        let mut s = 1.0;
-        for j in 0..=degree {
-            a[j] = (b[j] / s) as f32;
-            s *= scale;
-        }
-        if a.iter().all(|v| v.is_finite()) {
-            return a;
+        let a = to_power_basis(&b, degree, centre, half);
+        let bounded = |a: &Poly| {
+            let growth: f64 = (0..5)
+                .map(|j| (a[j] as f64).abs() * domain.powi(j as i32))
+                .sum();
+            a.iter().all(|v| v.is_finite()) && growth <= MAX_GROWTH * y_abs
+        };
+        if bounded(&a) {
+            // The snapped mapping must keep the growth bound too (quantisation noise in high
+            // coefficients of a tiny domain is amplified on the view's domain).
+            let snapped = snap(&a, hi.abs().max(lo.abs()) as f32, y_abs as f32);
+            return if bounded(&snapped) { snapped } else { a };
         }
     }
-    [mean_y as f32, 0.0, 0.0, 0.0, 0.0]
+    constant
+}
+
+/// p(x) = Σ_j b_j ((x − c)/h)^j expanded into powers of x (f64, rounded once to f32).
+fn to_power_basis(b: &[f64; 5], degree: usize, c: f64, h: f64) -> Poly {
+    const BINOM: [[f64; 5]; 5] = [
+        [1.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0, 0.0, 0.0],
+        [1.0, 2.0, 1.0, 0.0, 0.0],
+        [1.0, 3.0, 3.0, 1.0, 0.0],
+        [1.0, 4.0, 6.0, 4.0, 1.0],
+    ];
+    let mut a = [0.0f64; 5];
+    for j in 0..=degree {
+        let bj = b[j] / h.powi(j as i32);
+        for i in 0..=j {
+            a[i] += bj * BINOM[j][i] * (-c).powi((j - i) as i32);
+        }
+    }
+    a.map(|v| v as f32)
+}
+
+/// Largest error, relative to the output scale max|y|, a fitted mapping may take on by being
+/// snapped to the file's quantised encoding (1e-4 of an 8-bit sRGB range is 0.026 levels).
+pub const SNAP_TOLERANCE: f64 = 1e-4;
+/// Domain exponents the quantised encoding covers: D = 2^e.
+const E_RANGE: std::ops::RangeInclusive<i32> = -40..=40;
+/// Largest |q_k| of the quantised Bernstein coefficients.
+const Q_MAX: f64 = 32767.0;
+
+/// A mapping as a version-2 `.plmc` file stores it (12 bytes instead of 20): its Bernstein
+/// coefficients on the domain [0, 2^e], c_k = q_k · 2^s. The Bernstein basis is non-negative and
+/// sums to 1, so quantising c_k by ≤ 2^(s−1) changes the mapping by at most that on the domain
+/// (the power basis has no such bound: its coefficients cancel).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PackedPoly {
+    /// Domain exponent: the mapping is encoded on [0, 2^e].
+    pub e: i8,
+    /// Step exponent of the coefficients.
+    pub s: i8,
+    /// Quantised Bernstein coefficients.
+    pub q: [i16; 5],
+}
+
+/// Bernstein coefficients of `a` on [0, 2^e] (f64; b_j = a_j·2^(e·j) is exact).
+fn bernstein(a: &Poly, e: i32) -> [f64; 5] {
+    // c_k = Σ_{j≤k} C(k,j)/C(4,j) · b_j
+    const M: [[f64; 5]; 5] = [
+        [1.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, 0.25, 0.0, 0.0, 0.0],
+        [1.0, 0.5, 1.0 / 6.0, 0.0, 0.0],
+        [1.0, 0.75, 0.5, 0.25, 0.0],
+        [1.0, 1.0, 1.0, 1.0, 1.0],
+    ];
+    let d = (e as f64).exp2();
+    let b: [f64; 5] = std::array::from_fn(|j| a[j] as f64 * d.powi(j as i32));
+    std::array::from_fn(|k| (0..=k).map(|j| M[k][j] * b[j]).sum())
+}
+
+/// The power-basis mapping a packed polynomial stands for (None if it does not fit in f32).
+pub fn decode(p: &PackedPoly) -> Option<Poly> {
+    // b_j = Σ_{k≤j} (−1)^(j−k) C(4,j) C(j,k) c_k
+    const M: [[f64; 5]; 5] = [
+        [1.0, 0.0, 0.0, 0.0, 0.0],
+        [-4.0, 4.0, 0.0, 0.0, 0.0],
+        [6.0, -12.0, 6.0, 0.0, 0.0],
+        [-4.0, 12.0, -12.0, 4.0, 0.0],
+        [1.0, -4.0, 6.0, -4.0, 1.0],
+    ];
+    let step = (p.s as f64).exp2();
+    let inv_d = (-(p.e as f64)).exp2();
+    let a: Poly = std::array::from_fn(|j| {
+        let b: f64 = (0..=j).map(|k| M[j][k] * p.q[k] as f64).sum::<f64>() * step;
+        (b * inv_d.powi(j as i32)) as f32
+    });
+    a.iter().all(|v| v.is_finite()).then_some(a)
+}
+
+/// Quantises `a` on the domain [0, 2^e] with the step exponent `s` (None if out of range).
+fn quantise_with(a: &Poly, e: i32, s: Option<i32>) -> Option<PackedPoly> {
+    let c = bernstein(a, e);
+    let big = c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if !big.is_finite() {
+        return None;
+    }
+    let s = s.unwrap_or(if big == 0.0 {
+        0
+    } else {
+        (big / Q_MAX).log2().ceil() as i32
+    });
+    let step = (s as f64).exp2();
+    let q = c.map(|v| (v / step).round());
+    if !(-128..=127).contains(&s) || q.iter().any(|v| v.abs() > Q_MAX) {
+        return None;
+    }
+    Some(PackedPoly {
+        e: i8::try_from(e).ok()?,
+        s: s as i8,
+        q: q.map(|v| v as i16),
+    })
+}
+
+/// The packed form that decodes to exactly `a` (bit for bit), if there is one: true for every
+/// mapping the fitter snapped ([`fit_pairs_in`]); other coefficients are stored as f32.
+pub fn encode(a: &Poly) -> Option<PackedPoly> {
+    let exact = |p: PackedPoly| {
+        decode(&p).is_some_and(|d| d.iter().zip(a).all(|(x, y)| x.to_bits() == y.to_bits()))
+    };
+    // Domains near 1 first (sRGB and reflectance values), then outwards.
+    let es = (0..=*E_RANGE.end())
+        .flat_map(|i| [i, -i - 1])
+        .filter(|e| E_RANGE.contains(e));
+    for e in es {
+        let Some(p) = quantise_with(a, e, None) else {
+            continue;
+        };
+        if exact(p) {
+            return Some(p);
+        }
+        // A coefficient rounded to the edge of the step range can pick the neighbouring step.
+        for s in [p.s as i32 - 1, p.s as i32 + 1] {
+            if let Some(p) = quantise_with(a, e, Some(s))
+                && exact(p)
+            {
+                return Some(p);
+            }
+        }
+    }
+    None
+}
+
+/// `a` snapped to the quantised encoding on [0, 2^e] ⊇ [0, `domain`] (the image's own model values)
+/// if that changes it there by at most [`SNAP_TOLERANCE`]·`y_abs`; otherwise `a` itself. Beyond the
+/// domain the change grows like the Bernstein basis' absolute sum (2t − 1)⁴: ≤ 81× at twice the
+/// domain, so ≤ 0.81 % of the output scale there.
+fn snap(a: &Poly, domain: f32, y_abs: f32) -> Poly {
+    let e = (domain as f64)
+        .log2()
+        .ceil()
+        .clamp(*E_RANGE.start() as f64, *E_RANGE.end() as f64);
+    match quantise_with(a, e as i32, None) {
+        Some(p) if 0.5 * (p.s as f64).exp2() <= SNAP_TOLERANCE * y_abs as f64 => {
+            decode(&p).unwrap_or(*a)
+        }
+        _ => *a,
+    }
 }
 
 fn monotone(b: &[f64; 5], degree: usize, lo: f64, hi: f64) -> bool {
@@ -264,6 +443,110 @@ mod tests {
             prev = v;
         }
         assert!(eval(&a, 1.0) - eval(&a, 0.0) > 0.5);
+    }
+
+    fn growth(a: &Poly, d: f64) -> f64 {
+        (0..5).map(|j| (a[j] as f64).abs() * d.powi(j as i32)).sum()
+    }
+
+    #[test]
+    fn tiny_and_narrow_model_ranges_keep_bounded_coefficients() {
+        let mut rng = Pcg32::new(3, 1);
+        // Model values ~1e-9 (a sharp lobe at a grazing light) while the view reaches 1: the old
+        // fit scaled by 2e-9 and returned a_4 ~ 1e35.
+        let mut x: Vec<f32> = (0..1000).map(|_| 1e-9 * (1.0 + rng.next_f32())).collect();
+        x.sort_unstable_by(f32::total_cmp);
+        let y: Vec<f32> = x
+            .iter()
+            .map(|&v| 0.2 + 0.1 * ((v - 1e-9) / 1e-9).powi(2))
+            .collect();
+        let a = fit_pairs_in(&x, &y, 1.0);
+        assert!(growth(&a, 1.0) <= MAX_GROWTH * 0.3, "{a:?}");
+        assert!(
+            y.iter()
+                .zip(&x)
+                .all(|(&yi, &xi)| (eval(&a, xi) - yi).abs() <= 0.1),
+            "{a:?}"
+        );
+        // A narrow range far from 0: normalised fit, bounded growth, still follows the data.
+        let x: Vec<f32> = (0..1000).map(|i| 0.5 + 1e-4 * i as f32 / 999.0).collect();
+        let y: Vec<f32> = x.iter().map(|&v| 0.3 + 1e3 * (v - 0.5)).collect();
+        let a = fit_pairs_in(&x, &y, 1.0);
+        assert!(growth(&a, 1.0) <= MAX_GROWTH * 0.4, "{a:?}");
+        let err = x
+            .iter()
+            .zip(&y)
+            .map(|(&xi, &yi)| (eval(&a, xi) - yi).abs())
+            .fold(0.0, f32::max);
+        assert!(err < 0.06, "{err} {a:?}");
+    }
+
+    #[test]
+    fn few_distinct_model_values_get_a_low_degree_exact_mapping() {
+        // Three distinct model values with ties: a degree-2 mapping through the three means.
+        let x: Vec<f32> = [0.1f32; 5]
+            .iter()
+            .chain(&[0.4; 5])
+            .chain(&[0.8; 5])
+            .copied()
+            .collect();
+        let y: Vec<f32> = (0..15)
+            .map(|i| [0.05, 0.3, 0.9][i / 5] + 0.01 * (i % 5) as f32 - 0.02)
+            .collect();
+        let a = fit_pairs(&x, &y);
+        for (xv, yv) in [(0.1f32, 0.05f32), (0.4, 0.3), (0.8, 0.9)] {
+            assert!((eval(&a, xv) - yv).abs() < 1e-4, "{a:?}");
+        }
+        // Two distinct values: linear; all-zero originals: zero.
+        let a = fit_pairs(&[0.2, 0.2, 0.6], &[0.1, 0.1, 0.5]);
+        assert!(a[2..].iter().all(|&v| v.abs() < 1e-6) && (eval(&a, 0.6) - 0.5).abs() < 1e-5);
+        assert_eq!(fit_pairs(&[0.1, 0.2, 0.3], &[0.0; 3]), [0.0; 5]);
+    }
+
+    #[test]
+    fn packed_polynomials_round_trip_exactly_with_a_bounded_error() {
+        let mut rng = Pcg32::new(8, 8);
+        let mut packed = 0;
+        for i in 0..500 {
+            let scale = [1.0f32, 0.01, 3.0, 1e-5][i % 4];
+            let x: Vec<f32> = {
+                let mut v: Vec<f32> = (0..200).map(|_| scale * rng.next_f32()).collect();
+                v.sort_unstable_by(f32::total_cmp);
+                v
+            };
+            let g = 0.6 + rng.next_f32();
+            let y: Vec<f32> = x
+                .iter()
+                .map(|&v| 0.8 * (v / scale).powf(g) + 0.01)
+                .collect();
+            let a = fit_pairs_in(&x, &y, scale);
+            // The unsnapped fit differs from the snapped one by ≤ the tolerance on the data range.
+            if let Some(p) = encode(&a) {
+                packed += 1;
+                assert_eq!(decode(&p), Some(a));
+            }
+            let err = x
+                .iter()
+                .zip(&y)
+                .map(|(&xi, &yi)| (eval(&a, xi) - yi).abs())
+                .fold(0.0, f32::max);
+            assert!(err < 0.08, "{err} {a:?}");
+        }
+        assert!(
+            packed >= 490,
+            "{packed} of 500 fitted mappings have a packed form"
+        );
+        // Arbitrary coefficients: the quantisation error is within half a step on the domain.
+        for _ in 0..200 {
+            let a: Poly = std::array::from_fn(|_| rng.next_f32() * 4.0 - 2.0);
+            let p = quantise_with(&a, 0, None).unwrap();
+            let d = decode(&p).unwrap();
+            let half = 0.5 * (p.s as f32).exp2();
+            for g in 0..=64 {
+                let t = g as f32 / 64.0;
+                assert!((eval(&a, t) - eval(&d, t)).abs() <= half * 1.01 + 1e-6);
+            }
+        }
     }
 
     #[test]

@@ -30,6 +30,25 @@ pub fn barycentrics(p0: Vec3, p1: Vec3, p2: Vec3, o: Vec3, d: Vec3) -> Vec2 {
     }
 }
 
+/// Position, unit geometric normal and unit shading normal at barycentrics `b` of triangle
+/// `prim` (what light sampling needs; the same arithmetic as [`eval_triangle`]).
+#[inline]
+pub fn eval_position_normals(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3) {
+    let [i0, i1, i2] = mesh.indices[prim as usize].map(|i| i as usize);
+    let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+    let b0 = 1.0 - b.x - b.y;
+    let p = p0 * b0 + p1 * b.x + p2 * b.y;
+    let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+    let ns = if mesh.normals.is_empty() {
+        n
+    } else {
+        let s = mesh.normals[i0] * b0 + mesh.normals[i1] * b.x + mesh.normals[i2] * b.y;
+        let s = s.normalize_or_zero();
+        if s == Vec3::ZERO { n } else { s }
+    };
+    (p, n, ns)
+}
+
 /// Surface data at barycentrics `b` of triangle `prim` of `mesh`: (p, n_geo, n_shading, uv, dpdu, dpdv).
 #[inline]
 pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2, Vec3, Vec3) {
@@ -70,18 +89,11 @@ pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2
     (p, n, ns, uv, dpdu, dpdv)
 }
 
-/// The full interaction for a hit of the unit-direction ray `o + t d`.
-pub fn surface_interaction(meshes: &[Mesh], o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
+/// The full interaction for a hit of the unit-direction ray `o + t d` (the hit's barycentrics
+/// place the point; the origin is unused but kept so callers need not change).
+pub fn surface_interaction(meshes: &[Mesh], _o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
     let mesh = &meshes[hit.mesh as usize];
-    let [i0, i1, i2] = mesh.indices[hit.prim as usize].map(|i| i as usize);
-    let b = barycentrics(
-        mesh.positions[i0],
-        mesh.positions[i1],
-        mesh.positions[i2],
-        o,
-        d,
-    );
-    let (p, n, ns, uv, dpdu, dpdv) = eval_triangle(mesh, hit.prim, b);
+    let (p, n, ns, uv, dpdu, dpdv) = eval_triangle(mesh, hit.prim, hit.b);
     let sh_frame = Frame::from_normal_tangent(ns, dpdu);
     SurfaceInteraction {
         p,
@@ -149,10 +161,13 @@ mod tests {
     fn uv_derivatives_and_shading_normal() {
         let meshes = vec![tri(true, true)];
         let o = Vec3::new(0.0, 0.0, 3.0) + Vec3::new(1e-3, 1e-3, 0.0);
+        let m = &meshes[0];
+        let b = barycentrics(m.positions[0], m.positions[1], m.positions[2], o, -Vec3::Z);
         let h = Hit {
             t: 3.0,
             mesh: 0,
             prim: 0,
+            b,
         };
         let si = surface_interaction(&meshes, o, -Vec3::Z, &h);
         // uv(p) = (y/2, 1 - x/2)  ⇒ ∂p/∂u = (0, 2, 0), ∂p/∂v = (-2, 0, 0).
@@ -164,5 +179,14 @@ mod tests {
         // At vertex 1 the shading normal tilts toward +x.
         let (_, _, ns, _, _, _) = eval_triangle(&meshes[0], 0, Vec2::new(1.0, 0.0));
         assert!((ns - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-6);
+        // The light-sampling subset is bit-identical to the full evaluation.
+        for b in [
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.2, 0.3),
+            Vec2::new(0.0, 0.9),
+        ] {
+            let (p, n, ns, _, _, _) = eval_triangle(&meshes[0], 0, b);
+            assert_eq!(eval_position_normals(&meshes[0], 0, b), (p, n, ns));
+        }
     }
 }

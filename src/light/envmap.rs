@@ -99,12 +99,24 @@ impl EnvMapLight {
 
     /// Radiance arriving from world direction `d` (unit, pointing away from the scene).
     pub fn eval(&self, d: Vec3) -> Spectrum {
+        self.lookup(self.lat_long(d))
+    }
+
+    /// Radiance toward world direction `d` and the solid-angle pdf of [`EnvMapLight::sample`]
+    /// there, converting the direction to lat-long coordinates once (escaped rays need both).
+    pub fn eval_pdf(&self, d: Vec3) -> (Spectrum, f32) {
+        let uv = self.lat_long(d);
+        (self.lookup(uv), self.pdf_uv(uv))
+    }
+
+    /// Lat-long coordinates (u = azimuth / 2π, v = polar angle / π) of world direction `d`.
+    #[inline]
+    fn lat_long(&self, d: Vec3) -> Vec2 {
         let v = (self.to_local * d).normalize_or_zero();
-        let uv = Vec2::new(
+        Vec2::new(
             v.x.atan2(-v.z) * (0.5 / PI),
             v.y.clamp(-1.0, 1.0).acos() * (1.0 / PI),
-        );
-        self.lookup(uv)
+        )
     }
 
     /// Mitsuba's bilinear lookup at lat-long coordinates `uv`.
@@ -149,15 +161,19 @@ impl EnvMapLight {
 
     /// Solid-angle pdf with which [`EnvMapLight::sample`] returns world direction `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
+        self.pdf_uv(self.lat_long(d))
+    }
+
+    /// [`EnvMapLight::pdf`] at lat-long coordinates `uv`.
+    fn pdf_uv(&self, uv: Vec2) -> f32 {
         let Some(rows) = self.rows.as_ref() else {
             return 0.0;
         };
-        let v = (self.to_local * d).normalize_or_zero();
         let (w, h) = (self.width, self.height);
-        let mut u = v.x.atan2(-v.z) * (0.5 / PI) - 0.5 / w as f32;
+        let mut u = uv.x - 0.5 / w as f32;
         u -= u.floor();
         let i = ((u * w as f32) as usize).min(w - 1);
-        let vv = v.y.clamp(-1.0, 1.0).acos() * (1.0 / PI);
+        let vv = uv.y;
         let j = ((vv * (h - 1) as f32) as usize).min(h - 2);
         let Some(cols) = self.cols[j].as_ref() else {
             return 0.0;

@@ -8,7 +8,7 @@
 pub mod distribution;
 pub mod envmap;
 
-use crate::geometry::shading::eval_triangle;
+use crate::geometry::shading::eval_position_normals;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::{INV_FOUR_PI, Mat4, Spectrum, Vec2, Vec3, warp};
 use crate::scene::{Emitter, Scene};
@@ -221,7 +221,7 @@ impl LightSet {
                 let m = &meshes[*mesh as usize];
                 let (t, _, ux) = tris.sample(u.x);
                 let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
-                let (pl, ng, ns, _, _, _) = eval_triangle(m, t as u32, b);
+                let (pl, ng, ns) = eval_position_normals(m, t as u32, b);
                 let to = pl - p;
                 let d2 = to.length_squared();
                 if !(d2 > 0.0) {
@@ -386,7 +386,10 @@ impl LightSet {
     pub fn eval_infinite(&self, k: usize, d: Vec3) -> (Spectrum, f32) {
         match &self.lights[self.infinite[k] as usize] {
             Light::Constant { radiance } => (*radiance, INV_FOUR_PI * self.select_pdf()),
-            Light::EnvMap(env) => (env.eval(d), env.pdf(d) * self.select_pdf()),
+            Light::EnvMap(env) => {
+                let (le, pdf) = env.eval_pdf(d);
+                (le, pdf * self.select_pdf())
+            }
             _ => (Spectrum::ZERO, 0.0),
         }
     }
