@@ -7,7 +7,8 @@ usage: bench_vs_mitsuba.py SCENE.xml SPP [--runs 3] [--threads 2] [--btfpt targe
 Runs are interleaved (btfpt, Mitsuba, btfpt, Mitsuba, ...) so both see the same machine load.
 btfpt: the release binary, `--threads T`, one process per run (seed = run); timed are the whole
 process wall time (scene load + BVH + render + EXR write), its CPU time (rusage of the child),
-and the render alone ("done in" line).
+and the render alone ("done in" line: its wall time and the process CPU time over the sample
+loop, getrusage, i.e. without scene load, BVH build and image writing: "render-only cpu").
 Mitsuba: one process, the scene loaded once, Dr.Jit limited to T threads; one untimed warm-up
 render traces and compiles the kernels (reported as "jit"), then each timed run is
 mi.render + dr.eval with seed = 1 + run (render only: no load, no JIT, no EXR write); CPU time
@@ -81,7 +82,7 @@ def main(argv=None) -> int:
     dr.sync_thread()
     mi_first = time.perf_counter() - t
 
-    rows = {"btfpt": [], "btfpt_render": [], "btfpt_cpu": [], "mitsuba": [], "mitsuba_cpu": [],
+    rows = {"btfpt": [], "btfpt_render": [], "btfpt_cpu": [], "btfpt_render_cpu": [], "mitsuba": [], "mitsuba_cpu": [],
             "rel_btfpt": [], "rel_mitsuba": []}
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(a.runs):
@@ -101,6 +102,8 @@ def main(argv=None) -> int:
             m = re.search(r"done in ([0-9.]+) s", p.stderr)
             rows["btfpt"].append(wall)
             rows["btfpt_render"].append(float(m.group(1)) if m else float("nan"))
+            m = re.search(r"done in [0-9.]+ s \(cpu ([0-9.]+) s\)", p.stderr)
+            rows["btfpt_render_cpu"].append(float(m.group(1)) if m else float("nan"))
             if ref is not None:
                 rows["rel_btfpt"].append(relmse(read_exr(out), ref))
 
@@ -119,15 +122,17 @@ def main(argv=None) -> int:
     eff = (med["mitsuba"] * med["rel_mitsuba"]) / (med["btfpt"] * med["rel_btfpt"])
     print(f"{name} @ {a.spp} spp, {a.threads} threads, {a.runs} runs each (medians):")
     cpu_ratio = med["mitsuba_cpu"] / med["btfpt_cpu"]
-    print(f"  btfpt    wall {med['btfpt']:7.2f} s  cpu {med['btfpt_cpu']:7.2f} s  (render {med['btfpt_render']:.2f} s)"
+    render_cpu_ratio = med["mitsuba_cpu"] / med["btfpt_render_cpu"]
+    print(f"  btfpt    wall {med['btfpt']:7.2f} s  cpu {med['btfpt_cpu']:7.2f} s  (render {med['btfpt_render']:.2f} s, cpu {med['btfpt_render_cpu']:.2f} s)"
           f"   relMSE {med['rel_btfpt']:.3e}")
     print(f"  mitsuba  wall {med['mitsuba']:7.2f} s  cpu {med['mitsuba_cpu']:7.2f} s  (render only; load "
           f"{mi_load:.2f} s, first render incl. JIT {mi_first:.2f} s)   relMSE {med['rel_mitsuba']:.3e}")
-    print(f"  mitsuba/btfpt: wall {ratio:.2f}, cpu {cpu_ratio:.2f}; efficiency ratio (wall x relMSE) {eff:.2f}")
+    print(f"  mitsuba/btfpt: wall {ratio:.2f}, cpu {cpu_ratio:.2f}, render-only cpu {render_cpu_ratio:.2f}; efficiency ratio (wall x relMSE) {eff:.2f}")
     print(json.dumps({
         "scene": name, "spp": a.spp, "threads": a.threads, "runs": a.runs,
         "btfpt_wall_s": [round(x, 3) for x in rows["btfpt"]],
         "btfpt_render_s": rows["btfpt_render"],
+        "btfpt_render_cpu_s": rows["btfpt_render_cpu"],
         "btfpt_cpu_s": [round(x, 3) for x in rows["btfpt_cpu"]],
         "mitsuba_render_s": [round(x, 3) for x in rows["mitsuba"]],
         "mitsuba_cpu_s": [round(x, 3) for x in rows["mitsuba_cpu"]],
@@ -135,6 +140,7 @@ def main(argv=None) -> int:
         "relmse_btfpt": rows["rel_btfpt"], "relmse_mitsuba": rows["rel_mitsuba"],
         "speed_ratio_mitsuba_over_btfpt": round(ratio, 3),
         "cpu_ratio_mitsuba_over_btfpt": round(cpu_ratio, 3),
+        "render_cpu_ratio_mitsuba_over_btfpt": round(render_cpu_ratio, 3),
         "efficiency_ratio": round(eff, 3),
         "variant": mi.variant(), "mitsuba": mi.__version__,
     }))

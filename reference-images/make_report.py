@@ -251,7 +251,7 @@ def main(argv=None) -> int:
             sdir = work / name
             sdir.mkdir()
             idir = a.images / name
-            idir.mkdir(parents=True)
+            idir.mkdir(parents=True, exist_ok=True)
             defines = [f"btf={mat}"] if is_btf else []
             res: dict = {"load_before": os.getloadavg(), "rows": {}, "model_error": {}}
             results["scenes"][name] = res

@@ -914,5 +914,19 @@ fn fuzz_regressions_are_clean_errors() {
         );
         n += 1;
     }
-    assert!(n > 0, "no regression inputs found");
+    for f in files_in(&root.join("btfc")) {
+        let e = btfpt::btf::cache::load_cache(&f)
+            .map(|_| ())
+            .expect_err("corrupt .btfc must be rejected");
+        // The dimensions overflow u64: a wrapping size check (release builds) would misreport
+        // them as a size mismatch, a checked one (debug builds) panicked.
+        assert!(
+            e.to_string()
+                .contains(&*f.file_name().unwrap().to_string_lossy())
+                && e.to_string().contains("implausible dimensions"),
+            "{e}"
+        );
+        n += 1;
+    }
+    assert!(n > 1, "no regression inputs found");
 }

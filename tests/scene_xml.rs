@@ -235,12 +235,9 @@ fn full_scene_parses_into_expected_values() {
             .all(|n| close(*n, Vec3::new(0.0, -1.0, 0.0)))
     );
     // sphere centre/radius
-    let sp = &s.meshes[4];
-    assert!(
-        sp.positions
-            .iter()
-            .all(|p| ((*p - Vec3::Y).length() - 0.5).abs() < 1e-5)
-    );
+    let sp = s.meshes[4].sphere.expect("analytic sphere");
+    assert!((sp.center - Vec3::Y).length() < 1e-6 && (sp.radius - 0.5).abs() < 1e-6);
+    assert!(s.meshes[4].indices.is_empty() && !sp.flip_normals);
 
     assert_eq!(s.emitters.len(), 5);
     assert!(
@@ -373,13 +370,7 @@ fn flip_normals_and_face_normals() {
     let [a, b, c] = m.indices[0].map(|i| m.positions[i as usize]);
     assert!((b - a).cross(c - a).z < 0.0, "winding must be reversed");
     assert!(s.meshes[1].normals.is_empty());
-    let sp = &s.meshes[2];
-    assert!(
-        sp.positions
-            .iter()
-            .zip(&sp.normals)
-            .all(|(p, n)| p.dot(*n) < 0.0)
-    );
+    assert!(s.meshes[2].sphere.expect("analytic sphere").flip_normals);
 }
 
 #[test]

@@ -254,11 +254,40 @@ impl BtfMaterial {
         &self.views
     }
 
+    /// The light-direction interpolator (shared with a fitted model on the same direction sets).
+    pub fn light_interp(&self) -> &DirectionInterp {
+        &self.lights
+    }
+
+    /// [`BtfMaterial::light_pdf`] with `wo` already located in the light triangulation
+    /// (`located` = [`DirectionInterp::locate`] of (wo.x, wo.y)): shares that search with eval.
+    #[inline]
+    pub fn light_pdf_located(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        located: (usize, [f32; 3]),
+    ) -> f32 {
+        DEFENSIVE_FRACTION * INV_TWO_PI
+            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf_located(vi, vw, wo, located)
+    }
+
     /// Solid-angle density of the tabulated part of the mixture (blended over the 3 views) at
     /// the upper-hemisphere direction `wo`.
     #[inline]
     fn tabulated_pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        let (t, bw) = self.lights.locate([wo.x, wo.y]);
+        self.tabulated_pdf_located(vi, vw, wo, self.lights.locate([wo.x, wo.y]))
+    }
+
+    #[inline]
+    fn tabulated_pdf_located(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        (t, bw): (usize, [f32; 3]),
+    ) -> f32 {
         let inside = bw[0].min(bw[1]).min(bw[2]) >= -1e-6;
         let in_band = wo.z < self.band_cos;
         let band_pdf = 1.0 / (2.0 * std::f32::consts::PI * self.band_cos.max(f32::MIN_POSITIVE));

@@ -190,8 +190,16 @@ pub fn parse_header(path: &Path, bytes: &[u8]) -> Result<CacheHeader> {
     if offset != payload_offset(nv as usize, nl as usize) as u64 {
         return Err(bad(format!("unexpected payload offset {offset}")));
     }
-    let values = nv * nl * w * h * 3;
-    let expected = offset + 2 * values + 4 * nv + 4;
+    // Checked: the four u32 dimensions of a corrupt header can overflow u64 (fuzz finding).
+    let sizes = [nv, nl, w, h, 3]
+        .iter()
+        .try_fold(1u64, |a, &b| a.checked_mul(b))
+        .and_then(|values| values.checked_mul(2)?.checked_add(offset + 4 * nv + 4));
+    let Some(expected) = sizes.filter(|&e| e <= isize::MAX as u64) else {
+        return Err(bad(format!(
+            "implausible dimensions: {nv} views × {nl} lights × {w}×{h} texels overflow the file size"
+        )));
+    };
     if bytes.len() as u64 != expected {
         return Err(bad(format!(
             "file is {} bytes, expected {expected} for {nv} views × {nl} lights × {w}×{h} texels (truncated or trailing data)",

@@ -82,6 +82,9 @@ impl DirectionSet {
     }
 }
 
+/// Refinement factor per axis from the coarse candidate grid to the lookup grid.
+const REFINE: u32 = 3;
+
 /// Precomputed geometry of one triangle of the disk triangulation (one cache line).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
@@ -124,12 +127,17 @@ impl TriGeom {
 ///
 /// Lookup is O(1): a uniform grid over [−1, 1]² lists per cell every triangle that can win the
 /// rule somewhere in the cell (bounds of the concave min-weight function over the cell's corners),
-/// so a query tests a handful of triangles and never allocates.
+/// so a query tests a handful of triangles and never allocates. The grid is fine (about 9 cells
+/// per triangle edge length) so that most cells hold a single candidate, which is returned without
+/// any test.
 #[derive(Clone, Debug)]
 pub struct DirectionInterp {
     tris: Vec<TriGeom>,
     /// Cells per side of the grid over [−1, 1]².
     grid: u32,
+    /// Per cell, one small load for the common case: `(t << 1) | 1` if triangle t (< 2^15) is
+    /// the cell's only candidate, else `0` (look in `cell_start`). u16 keeps the table L1-sized.
+    cells: Vec<u16>,
     /// Candidate lists: triangles of cell k are `cell_tris[cell_start[k]..cell_start[k + 1]]`.
     cell_start: Vec<u32>,
     cell_tris: Vec<u32>,
@@ -167,11 +175,28 @@ impl DirectionInterp {
                 }
             })
             .collect();
-        let grid = ((3.0 * (tris.len() as f64).sqrt()).round() as u32).clamp(8, 256);
-        let (cell_start, cell_tris) = build_grid(&tris, grid);
+        // A coarse grid tested against every triangle, refined REFINE× per axis testing only the
+        // parent cell's candidates (a triangle that can win somewhere in a sub-cell can win
+        // somewhere in its parent): cells small enough that most hold a single candidate.
+        let coarse = ((3.0 * (tris.len() as f64).sqrt()).round() as u32).clamp(8, 64);
+        let all: Vec<u32> = (0..tris.len() as u32).collect();
+        let (cs, ct) = build_grid(&tris, coarse, |_, _| &all);
+        let grid = coarse * REFINE;
+        let (cell_start, cell_tris) = build_grid(&tris, grid, |cx, cy| {
+            let k = ((cy / REFINE) * coarse + cx / REFINE) as usize;
+            &ct[cs[k] as usize..cs[k + 1] as usize]
+        });
+        let cells = cell_start
+            .windows(2)
+            .map(|r| match cell_tris[r[0] as usize..r[1] as usize] {
+                [t] if t < 1 << 15 => ((t << 1) | 1) as u16,
+                _ => 0,
+            })
+            .collect();
         Ok(DirectionInterp {
             tris,
             grid,
+            cells,
             cell_start,
             cell_tris,
             n_dirs: set.len(),
@@ -216,6 +241,12 @@ impl DirectionInterp {
         let cx = (((q[0] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cy = (((q[1] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
         let cell = (cy * self.grid + cx) as usize;
+        let single = self.cells[cell] as usize;
+        if single & 1 == 1 {
+            // The only triangle that wins anywhere in this cell (most cells of the fine grid).
+            let t = single >> 1;
+            return (t, self.tris[t].weights(q));
+        }
         let (s, e) = (
             self.cell_start[cell] as usize,
             self.cell_start[cell + 1] as usize,
@@ -246,6 +277,13 @@ impl DirectionInterp {
     #[inline]
     pub fn lookup(&self, dir: Vec3) -> ([u32; 3], [f32; 3]) {
         let (t, w) = self.locate([dir.x, dir.y]);
+        self.interpolation(t, w)
+    }
+
+    /// Interpolation indices and weights from a [`DirectionInterp::locate`] result: negative
+    /// weights clamped to 0, renormalised (what [`DirectionInterp::lookup`] returns).
+    #[inline]
+    pub fn interpolation(&self, t: usize, w: [f32; 3]) -> ([u32; 3], [f32; 3]) {
         let w = w.map(|x| x.max(0.0));
         let inv = 1.0 / (w[0] + w[1] + w[2]);
         (self.tris[t].v, w.map(|x| x * inv))
@@ -256,7 +294,12 @@ impl DirectionInterp {
 /// the cell reaches the best lower bound of any triangle over the cell. Exact reasoning: each weight
 /// is affine, so min-weight is concave; its minimum over a box is at a corner (lower bound), and
 /// the minimum over weights of each weight's corner maximum bounds it from above.
-fn build_grid(tris: &[TriGeom], grid: u32) -> (Vec<u32>, Vec<u32>) {
+/// `candidates(cx, cy)` lists the triangles that may be kept for cell (cx, cy).
+fn build_grid<'a>(
+    tris: &[TriGeom],
+    grid: u32,
+    candidates: impl Fn(u32, u32) -> &'a [u32],
+) -> (Vec<u32>, Vec<u32>) {
     let mut cell_start = Vec::with_capacity((grid * grid + 1) as usize);
     let mut cell_tris = Vec::new();
     let mut lo = vec![0f32; tris.len()];
@@ -273,7 +316,9 @@ fn build_grid(tris: &[TriGeom], grid: u32) -> (Vec<u32>, Vec<u32>) {
                 [x0 + step, y0 + step],
             ];
             let mut best_lo = f32::NEG_INFINITY;
-            for (t, tri) in tris.iter().enumerate() {
+            let cand = candidates(cx, cy);
+            for &t in cand {
+                let (t, tri) = (t as usize, &tris[t as usize]);
                 let mut wmax = [f32::NEG_INFINITY; 3];
                 let mut mlo = f32::INFINITY;
                 for c in corners {
@@ -290,7 +335,7 @@ fn build_grid(tris: &[TriGeom], grid: u32) -> (Vec<u32>, Vec<u32>) {
             // Margin for rounding in the f32 weights.
             let cut = best_lo - 1e-4 * (1.0 + best_lo.abs());
             let first = cell_tris.len();
-            cell_tris.extend((0..tris.len() as u32).filter(|&t| hi[t as usize] >= cut));
+            cell_tris.extend(cand.iter().copied().filter(|&t| hi[t as usize] >= cut));
             // Most promising first (largest lower bound), so the early exit triggers at once.
             cell_tris[first..].sort_by(|&a, &b| lo[b as usize].total_cmp(&lo[a as usize]));
             cell_start.push(cell_tris.len() as u32);
@@ -488,6 +533,11 @@ mod interp_tests {
                 }
             }
             let mean = total as f32 / cells as f32;
+            // Most disk cells hold one candidate: the lookup's test-free fast path.
+            let single = (0..g * g)
+                .filter(|&k| ip.cell_start[k + 1] - ip.cell_start[k] == 1)
+                .count();
+            assert!(single as f32 > 0.6 * cells as f32, "{single} of {cells}");
             assert!(
                 mean < 5.0 && longest <= 16,
                 "mean {mean}, longest {longest}"

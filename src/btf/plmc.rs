@@ -26,7 +26,6 @@
 #![allow(clippy::needless_range_loop)]
 
 use crate::bsdf::{BsdfFlags, BsdfSample, BtfMaterial};
-use crate::btf::directions::DirectionInterp;
 use crate::btf::{RawBtf, StoredEncoding};
 use crate::fit::lafortune;
 use crate::fit::model::{ModelKind, PlmcModel, ValueSpace, ViewParams};
@@ -34,12 +33,15 @@ use crate::fit::polynomial;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
+use f4::F4;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-/// Lanes of one evaluation: 3 views × 3 channels = 9, padded to a multiple of 4.
-pub const LANES: usize = 12;
+/// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
+pub const FLUSH: f32 = 1e-20;
+/// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
+pub const LANES: usize = 4;
 /// Texels per axis averaged (at most) per image when building the sampling tables.
 const TABLE_TEXELS: usize = 64;
 
@@ -48,14 +50,17 @@ const TABLE_TEXELS: usize = 64;
 #[repr(C, align(32))]
 pub struct LobeRec(pub [f32; 8]);
 
-/// Polynomial coefficients of one (view, light): `[a_0..a_4 of R, of G, of B, pad]`.
+/// Polynomial coefficients of one (view, light), coefficient-major: `[a_j of R, G, B]` for
+/// j = 0..4 then one pad. `a_j` of the 3 channels is the 4-lane window starting at `3 j` (its pad
+/// lane reads the next coefficient, harmless: that lane is discarded).
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
 pub struct PolyRow(pub [f32; 16]);
 
 /// How the per-texel lobes are stored.
 enum Params {
-    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[view][texel][4]`.
+    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[texel][view][R, G, B, pad]`
+    /// (the 3 views of one evaluation are a few hundred bytes apart: one or two cache lines).
     Clustered8 {
         k: usize,
         records: Vec<LobeRec>,
@@ -71,24 +76,30 @@ enum Params {
     Texel { lobes: Vec<[f32; 5]> },
 }
 
-/// Gathers the lobe of (view, texel, channel): the only part that differs between the layouts.
+/// The lobes (R, G, B) of one (view, texel), transposed to lanes: ρ, Dx, Dy, Dz, n.
+type LaneLobes = [F4; 5];
+
+/// Gathers the lobes of (view, texel): the only part that differs between the layouts.
 trait LobeAt {
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5];
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes;
 }
 
 struct Clustered<'a, I> {
     k: usize,
-    texels: usize,
+    views: usize,
     records: &'a [LobeRec],
     index: &'a [[I; 4]],
 }
 
 impl<I: Copy + Into<usize>> LobeAt for Clustered<'_, I> {
     #[inline(always)]
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
-        let i: usize = self.index[view * self.texels + texel][channel].into();
-        let r = &self.records[(view * 3 + channel) * self.k + i].0;
-        [r[0], r[1], r[2], r[3], r[4]]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let i = self.index[texel * self.views + view];
+        let base = view * 3 * self.k;
+        let r = &self.records[base + i[0].into()].0;
+        let g = &self.records[base + self.k + i[1].into()].0;
+        let b = &self.records[base + 2 * self.k + i[2].into()].0;
+        F4::transpose3(r, g, b)
     }
 }
 
@@ -99,9 +110,19 @@ struct PerTexel<'a> {
 
 impl LobeAt for PerTexel<'_> {
     #[inline(always)]
-    fn lobe(&self, view: usize, texel: usize, channel: usize) -> [f32; 5] {
-        self.lobes[(view * self.texels + texel) * 3 + channel]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let l = &self.lobes[(view * self.texels + texel) * 3..][..3];
+        std::array::from_fn(|p| F4::from_array([l[0][p], l[1][p], l[2][p], 0.0]))
     }
+}
+
+/// Per view of one evaluation: the light-interpolated polynomial `a_0..a_4` and the two range
+/// clamps (lobe value Y, polynomial output), as lanes.
+#[derive(Clone, Copy)]
+struct ViewPoly {
+    a: [F4; 5],
+    y_max: F4,
+    out_max: F4,
 }
 
 /// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
@@ -111,23 +132,24 @@ pub struct PlmcMaterial {
     space: ValueSpace,
     width: usize,
     height: usize,
+    n_views: usize,
     n_lights: usize,
-    lights: DirectionInterp,
     params: Params,
     /// `[view][light]`; empty for LM.
     polys: Vec<PolyRow>,
-    /// `[view][channel]`: the largest lobe value Y over the measured lights (and the clusters /
+    /// `[view]` (R, G, B, 0): the largest lobe value Y over the measured lights (and the clusters /
     /// sampled texels). The polynomials were fitted on Y in this range; Y is clamped to it before
     /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
     /// light directions near a sharp lobe's peak.
-    y_max: Vec<[f32; 3]>,
+    y_max: Vec<[f32; 4]>,
     /// `[view][light]`: the largest polynomial output (model space) per channel over the
     /// clusters / sampled texels at that measured (view, light). Between measured lights the
     /// output is clamped to the largest bound of the 3 lights: a guard against ill-conditioned
     /// fitted polynomials (|a_j| up to 1e38 occur) that are harmless at the measured directions
     /// but explode for lobe values in between; values at measured directions are unchanged.
     out_max: Vec<[f32; 4]>,
-    /// Sampling tables (and the view interpolator) built from the model's texel-mean values.
+    /// Sampling tables and the view and light interpolators, built from the model's texel-mean
+    /// values (its light interpolator is the model's: the same direction set).
     sampler: BtfMaterial,
 }
 
@@ -137,10 +159,6 @@ impl PlmcMaterial {
         model.validate()?;
         let (nv, nl) = (model.views.len(), model.lights.len());
         let texels = model.width * model.height;
-        let lights = model
-            .lights
-            .interpolator()
-            .map_err(|e| Error::Invalid(format!("model light directions: {e}")))?;
         let rec = |l: [f32; 5]| LobeRec([l[0], l[1], l[2], l[3], l[4], 0.0, 0.0, 0.0]);
         let params = match model.kind {
             ModelKind::PlmC => {
@@ -164,7 +182,7 @@ impl PlmcMaterial {
                         }
                     }
                     for t in 0..texels {
-                        let d = &mut idx16[v * texels + t];
+                        let d = &mut idx16[t * nv + v];
                         d[..3].copy_from_slice(&index[3 * t..3 * t + 3]);
                     }
                 }
@@ -201,7 +219,10 @@ impl PlmcMaterial {
             for v in 0..nv {
                 for l in 0..nl {
                     for c in 0..3 {
-                        rows[v * nl + l].0[5 * c..5 * c + 5].copy_from_slice(&model.poly(v, l, c));
+                        let a = model.poly(v, l, c);
+                        for j in 0..5 {
+                            rows[v * nl + l].0[3 * j + c] = a[j];
+                        }
                     }
                 }
             }
@@ -210,6 +231,7 @@ impl PlmcMaterial {
             Vec::new()
         };
         let (means, y_max, out_max) = mean_values(model);
+        let y_max = y_max.iter().map(|m| [m[0], m[1], m[2], 0.0]).collect();
         let table = RawBtf::from_f32(
             model.views.clone(),
             model.lights.clone(),
@@ -224,8 +246,8 @@ impl PlmcMaterial {
             space: model.space,
             width: model.width,
             height: model.height,
+            n_views: nv,
             n_lights: nl,
-            lights,
             params,
             polys,
             y_max,
@@ -261,12 +283,19 @@ impl PlmcMaterial {
         self.sampler.view_interp().lookup(wi)
     }
 
+    /// Interpolation indices and weights of the 3 measured lights around `wo` (local frame).
+    #[inline]
+    pub fn light_lookup(&self, wo: Vec3) -> ([u32; 3], [f32; 3]) {
+        self.sampler.light_interp().lookup(wo)
+    }
+
     /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
     /// (column `x`, row `y`); both directions must be in the upper hemisphere.
     #[inline]
     pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
         let (vi, vw) = self.view_lookup(wi);
-        self.eval_b_with_views(vi, vw, wo, &[(y * self.width + x, 1.0)])
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
     }
 
     /// B blended over `texels` (texel index, weight) with the view lookup already done.
@@ -278,29 +307,47 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, texels)
+    }
+
+    /// B blended over `texels` with both direction lookups done (views `vi`/`vw`, lights
+    /// `li`/`lw` around `wo`).
+    #[inline]
+    pub fn eval_b_with(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
         let texel_count = self.width * self.height;
         match &self.params {
             Params::Clustered8 { k, records, index } => self.eval_texels(
                 &Clustered {
                     k: *k,
-                    texels: texel_count,
+                    views: self.n_views,
                     records,
                     index,
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
             Params::Clustered16 { k, records, index } => self.eval_texels(
                 &Clustered {
                     k: *k,
-                    texels: texel_count,
+                    views: self.n_views,
                     records,
                     index,
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
@@ -311,9 +358,28 @@ impl PlmcMaterial {
                 },
                 vi,
                 vw,
+                (li, lw),
                 wo,
                 texels,
             ),
+        }
+    }
+
+    /// The light-interpolated polynomial and clamps of view `v` (lights `li` with weights `lw`).
+    #[inline(always)]
+    fn view_poly(&self, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
+        let base = v * self.n_lights;
+        let r = li.map(|l| &self.polys[base + l as usize].0);
+        let m = li.map(|l| F4::load(&self.out_max[base + l as usize]));
+        let w = lw.map(F4::splat);
+        // a_j of R, G, B is the 4-lane window at 3 j of the row (the pad lane is discarded).
+        let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
+        ViewPoly {
+            a: std::array::from_fn(|j| {
+                w[0] * win(r[0], j) + w[1] * win(r[1], j) + w[2] * win(r[2], j)
+            }),
+            y_max: F4::load(&self.y_max[v]),
+            out_max: m[0].max(m[1]).max(m[2]),
         }
     }
 
@@ -323,120 +389,57 @@ impl PlmcMaterial {
         p: &P,
         vi: [u32; 3],
         vw: [f32; 3],
+        (li, lw): ([u32; 3], [f32; 3]),
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
-        // Light interpolation of the polynomial rows: once per evaluation, shared by all texels.
-        let mut coef = [[0f32; 16]; 3];
-        let mut bound = [[f32::INFINITY; 3]; 3];
         let has_polys = !self.polys.is_empty();
-        if has_polys {
-            let (li, lw) = self.lights.lookup(wo);
-            for a in 0..3 {
-                let base = vi[a] as usize * self.n_lights;
-                // Output bound: the largest of the 3 measured lights' maxima.
-                let m = [
-                    &self.out_max[base + li[0] as usize],
-                    &self.out_max[base + li[1] as usize],
-                    &self.out_max[base + li[2] as usize],
-                ];
-                let r = [
-                    &self.polys[base + li[0] as usize].0,
-                    &self.polys[base + li[1] as usize].0,
-                    &self.polys[base + li[2] as usize].0,
-                ];
-                for j in 0..16 {
-                    coef[a][j] = lw[0] * r[0][j] + lw[1] * r[1][j] + lw[2] * r[2][j];
-                }
-                bound[a] = [0, 1, 2].map(|c| m[0][c].max(m[1][c]).max(m[2][c]));
-            }
-        }
-        let mut out = [0f32; 3];
+        let vi = vi.map(|v| v as usize);
+        let mut out = F4::splat(0.0);
+        // Light interpolation of the polynomial rows: once per evaluation when several texels
+        // share it (bilinear); for one texel after the gathers, so that their cache misses are
+        // issued first and the rows need not stay live across them.
+        let shared = (has_polys && texels.len() > 1)
+            .then(|| [0, 1, 2].map(|a| self.view_poly(vi[a], li, lw)));
         for &(t, tw) in texels {
-            let v = self.eval_lanes(p, vi, &coef, &bound, has_polys, wo, t);
-            for c in 0..3 {
-                out[c] += tw * (vw[0] * v[c] + vw[1] * v[3 + c] + vw[2] * v[6 + c]);
+            // All 9 lobes first: their cache misses overlap instead of stalling view by view.
+            let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
+            for a in 0..3 {
+                let vp = match &shared {
+                    Some(s) => Some(s[a]),
+                    None => has_polys.then(|| self.view_poly(vi[a], li, lw)),
+                };
+                let y = self.eval_view(&lobes[a], vp.as_ref(), wo);
+                out = out + F4::splat(tw * vw[a]) * y;
             }
         }
-        out
+        let o = out.to_array();
+        [o[0], o[1], o[2]]
     }
 
-    /// The 9 (view, channel) values of one texel, linear, lane `3·view + channel`.
+    /// The (R, G, B, pad) values of one view's lobes at light `wo`, linear.
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)] // the per-evaluation state, passed in registers
-    fn eval_lanes<P: LobeAt>(
-        &self,
-        p: &P,
-        vi: [u32; 3],
-        coef: &[[f32; 16]; 3],
-        bound: &[[f32; 3]; 3],
-        has_polys: bool,
-        wo: Vec3,
-        texel: usize,
-    ) -> [f32; LANES] {
-        let mut rho = [0f32; LANES];
-        let mut dx = [0f32; LANES];
-        let mut dy = [0f32; LANES];
-        let mut dz = [0f32; LANES];
-        let mut n = [1f32; LANES];
-        for a in 0..3 {
-            for c in 0..3 {
-                let l = p.lobe(vi[a] as usize, texel, c);
-                let i = 3 * a + c;
-                rho[i] = l[0];
-                dx[i] = l[1];
-                dy[i] = l[2];
-                dz[i] = l[3];
-                n[i] = l[4];
-            }
-        }
-        let mut y = [0f32; LANES];
-        for i in 0..LANES {
-            let b = dx[i] * wo.x + dy[i] * wo.y + dz[i] * wo.z;
-            let pw = fast_pow(b.max(1e-30), n[i]);
-            y[i] = if b > 0.0 { rho[i] * pw } else { 0.0 };
-        }
-        if has_polys {
-            let mut y_max = [0f32; LANES];
-            for v in 0..3 {
-                y_max[3 * v..3 * v + 3].copy_from_slice(&self.y_max[vi[v] as usize]);
-            }
-            for i in 0..LANES {
-                y[i] = y[i].min(y_max[i]);
-            }
-            let mut a = [[0f32; LANES]; 5];
-            for v in 0..3 {
-                for c in 0..3 {
-                    for j in 0..5 {
-                        a[j][3 * v + c] = coef[v][5 * c + j];
-                    }
-                }
-            }
-            for i in 0..LANES {
-                y[i] = (((a[4][i] * y[i] + a[3][i]) * y[i] + a[2][i]) * y[i] + a[1][i]) * y[i]
-                    + a[0][i];
-            }
-            let mut hi = [0f32; LANES];
-            for v in 0..3 {
-                hi[3 * v..3 * v + 3].copy_from_slice(&bound[v]);
-            }
-            for i in 0..LANES {
-                y[i] = y[i].min(hi[i]);
-            }
+    fn eval_view(&self, l: &LaneLobes, vp: Option<&ViewPoly>, wo: Vec3) -> F4 {
+        let [rho, dx, dy, dz, n] = *l;
+        let zero = F4::splat(0.0);
+        let b = dx * F4::splat(wo.x) + dy * F4::splat(wo.y) + dz * F4::splat(wo.z);
+        // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
+        // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
+        // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
+        // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
+        let y = rho * pow_f4(b.max(F4::splat(1e-30)), n);
+        let mut y = b.gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y));
+        if let Some(vp) = vp {
+            let x = y.min(vp.y_max);
+            let a = &vp.a;
+            let o = (((a[4] * x + a[3]) * x + a[2]) * x + a[1]) * x + a[0];
+            y = o.min(vp.out_max);
         }
         match self.space {
-            ValueSpace::Linear => {
-                for v in y.iter_mut() {
-                    *v = v.max(0.0);
-                }
-            }
-            ValueSpace::Srgb => {
-                for v in y.iter_mut() {
-                    *v = fast_srgb_to_linear(*v);
-                }
-            }
+            // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
+            ValueSpace::Linear => y.max(zero),
+            ValueSpace::Srgb => srgb_to_linear_f4(y),
         }
-        y
     }
 }
 
@@ -537,54 +540,21 @@ fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
     )
 }
 
-/// log2 of a positive normal f32, branch-free (exponent + odd series in (m−1)/(m+1) on
-/// [√½, √2)); absolute error below 1e-7.
+/// `srgb_to_linear(max(0, v))` lane-wise, branch-free.
 #[inline(always)]
-pub fn fast_log2(x: f32) -> f32 {
-    let bits = x.to_bits();
-    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
-    let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
-    let big = m > std::f32::consts::SQRT_2;
-    m = if big { m * 0.5 } else { m };
-    e += big as i32;
-    let t = (m - 1.0) / (m + 1.0);
-    let t2 = t * t;
-    const C: f32 = 2.0 / std::f32::consts::LN_2;
-    let s = t * (C + t2 * (C / 3.0 + t2 * (C / 5.0 + t2 * (C / 7.0 + t2 * (C / 9.0)))));
-    e as f32 + s
+fn srgb_to_linear_f4(y: F4) -> F4 {
+    let v = y.max(F4::splat(0.0));
+    let lo = v * F4::splat(1.0 / 12.92);
+    let base = ((v + F4::splat(0.055)) * F4::splat(1.0 / 1.055)).max(F4::splat(1e-30));
+    let hi = (F4::splat(2.4) * base.log2()).exp2();
+    v.le_select(F4::splat(0.04045), lo, hi)
 }
 
-/// 2^x, branch-free, for x clamped to [−125, 127] (round-to-nearest split + degree-6 series on
-/// [−½, ½]); relative error below 3e-7.
+/// b^n = exp2(n · log2 b) lane-wise for b > 0 (normal) and n ≥ 0; results below 2^−100 are
+/// 2^−100 (never a denormal, see `eval_view`).
 #[inline(always)]
-pub fn fast_exp2(x: f32) -> f32 {
-    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2^23: adding it rounds to an integer
-    let x = x.clamp(-125.0, 127.0);
-    let r = x + MAGIC;
-    let i = (r.to_bits() as i32).wrapping_sub(MAGIC.to_bits() as i32);
-    let f = x - (r - MAGIC);
-    let l = std::f32::consts::LN_2;
-    let p = 1.0
-        + f * (l + f
-            * (l * l / 2.0
-                + f * (l * l * l / 6.0
-                    + f * (l * l * l * l / 24.0
-                        + f * (l * l * l * l * l / 120.0 + f * (l * l * l * l * l * l / 720.0))))));
-    f32::from_bits((p.to_bits() as i32).wrapping_add(i << 23) as u32)
-}
-
-/// b^n for b > 0 (normal) and n ≥ 0: exp2(n · log2 b).
-#[inline(always)]
-pub fn fast_pow(b: f32, n: f32) -> f32 {
-    fast_exp2(n * fast_log2(b))
-}
-
-/// `srgb_to_linear(max(0, v))`, branch-free.
-#[inline(always)]
-pub fn fast_srgb_to_linear(v: f32) -> f32 {
-    let v = v.max(0.0);
-    let hi = fast_pow(((v + 0.055) * (1.0 / 1.055)).max(1e-30), 2.4);
-    if v <= 0.04045 { v * (1.0 / 12.92) } else { hi }
+fn pow_f4(b: F4, n: F4) -> F4 {
+    (n * b.log2()).max(F4::splat(-100.0)).exp2()
 }
 
 /// Summary only: the tables can be large.
@@ -682,10 +652,22 @@ impl PlmcBsdf {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
+    /// f·cos θ_o and the pdf at `wo` for the views `vi`/`vw`: one light-triangulation search
+    /// serves both (the model and its sampling tables share the light direction set).
     #[inline]
-    fn f_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3, uv: Vec2) -> Spectrum {
-        let (t, n) = self.texels(uv);
-        Spectrum::from(self.material.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
+    fn eval_pdf_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        uv: Vec2,
+    ) -> (Spectrum, f32) {
+        let m = &*self.material;
+        let (t, w) = self.texels(uv);
+        let located = m.sampler.light_interp().locate([wo.x, wo.y]);
+        let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
+        let f = Spectrum::from(m.eval_b_with(vi, vw, li, lw, wo, &t[..w])) * INV_PI;
+        (f, m.sampler.light_pdf_located(vi, vw, wo, located))
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
@@ -694,8 +676,10 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
-        let (vi, vw) = self.material.view_lookup(si.wi);
-        self.f_with_views(vi, vw, wo, si.uv)
+        let m = &*self.material;
+        let (vi, vw) = m.view_lookup(si.wi);
+        let (t, n) = self.texels(si.uv);
+        Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
     }
 
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
@@ -708,17 +692,14 @@ impl PlmcBsdf {
         self.material.sampler.light_pdf(vi, vw, wo)
     }
 
-    /// `(eval, pdf)` sharing the view lookup.
+    /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        (
-            self.f_with_views(vi, vw, wo, si.uv),
-            self.material.sampler.light_pdf(vi, vw, wo),
-        )
+        self.eval_pdf_with_views(vi, vw, wo, si.uv)
     }
 
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
@@ -737,18 +718,17 @@ impl PlmcBsdf {
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = m.sampler.light_pdf(vi, vw, wo);
+        let (f, pdf) = self.eval_pdf_with_views(vi, vw, wo, si.uv);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let weight = self.f_with_views(vi, vw, wo, si.uv) / pdf;
         let s = BsdfSample {
             wo,
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
-        Some((s, weight))
+        Some((s, f / pdf))
     }
 }
 
@@ -843,5 +823,6 @@ pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
     crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
 }
 
+mod f4;
 #[cfg(test)]
 mod tests;

@@ -267,6 +267,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     pb.set_position(state.samples_done());
     let rays = AtomicU64::new(0);
     let start = Instant::now();
+    let cpu_start = process_cpu_seconds();
     let mut last_ckpt = Instant::now();
     let interval = Duration::from_secs_f64(args.checkpoint_interval);
     // Passes are sized to take ~1/4 of the checkpoint interval (at most 15 s).
@@ -302,6 +303,10 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     let secs = start.elapsed().as_secs_f64();
+    let cpu = match (cpu_start, process_cpu_seconds()) {
+        (Some(a), Some(b)) => format!(" (cpu {:.2} s)", b - a),
+        _ => String::new(),
+    };
     let img = state.mean_image();
     let meta = PartialMeta {
         width: settings.width,
@@ -322,7 +327,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let invalid = state.invalid_samples();
     eprintln!(
-        "done in {secs:.2} s: {:.2} Mrays/s, {} rays{}; wrote {} and {}",
+        "done in {secs:.2} s{cpu}: {:.2} Mrays/s, {} rays{}; wrote {} and {}",
         state.rays() as f64 / secs.max(1e-9) * 1e-6,
         state.rays(),
         if invalid > 0 {
@@ -334,4 +339,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         png.display()
     );
     Ok(())
+}
+
+/// User + system CPU seconds of this process so far (all threads), for comparing the render's
+/// own cost with other renderers on a loaded machine; None if getrusage fails.
+fn process_cpu_seconds() -> Option<f64> {
+    let mut ru = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage writes a complete rusage into the valid, writable pointer it is given.
+    let rc = unsafe { libc::getrusage(libc::RUSAGE_SELF, ru.as_mut_ptr()) };
+    if rc != 0 {
+        return None;
+    }
+    // SAFETY: rc == 0 means the struct was filled in (and it started zeroed anyway).
+    let ru = unsafe { ru.assume_init() };
+    let tv = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    Some(tv(ru.ru_utime) + tv(ru.ru_stime))
 }

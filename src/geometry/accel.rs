@@ -9,6 +9,7 @@
 //! triangles where this layout is several times faster (`cargo bench --bench traversal`).
 
 use super::Mesh;
+use super::sphere::Sphere;
 use crate::math::{Vec2, Vec3};
 use glam::Vec3A;
 use glam::{BVec4A, Vec4};
@@ -277,6 +278,9 @@ pub struct Accel {
     ids: Vec<[u32; 2]>,
     /// World-space bounds of all geometry (min, max); both zero for an empty scene.
     bounds: (Vec3, Vec3),
+    /// Analytic spheres and their mesh index, tested one by one next to the BVH (scenes
+    /// have a handful; each costs one quadratic).
+    spheres: Vec<(Sphere, u32)>,
 }
 
 impl Accel {
@@ -287,7 +291,14 @@ impl Accel {
         let mut src_ids = Vec::new();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        let mut spheres = Vec::new();
         for (mi, mesh) in meshes.iter().enumerate() {
+            if let Some(s) = mesh.sphere {
+                let (a, b) = s.bounds();
+                lo = lo.min(a);
+                hi = hi.max(b);
+                spheres.push((s, mi as u32));
+            }
             for (ti, idx) in mesh.indices.iter().enumerate() {
                 let p = idx.map(|i| mesh.positions[i as usize]);
                 // Non-finite or degenerate triangles cannot be hit; keep them out of the BVH.
@@ -313,7 +324,12 @@ impl Accel {
                 nodes: Vec::new(),
                 tris: Vec::new(),
                 ids: Vec::new(),
-                bounds: (Vec3::ZERO, Vec3::ZERO),
+                bounds: if spheres.is_empty() {
+                    (Vec3::ZERO, Vec3::ZERO)
+                } else {
+                    (lo, hi)
+                },
+                spheres,
             };
         }
         let params = BvhBuildParams {
@@ -338,6 +354,7 @@ impl Accel {
             tris,
             ids,
             bounds: (lo, hi),
+            spheres,
         }
     }
 
@@ -354,20 +371,41 @@ impl Accel {
     /// Closest hit along `o + t d` for t in (0, tmax]; `d` must be unit length.
     #[inline]
     pub fn intersect(&self, o: Vec3, d: Vec3, tmax: f32) -> Option<Hit> {
-        let (i, t, u, v) = self.traverse::<false>(o, d, tmax)?;
-        let [mesh, prim] = self.ids[i as usize];
-        Some(Hit {
-            t,
-            mesh,
-            prim,
-            b: Vec2::new(u, v),
-        })
+        // Spheres first: a sphere hit shrinks the interval the BVH has to search.
+        let mut tmax = tmax;
+        let mut best = None;
+        for (s, mesh) in &self.spheres {
+            if let Some(t) = s.intersect(o, d, tmax) {
+                tmax = t;
+                best = Some(Hit {
+                    t,
+                    mesh: *mesh,
+                    prim: 0,
+                    b: Vec2::ZERO,
+                });
+            }
+        }
+        match self.traverse::<false>(o, d, tmax) {
+            Some((i, t, u, v)) => {
+                let [mesh, prim] = self.ids[i as usize];
+                Some(Hit {
+                    t,
+                    mesh,
+                    prim,
+                    b: Vec2::new(u, v),
+                })
+            }
+            None => best,
+        }
     }
 
     /// True if anything blocks `o + t d` for t in (0, tmax] (shadow rays).
     #[inline]
     pub fn occluded(&self, o: Vec3, d: Vec3, tmax: f32) -> bool {
-        self.traverse::<true>(o, d, tmax).is_some()
+        self.spheres
+            .iter()
+            .any(|(s, _)| s.intersect(o, d, tmax).is_some())
+            || self.traverse::<true>(o, d, tmax).is_some()
     }
 
     /// Front-to-back traversal. Closest hit (`ANY` = false): (triangle slot, t, b1, b2) of the

@@ -65,6 +65,7 @@ pub fn sphere_displaced(
         indices,
         bsdf: 0,
         emitter: None,
+        sphere: None,
     }
 }
 
@@ -95,6 +96,7 @@ pub fn quad(corner: Vec3, e1: Vec3, e2: Vec3) -> Mesh {
         indices: vec![[0, 1, 2], [0, 2, 3]],
         bsdf: 0,
         emitter: None,
+        sphere: None,
     }
 }
 

@@ -1,6 +1,7 @@
 //! Triangle meshes: every shape of a scene (OBJ, PLY, glTF, rectangle, cube, sphere, disk) ends up
 //! as one of these, already transformed to world space.
 
+use super::sphere::Sphere;
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// A world-space triangle mesh with optional per-vertex normals and uvs.
@@ -22,6 +23,9 @@ pub struct Mesh {
     pub bsdf: u32,
     /// Radiance of an attached `area` emitter (emits on the side of the shading normal).
     pub emitter: Option<Spectrum>,
+    /// An analytic sphere (Mitsuba `sphere`): then the mesh has no triangles and this is its
+    /// whole surface.
+    pub sphere: Option<Sphere>,
 }
 
 impl Mesh {
@@ -38,6 +42,9 @@ impl Mesh {
 
     /// Total surface area.
     pub fn area(&self) -> f32 {
+        if let Some(s) = &self.sphere {
+            return s.area();
+        }
         (0..self.indices.len()).map(|i| self.triangle_area(i)).sum()
     }
 }

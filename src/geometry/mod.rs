@@ -5,6 +5,7 @@ pub mod generate;
 pub mod intersection;
 pub mod mesh;
 pub mod shading;
+pub mod sphere;
 
 pub use intersection::SurfaceInteraction;
 pub use mesh::Mesh;

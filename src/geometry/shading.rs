@@ -90,10 +90,16 @@ pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2
 }
 
 /// The full interaction for a hit of the unit-direction ray `o + t d` (the hit's barycentrics
-/// place the point; the origin is unused but kept so callers need not change).
-pub fn surface_interaction(meshes: &[Mesh], _o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
+/// place a triangle's point; an analytic sphere's point is `o + t d` re-projected onto it).
+pub fn surface_interaction(meshes: &[Mesh], o: Vec3, d: Vec3, hit: &Hit) -> SurfaceInteraction {
     let mesh = &meshes[hit.mesh as usize];
-    let (p, n, ns, uv, dpdu, dpdv) = eval_triangle(mesh, hit.prim, hit.b);
+    let (p, n, ns, uv, dpdu, dpdv) = match &mesh.sphere {
+        Some(s) => {
+            let (p, n, uv, dpdu, dpdv) = s.surface(o, d, hit.t);
+            (p, n, n, uv, dpdu, dpdv)
+        }
+        None => eval_triangle(mesh, hit.prim, hit.b),
+    };
     let sh_frame = Frame::from_normal_tangent(ns, dpdu);
     SurfaceInteraction {
         p,

@@ -8,7 +8,7 @@
 pub mod distribution;
 pub mod envmap;
 
-use crate::geometry::shading::eval_position_normals;
+use crate::geometry::sphere::Sphere;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::{INV_FOUR_PI, Mat4, Spectrum, Vec2, Vec3, warp};
 use crate::scene::{Emitter, Scene};
@@ -25,6 +25,13 @@ pub enum Light {
         radiance: Spectrum,
         tris: Distribution1D,
         inv_area: f32,
+        /// Per triangle: what sampling needs, gathered once (no index lookups per sample).
+        geo: Vec<AreaTri>,
+    },
+    /// An area emitter on an analytic sphere (Mitsuba: cone sampling from outside).
+    SphereArea {
+        sphere: Sphere,
+        radiance: Spectrum,
     },
     Point {
         position: Vec3,
@@ -49,6 +56,61 @@ pub enum Light {
         radiance: Spectrum,
     },
     EnvMap(Box<EnvMapLight>),
+}
+
+/// One triangle of an area light, pre-gathered for sampling.
+#[derive(Clone, Debug)]
+pub struct AreaTri {
+    /// First vertex and the edges to the second and third.
+    p0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    /// Unit geometric normal (from the winding).
+    ng: Vec3,
+    /// Vertex normals if they are not all equal to `ng` (then the shading normal is
+    /// interpolated as in [`crate::geometry::shading::eval_position_normals`]); None for flat triangles.
+    normals: Option<[Vec3; 3]>,
+}
+
+impl AreaTri {
+    fn new(mesh: &Mesh, t: usize) -> AreaTri {
+        let [i0, i1, i2] = mesh.indices[t].map(|i| i as usize);
+        let p0 = mesh.positions[i0];
+        let e1 = mesh.positions[i1] - p0;
+        let e2 = mesh.positions[i2] - p0;
+        let ng = e1.cross(e2).normalize_or_zero();
+        let normals = if mesh.normals.is_empty() {
+            None
+        } else {
+            let n = [mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]];
+            if n.iter().all(|&v| v == ng) {
+                None
+            } else {
+                Some(n)
+            }
+        };
+        AreaTri {
+            p0,
+            e1,
+            e2,
+            ng,
+            normals,
+        }
+    }
+
+    /// Position, geometric and shading normal at barycentrics `b`.
+    #[inline]
+    fn eval(&self, b: Vec2) -> (Vec3, Vec3, Vec3) {
+        let p = self.p0 + self.e1 * b.x + self.e2 * b.y;
+        let ns = match &self.normals {
+            None => self.ng,
+            Some([n0, n1, n2]) => {
+                let s = (*n0 * (1.0 - b.x - b.y) + *n1 * b.x + *n2 * b.y).normalize_or_zero();
+                if s == Vec3::ZERO { self.ng } else { s }
+            }
+        };
+        (p, self.ng, ns)
+    }
 }
 
 /// The result of sampling a light from a reference point.
@@ -100,6 +162,11 @@ impl LightSet {
             let Some(radiance) = mesh.emitter else {
                 continue;
             };
+            if let Some(sphere) = mesh.sphere {
+                mesh_light[mi] = Some(lights.len() as u32);
+                lights.push(Light::SphereArea { sphere, radiance });
+                continue;
+            }
             let areas = (0..mesh.indices.len()).map(|t| mesh.triangle_area(t) as f64);
             let Some(tris) = Distribution1D::new(areas) else {
                 // A zero-area emitter can neither be hit nor sampled: it contributes nothing.
@@ -107,11 +174,15 @@ impl LightSet {
             };
             let inv_area = (1.0 / tris.total()) as f32;
             mesh_light[mi] = Some(lights.len() as u32);
+            let geo = (0..mesh.indices.len())
+                .map(|t| AreaTri::new(mesh, t))
+                .collect();
             lights.push(Light::Area {
                 mesh: mi as u32,
                 radiance,
                 tris,
                 inv_area,
+                geo,
             });
         }
         let mut infinite = Vec::new();
@@ -203,8 +274,9 @@ impl LightSet {
         1.0 / self.lights.len() as f32
     }
 
-    /// Samples an emitter uniformly (with `u_sel`) and a direction toward it from `p`.
-    pub fn sample(&self, meshes: &[Mesh], p: Vec3, u_sel: f32, u: Vec2) -> Option<LightSample> {
+    /// Samples an emitter uniformly (with `u_sel`) and a direction toward it from `p`. (`meshes`
+    /// is no longer read: area lights keep their own triangle copies; kept for callers.)
+    pub fn sample(&self, _meshes: &[Mesh], p: Vec3, u_sel: f32, u: Vec2) -> Option<LightSample> {
         let n = self.lights.len();
         if n == 0 {
             return None;
@@ -213,15 +285,15 @@ impl LightSet {
         let sel = self.select_pdf();
         let mut s = match &self.lights[idx] {
             Light::Area {
-                mesh,
                 radiance,
                 tris,
                 inv_area,
+                geo,
+                ..
             } => {
-                let m = &meshes[*mesh as usize];
                 let (t, _, ux) = tris.sample(u.x);
                 let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
-                let (pl, ng, ns) = eval_position_normals(m, t as u32, b);
+                let (pl, ng, ns) = geo[t].eval(b);
                 let to = pl - p;
                 let d2 = to.length_squared();
                 if !(d2 > 0.0) {
@@ -241,6 +313,21 @@ impl LightSet {
                     n_geo: ng,
                     weight: *radiance / pdf,
                     pdf,
+                    delta: false,
+                }
+            }
+            Light::SphereArea { sphere, radiance } => {
+                let s = sphere.sample(p, u)?;
+                // One-sided: emits toward the side of the (possibly flipped) normal.
+                if !(s.d.dot(s.n) < 0.0 && s.pdf > 0.0) {
+                    return None;
+                }
+                LightSample {
+                    wi: s.d,
+                    dist: s.dist,
+                    n_geo: s.n,
+                    weight: *radiance / s.pdf,
+                    pdf: s.pdf,
                     delta: false,
                 }
             }
@@ -365,8 +452,12 @@ impl LightSet {
         let Some(li) = self.mesh_light[si.mesh as usize] else {
             return 0.0;
         };
-        let Light::Area { inv_area, .. } = &self.lights[li as usize] else {
-            return 0.0;
+        let inv_area = match &self.lights[li as usize] {
+            Light::Area { inv_area, .. } => inv_area,
+            Light::SphereArea { sphere, .. } => {
+                return self.select_pdf() * sphere.pdf(p_ref, si.p, si.n);
+            }
+            _ => return 0.0,
         };
         let d2 = (si.p - p_ref).length_squared();
         let cos_l = si.wi.z.abs();
@@ -398,6 +489,32 @@ impl LightSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The pre-gathered light triangles evaluate like the mesh (flat and smooth normals).
+    #[test]
+    fn area_triangles_match_mesh_evaluation() {
+        use crate::geometry::shading::eval_position_normals;
+        let smooth =
+            crate::geometry::generate::sphere(Vec3::new(0.3, -0.2, 1.0), 0.7, 6, 12, false, true);
+        let flat = crate::geometry::generate::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
+        for m in [&smooth, &flat] {
+            for t in 0..m.indices.len() {
+                let a = AreaTri::new(m, t);
+                for b in [
+                    Vec2::new(0.2, 0.3),
+                    Vec2::new(1.0, 0.0),
+                    Vec2::new(0.0, 0.0),
+                ] {
+                    let (p, ng, ns) = a.eval(b);
+                    let (q, mg, ms) = eval_position_normals(m, t as u32, b);
+                    assert!((p - q).length() < 1e-5 && (ng - mg).length() < 1e-5);
+                    assert!((ns - ms).length() < 1e-5, "{ns} {ms}");
+                }
+            }
+        }
+        assert!(AreaTri::new(&flat, 0).normals.is_none());
+        assert!(AreaTri::new(&smooth, 0).normals.is_some());
+    }
 
     #[test]
     fn spot_falloff_matches_mitsuba_profile() {

@@ -140,7 +140,12 @@ impl PathTracer {
                 let u = rng.next_2d();
                 if let Some(ls) = lights.sample(meshes, si.p, u_sel, u) {
                     let wo = si.to_local(ls.wi);
-                    let f = bsdf.eval(&si, wo);
+                    // One call for both: BSDFs with a per-hit lookup (BTF) share it.
+                    let (f, bsdf_pdf) = if ls.delta {
+                        (bsdf.eval(&si, wo), 0.0)
+                    } else {
+                        bsdf.eval_pdf(&si, wo)
+                    };
                     if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
                         let so = offset_origin(si.p, si.n, ls.wi);
                         stats.rays += 1;
@@ -160,7 +165,7 @@ impl PathTracer {
                             let mis = if ls.delta {
                                 1.0
                             } else {
-                                mis_weight(ls.pdf, bsdf.pdf(&si, wo))
+                                mis_weight(ls.pdf, bsdf_pdf)
                             };
                             result += throughput * f * ls.weight * mis;
                         }

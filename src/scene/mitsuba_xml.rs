@@ -11,6 +11,8 @@ use super::{Camera, Emitter, IntegratorSettings, Scene};
 use crate::bsdf::{
     Bsdf, Conductor, Dielectric, Diffuse, RoughConductor, Texture, ThinDielectric, TwoSided,
 };
+use crate::geometry::Mesh;
+use crate::geometry::sphere::Sphere;
 use crate::math::{Mat3, Mat4, Spectrum, Vec3};
 use crate::{Error, Result};
 use roxmltree::{Node, NodeId};
@@ -311,6 +313,7 @@ impl<'a, 'x> Builder<'a, 'x> {
         let mut name = x.attr(node, "id").map(str::to_string);
         let wrap = |e: Error| x.err(node, format!("shape \"{}\": {e}", p.ty));
         let mut mesh_file = None;
+        let mut analytic = false;
         let local = match p.ty.as_str() {
             "obj" | "ply" => {
                 let file = p.string_req("filename")?;
@@ -358,8 +361,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 {
                     return Err(p.err("to_world must not contain non-uniform scale or shear for a sphere (Mitsuba ignores it)"));
                 }
-                opts.keep_orientation = true;
-                shapes::sphere(shapes::SPHERE_RINGS, shapes::SPHERE_SEGMENTS)
+                // Analytic, as Mitsuba's: centre, radius and orientation of to_world.
+                analytic = true;
+                shapes::LocalMesh::default()
             }
             _ => {
                 return Err(p.err(
@@ -387,8 +391,17 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
         };
         p.finish()?;
-        let mut mesh = shapes::to_world(local, &xf, opts).map_err(|m| p.err(m))?;
-        if mesh.indices.is_empty() {
+        let mut mesh = if analytic {
+            let sphere = Sphere::from_to_world(&xf, flip_normals)
+                .ok_or_else(|| p.err("to_world is singular for a sphere"))?;
+            Mesh {
+                sphere: Some(sphere),
+                ..Default::default()
+            }
+        } else {
+            shapes::to_world(local, &xf, opts).map_err(|m| p.err(m))?
+        };
+        if mesh.indices.is_empty() && mesh.sphere.is_none() {
             return Err(p.err(match mesh_file {
                 Some(f) => format!(
                     "{}: the mesh has no triangles of non-zero area",

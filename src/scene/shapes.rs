@@ -131,6 +131,7 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
         indices,
         bsdf: 0,
         emitter: None,
+        sphere: None,
     })
 }
 
