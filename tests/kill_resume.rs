@@ -46,15 +46,17 @@ fn stderr_of(child: Child) -> (std::process::ExitStatus, String) {
     (out.status, String::from_utf8_lossy(&out.stderr).to_string())
 }
 
+/// Sized so one thread needs a few seconds even on an idle machine (the interrupted runs must
+/// outlive several 0.1 s checkpoint intervals; analytic spheres made the old 24² job too quick).
 const SCENE: &str = r#"<scene version="3.0.0">
     <integrator type="path"><integer name="max_depth" value="6"/></integrator>
     <sensor type="perspective">
         <float name="fov" value="45"/>
         <transform name="to_world"><lookat origin="0, 0, 3.5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="1024"/></sampler>
+        <sampler type="independent"><integer name="sample_count" value="4096"/></sampler>
         <film type="hdrfilm">
-            <integer name="width" value="24"/>
-            <integer name="height" value="24"/>
+            <integer name="width" value="48"/>
+            <integer name="height" value="48"/>
             <rfilter type="box"/>
         </film>
     </sensor>
