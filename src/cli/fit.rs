@@ -3,7 +3,7 @@
 use anyhow::Context;
 use btfpt::btf::{self, format};
 use btfpt::fit::model::ModelKind;
-use btfpt::fit::pipeline::{self, FitOptions, Stage};
+use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
 use btfpt::fit::report::raw_bytes;
 use btfpt::fit::tiling;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -23,6 +23,24 @@ impl From<KindArg> for ModelKind {
             KindArg::Lm => ModelKind::Lm,
             KindArg::Plm => ModelKind::Plm,
             KindArg::Plmc => ModelKind::PlmC,
+        }
+    }
+}
+
+/// `--cluster-on` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum ClusterOnArg {
+    /// The texels' LM-model values (less noise-driven clusters).
+    Lm,
+    /// The original values (the paper's method).
+    Original,
+}
+
+impl From<ClusterOnArg> for ClusterOn {
+    fn from(a: ClusterOnArg) -> Self {
+        match a {
+            ClusterOnArg::Lm => ClusterOn::LmModel,
+            ClusterOnArg::Original => ClusterOn::Original,
         }
     }
 }
@@ -47,6 +65,10 @@ pub struct FitArgs {
     /// Seed of the k-means++ initialisation.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// What K-means clusters texels on (PLM-C): their LM-model values in the selected images, or
+    /// the original values as in the paper.
+    #[arg(long, value_enum, default_value = "lm")]
+    pub cluster_on: ClusterOnArg,
     /// Cut a seamless tile of WxH texels (or N for N×N) out of the sample by minimum-error
     /// boundary cuts and fit only its texels.
     #[arg(long)]
@@ -142,6 +164,7 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         clusters: args.clusters,
         features: args.features,
         seed: args.seed,
+        cluster_on: args.cluster_on.into(),
         ..FitOptions::default()
     };
     let parts = pipeline::parts_dir(&args.output);
