@@ -21,84 +21,24 @@
 //! The faults are made by transforming the measured data exactly as the broken convention would
 //! (e.g. flipping v ⇔ reading row H − 1 − r), so the library carries no test-only code.
 
+mod reference;
+
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
 use btfpt::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
-use btfpt::io::{RgbImage, read_image};
-use btfpt::metrics::{Comparison, Criteria, predicted_variance};
-use btfpt::render::RenderScene;
-use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::metrics::{Comparison, Criteria};
 use btfpt::scene::{self, Scene};
 use half::f16;
-use std::path::PathBuf;
+use reference::{reference, render, root, score};
 use std::sync::Arc;
-use std::sync::atomic::AtomicBool;
 
 /// Samples per pixel of the test renders (the calibration was run at 64 and 256 spp).
 const SPP: u32 = 64;
 /// Seed of the test renders (any; the references used seeds 0.. of Mitsuba's sampler).
 const SEED: u64 = 7;
-/// Block size of the block z-test, in pixels.
-const BLOCK: usize = 4;
-/// Family-wise significance level of the block z-test.
-const ALPHA: f64 = 0.01;
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The committed Mitsuba reference of a scene.
-struct Reference {
-    mean: RgbImage,
-    /// Variance of the reference mean.
-    var: RgbImage,
-    /// Per-sample variance (predicts the variance of a test render at n spp as sample_var / n).
-    sample_var: RgbImage,
-}
-
-fn reference(name: &str) -> Reference {
-    let dir = root().join("reference-images").join(name);
-    let read = |suffix: &str| {
-        let p = dir.join(format!("{name}{suffix}.exr"));
-        read_image(&p).unwrap_or_else(|e| panic!("reference {}: {e}", p.display()))
-    };
-    Reference {
-        mean: read(""),
-        var: read("_var"),
-        sample_var: read("_sample_var"),
-    }
-}
 
 fn load_scene(name: &str) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
     scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn render(scene: Scene, spp: u32, seed: u64) -> RgbImage {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let rs = RenderScene::new(scene).unwrap();
-    let mut state = RenderState::new(RenderSettings {
-        width: w,
-        height: h,
-        crop: [0, 0, w, h],
-        spp_begin: 0,
-        spp_end: spp,
-        seed,
-    })
-    .unwrap();
-    let stop = AtomicBool::new(false);
-    while !state.is_complete() {
-        state.run_pass(&rs, 1 << 20, &stop, &|_, _| {});
-    }
-    assert_eq!(state.invalid_samples(), 0, "NaN/inf samples");
-    state.mean_image()
-}
-
-/// What a test render scores against a reference: `btfpt::metrics` (the code behind
-/// `btfpt compare`, the same scoring as reference-images/calibrate.py, so the calibration ranges
-/// apply), with the test's variance predicted from the reference's per-sample variance.
-fn score(test: &RgbImage, spp: u32, r: &Reference) -> Comparison {
-    let var = predicted_variance(Some(&r.sample_var), spp, Some(&r.var)).unwrap();
-    Comparison::new(test, &r.mean, Some(&var), BLOCK, ALPHA).unwrap()
 }
 
 fn summary(c: &Comparison) -> String {

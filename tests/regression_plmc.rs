@@ -34,56 +34,26 @@
 //! polynomials dropped 1.2e-3 / 1.9e-3, perturbed clusters and wrong model 7e-2…2e-1 (these also
 //! fail luminance and blocks).
 
+mod reference;
+
 use btfpt::bsdf::Bsdf;
 use btfpt::btf::format;
 use btfpt::btf::{BtfSource, RawBtf};
 use btfpt::fit::model::{ModelKind, PlmcModel, ViewParams};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
-use btfpt::io::{RgbImage, read_image};
-use btfpt::metrics::{Comparison, Criteria, predicted_variance};
-use btfpt::render::RenderScene;
-use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::metrics::{Comparison, Criteria};
 use btfpt::scene::btf_bsdf::{SynthSpec, with_model_override};
 use btfpt::scene::{self, Scene};
-use std::path::{Path, PathBuf};
+use reference::{reference, render, root, score};
+use std::path::Path;
 use std::sync::OnceLock;
-use std::sync::atomic::AtomicBool;
 
 /// Samples per pixel of the test renders (the calibration was run at 64 and 256 spp).
 const SPP: u32 = 64;
 /// Seed of the test renders.
 const SEED: u64 = 7;
-/// Block size of the block z-test, in pixels.
-const BLOCK: usize = 4;
-/// Family-wise significance level of the block z-test.
-const ALPHA: f64 = 0.01;
 /// Another material, for the wrong-model negative test (small and cheap to make).
 const OTHER_SOURCE: &str = "synth:wool?size=16&seed=3&strata=1";
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// The committed Mitsuba raw-BTF reference of a scene: mean, variance of the mean, per-sample
-/// variance.
-struct Reference {
-    mean: RgbImage,
-    var: RgbImage,
-    sample_var: RgbImage,
-}
-
-fn reference(name: &str) -> Reference {
-    let dir = root().join("reference-images").join(name);
-    let read = |suffix: &str| {
-        let p = dir.join(format!("{name}{suffix}.exr"));
-        read_image(&p).unwrap_or_else(|e| panic!("reference {}: {e}", p.display()))
-    };
-    Reference {
-        mean: read(""),
-        var: read("_var"),
-        sample_var: read("_sample_var"),
-    }
-}
 
 /// Fits `source` (a `synth:` spec) with the CLI's default options at level `kind`.
 fn fit(source: &str, kind: ModelKind) -> PlmcModel {
@@ -136,31 +106,6 @@ fn load_scene_with_model(name: &str, model: &Path) -> Scene {
     let defines = [("btf".to_string(), model.to_string_lossy().to_string())];
     with_model_override(Some("plmc"), || scene::load(&p, &defines))
         .unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn render(scene: Scene, spp: u32, seed: u64) -> RgbImage {
-    let (w, h) = (scene.camera.width, scene.camera.height);
-    let rs = RenderScene::new(scene).unwrap();
-    let mut state = RenderState::new(RenderSettings {
-        width: w,
-        height: h,
-        crop: [0, 0, w, h],
-        spp_begin: 0,
-        spp_end: spp,
-        seed,
-    })
-    .unwrap();
-    let stop = AtomicBool::new(false);
-    while !state.is_complete() {
-        state.run_pass(&rs, 1 << 20, &stop, &|_, _| {});
-    }
-    assert_eq!(state.invalid_samples(), 0, "NaN/inf samples");
-    state.mean_image()
-}
-
-fn score(test: &RgbImage, spp: u32, r: &Reference) -> Comparison {
-    let var = predicted_variance(Some(&r.sample_var), spp, Some(&r.var)).unwrap();
-    Comparison::new(test, &r.mean, Some(&var), BLOCK, ALPHA).unwrap()
 }
 
 fn summary(c: &Comparison) -> String {
