@@ -154,6 +154,10 @@ pub struct PlmcMaterial {
     /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
     #[cfg(target_arch = "x86_64")]
     avx2: Option<f4::Avx2Fma>,
+    /// Set if this CPU has AVX-512F (and AVX2 + FMA): PLM-C with u8 indices, nearest texel,
+    /// runs the 16-lane kernel of `avx512.rs`.
+    #[cfg(target_arch = "x86_64")]
+    avx512: Option<avx512::Avx512>,
 }
 
 impl PlmcMaterial {
@@ -258,6 +262,8 @@ impl PlmcMaterial {
             sampler,
             #[cfg(target_arch = "x86_64")]
             avx2: f4::Avx2Fma::detect(),
+            #[cfg(target_arch = "x86_64")]
+            avx512: avx512::Avx512::detect(),
         })
     }
 
@@ -267,6 +273,17 @@ impl PlmcMaterial {
         #[cfg(target_arch = "x86_64")]
         {
             self.avx2 = None;
+            self.avx512 = None;
+        }
+        self
+    }
+
+    /// The same material without the AVX-512 kernel (the generic kernel's AVX2+FMA build where
+    /// the CPU has it): to compare the builds; results agree to float rounding.
+    pub fn without_avx512(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx512 = None;
         }
         self
     }
@@ -275,6 +292,14 @@ impl PlmcMaterial {
     pub fn uses_avx2(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
         return self.avx2.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// True if PLM-C evaluations (u8 indices, nearest texel) run the AVX-512 kernel.
+    pub fn uses_avx512(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.avx512.is_some() && matches!(self.params, Params::Clustered8 { .. });
         #[cfg(not(target_arch = "x86_64"))]
         false
     }
@@ -378,6 +403,26 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(token), Params::Clustered8 { k, records, index }, [(texel, tw)]) =
+            (self.avx512, &self.params, texels)
+            && !self.polys.is_empty()
+        {
+            let t = avx512::Tables {
+                k: *k,
+                n_views: self.n_views,
+                n_lights: self.n_lights,
+                records,
+                index,
+                polys: &self.polys,
+                y_max: &self.y_max,
+                out_max: &self.out_max,
+                srgb: self.space == ValueSpace::Srgb,
+            };
+            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
+            let b = unsafe { avx512::eval(token, &t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel) };
+            return b.map(|x| x * tw);
+        }
         #[cfg(target_arch = "x86_64")]
         if let Some(isa) = self.avx2 {
             // SAFETY: the token exists only if this CPU has AVX2 and FMA.
@@ -1015,6 +1060,8 @@ pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
     crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
 }
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod f4;
 #[cfg(test)]
 mod tests;
