@@ -161,4 +161,3 @@ pub fn scene(bsdf: Bsdf) -> RenderScene {
     };
     RenderScene::new(scene).expect("valid scene")
 }
-

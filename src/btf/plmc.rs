@@ -869,35 +869,51 @@ impl PlmcBsdf {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
-    /// f·cos θ_o and the pdf at `wo` for the views `vi`/`vw`: one light-triangulation search
-    /// serves both (the model and its sampling tables share the light direction set).
+    /// The per-hit state of a shading point (see [`PlmcHit`]); None below the horizon (where
+    /// every call returns zero) — the caller then uses the stateless methods. Also starts the
+    /// loads of the texels' index entries ([`PlmcBsdf::prefetch`]) before the view lookup, so
+    /// the lookup overlaps with them.
     #[inline]
-    fn eval_pdf_with_views(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        uv: Vec2,
-    ) -> (Spectrum, f32) {
-        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
-        self.eval_pdf_located(vi, vw, wo, uv, located)
+    pub fn prepare(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        let (texels, n) = self.texels(si.uv);
+        if self.prefetch {
+            for &(texel, _) in &texels[..n] {
+                self.material.prefetch_texel(texel);
+            }
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        Some(PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        })
     }
 
-    /// [`PlmcBsdf::eval_pdf_with_views`] with `wo` already located in the light triangulation.
+    /// f·cos θ_o and the pdf at `wo` for a prepared hit: one light-triangulation search serves
+    /// both (the model and its sampling tables share the light direction set).
+    #[inline]
+    fn eval_pdf_hit_inner(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
+        self.eval_pdf_located(hit, wo, located)
+    }
+
+    /// [`PlmcBsdf::eval_pdf_hit_inner`] with `wo` already located in the light triangulation.
     #[inline]
     fn eval_pdf_located(
         &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
+        hit: &PlmcHit,
         wo: Vec3,
-        uv: Vec2,
         located: (usize, [f32; 3]),
     ) -> (Spectrum, f32) {
         let m = &*self.material;
-        let (t, w) = self.texels(uv);
         let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
-        let f = Spectrum::from(m.eval_b_with(vi, vw, li, lw, wo, &t[..w])) * INV_PI;
-        (f, m.sampler.light_pdf_located(vi, vw, wo, located))
+        let t = &hit.texels[..hit.n as usize];
+        let f = Spectrum::from(m.eval_b_with(hit.vi, hit.vw, li, lw, wo, t)) * INV_PI;
+        (f, m.sampler.light_pdf_located(hit.vi, hit.vw, wo, located))
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
@@ -912,6 +928,16 @@ impl PlmcBsdf {
         Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
     }
 
+    /// [`PlmcBsdf::eval`] at a prepared hit (the same value).
+    #[inline]
+    pub fn eval_hit(&self, hit: &PlmcHit, wo: Vec3) -> Spectrum {
+        if wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let t = &hit.texels[..hit.n as usize];
+        Spectrum::from(self.material.eval_b_with_views(hit.vi, hit.vw, wo, t)) * INV_PI
+    }
+
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
     #[inline]
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
@@ -922,6 +948,15 @@ impl PlmcBsdf {
         self.material.sampler.light_pdf(vi, vw, wo)
     }
 
+    /// [`PlmcBsdf::pdf`] at a prepared hit (the same value).
+    #[inline]
+    pub fn pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.material.sampler.light_pdf(hit.vi, hit.vw, wo)
+    }
+
     /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
@@ -929,7 +964,23 @@ impl PlmcBsdf {
             return (Spectrum::ZERO, 0.0);
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        self.eval_pdf_with_views(vi, vw, wo, si.uv)
+        let (texels, n) = self.texels(si.uv);
+        let hit = PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        };
+        self.eval_pdf_hit_inner(&hit, wo)
+    }
+
+    /// [`PlmcBsdf::eval_pdf`] at a prepared hit (the same values).
+    #[inline]
+    pub fn eval_pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        if wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        self.eval_pdf_hit_inner(hit, wo)
     }
 
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
@@ -942,9 +993,29 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 {
             return None;
         }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        let (texels, n) = self.texels(si.uv);
+        let hit = PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        };
+        self.sample_hit(&hit, sample1, sample2)
+    }
+
+    /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).
+    #[inline]
+    pub fn sample_hit(
+        &self,
+        hit: &PlmcHit,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
         let m = &*self.material;
-        let (vi, vw) = m.view_lookup(si.wi);
-        let (wo, tri) = m.sampler.sample_light_located(vi, vw, sample1, sample2);
+        let (wo, tri) = m
+            .sampler
+            .sample_light_located(hit.vi, hit.vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
@@ -955,7 +1026,7 @@ impl PlmcBsdf {
             Some(t) => (t, lights.triangle_weights(t, [wo.x, wo.y])),
             None => lights.locate([wo.x, wo.y]),
         };
-        let (f, pdf) = self.eval_pdf_located(vi, vw, wo, si.uv, located);
+        let (f, pdf) = self.eval_pdf_located(hit, wo, located);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -967,6 +1038,18 @@ impl PlmcBsdf {
         };
         Some((s, f / pdf))
     }
+}
+
+/// What every BSDF call at one shading point shares, computed once per hit by
+/// [`PlmcBsdf::prepare`]: the 3 measured views around wi with their weights and the texels
+/// that filter uv. Saves a view-triangulation search and the texel addressing per call (a path
+/// vertex makes two: emitter sampling's `eval_pdf` and `sample`). Plain data on the stack.
+#[derive(Clone, Copy, Debug)]
+pub struct PlmcHit {
+    vi: [u32; 3],
+    vw: [f32; 3],
+    texels: [(usize, f32); 4],
+    n: u8,
 }
 
 /// The model names `<bsdf type="btf">` and `--btf-model` accept.
