@@ -32,7 +32,8 @@ fn main() {
                 reflectance: Texture::Constant(Spectrum::splat(0.5)),
             })
         } else {
-            let mut m = PlmcMaterial::new(&btf_scene::model(ModelKind::PlmC)).unwrap();
+            let size = std::env::var("SIZE").map_or(btf_scene::SIZE, |s| s.parse().unwrap());
+            let mut m = PlmcMaterial::new(&btf_scene::model_sized(ModelKind::PlmC, size)).unwrap();
             if std::env::var_os("NO_AVX512").is_some() {
                 m = m.without_avx512();
             }

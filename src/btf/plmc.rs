@@ -815,7 +815,7 @@ impl PlmcBsdf {
         let m = &self.material;
         let idx = |c: f32, n: usize| {
             let s = c * self.uv_scale;
-            let f = s - s.floor();
+            let f = s - floor_fast(s);
             ((f * n as f32) as usize).min(n - 1)
         };
         (idx(uv.x, m.width), idx(uv.y, m.height))
@@ -832,8 +832,8 @@ impl PlmcBsdf {
         }
         let axis = |c: f32, n: usize| {
             let s = c * self.uv_scale;
-            let p = (s - s.floor()) * n as f32 - 0.5;
-            let f = p.floor();
+            let p = (s - floor_fast(s)) * n as f32 - 0.5;
+            let f = floor_fast(p);
             let i0 = (f as i64).rem_euclid(n as i64) as usize;
             (i0, (i0 + 1) % n, (p - f).clamp(0.0, 1.0))
         };
@@ -1050,6 +1050,20 @@ pub struct PlmcHit {
     vw: [f32; 3],
     texels: [(usize, f32); 4],
     n: u8,
+}
+
+/// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):
+/// truncation, one down for negative non-integers; |x| ≥ 2^23 (already integers), infinities
+/// and NaN take `floor` itself. Equal to `x.floor()` for every f32.
+#[inline(always)]
+fn floor_fast(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        // copysign: floor(−0) = −0.
+        let t = (x as i32 as f32).copysign(x);
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x.floor()
+    }
 }
 
 /// The model names `<bsdf type="btf">` and `--btf-model` accept.

@@ -619,3 +619,41 @@ fn prepared_calls_equal_the_stateless_ones() {
         }
     }
 }
+
+#[test]
+fn floor_fast_is_floor() {
+    let mut rng = Pcg32::new(2, 9);
+    let specials = [
+        0.0f32,
+        -0.0,
+        0.5,
+        -0.5,
+        1.0,
+        -1.0,
+        0.99999994,
+        -0.99999994,
+        8388607.5,
+        -8388607.5,
+        8388608.0,
+        -8388608.0,
+        1e10,
+        -1e10,
+        f32::MAX,
+        f32::MIN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        1e-45,
+        -1e-45,
+    ];
+    let randoms = (0..100_000).map(|_| {
+        let e = rng.next_f32() * 60.0 - 30.0;
+        let s = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+        s * e.exp2() * rng.next_f32()
+    });
+    for x in specials.into_iter().chain(randoms) {
+        assert_eq!(floor_fast(x).to_bits(), x.floor().to_bits(), "{x}");
+    }
+    assert!(floor_fast(f32::NAN).is_nan());
+}
