@@ -18,6 +18,12 @@
 //! - polynomial coefficients: dense `[view][light]` rows of 16 f32 (a_0..a_4 for R, G, B + pad),
 //!   64-byte aligned: light interpolation is three 16-wide multiply-adds on three cache lines.
 //!
+//! Kernels: on AVX-512 CPUs the PLM-C case of the renderer (u8 indices, nearest texel) runs
+//! `avx512.rs`, the 9 lanes in one 16-lane register (about a third of the 4-wide build's
+//! instructions); everything else runs the generic 4-wide kernel below, built for AVX2+FMA where
+//! the CPU has it, else SSE2. A shading hit's view lookup and texel addressing are done once by
+//! [`PlmcBsdf::prepare`] and shared by its `eval_pdf` and `sample` ([`PlmcHit`]).
+//!
 //! Sampling reuses the raw material's tabulated light distribution ([`BtfMaterial`]), built at
 //! load from the model's texel-averaged values at the measured directions, mixed with the uniform
 //! defensive component exactly as for raw data.
