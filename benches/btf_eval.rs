@@ -8,6 +8,12 @@
 //! is 81·81·256²·3 f16 = 2.6 GB in memory (what the raw path really costs). Set
 //! `BTF_EVAL_SKIP_RAW=1` to skip it on machines short of memory.
 //!
+//! `plmc_64` is the PLM-C model on 64² texels (its index planes fit in the cache). `plmc` runs
+//! the AVX-512 kernel where the CPU has it, `plmc_sse2` the x86_64 baseline. The render group's
+//! integrator shares the view lookup and texel addressing of a hit between its BSDF calls
+//! (`Bsdf::prepare`). `examples/btf_eval_profile.rs` runs the same workloads for callgrind and
+//! for best-of-N CPU-time A/B runs (kernel alone, lookups alone, with or without AVX-512).
+//!
 //! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries. The
 //! evaluation group measures thread CPU time (the machine is shared); the render group, whose
 //! work runs on a pool thread, process CPU time.
@@ -15,102 +21,21 @@
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::plmc::PlmcMaterial;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
-use btfpt::fit::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
-use btfpt::geometry::SurfaceInteraction;
-use btfpt::geometry::generate::{quad, sphere};
-use btfpt::math::{Frame, Mat4, Pcg32, Spectrum, Vec3, warp};
-use btfpt::render::RenderScene;
+use btfpt::fit::model::ModelKind;
+use btfpt::math::{Pcg32, Spectrum};
 use btfpt::render::film::{RenderSettings, RenderState};
-use btfpt::scene::{Camera, IntegratorSettings, Scene};
+#[path = "common/btf_scene.rs"]
+mod btf_scene;
 #[path = "common/cpu_time.rs"]
 mod cpu_time;
+
+use btf_scene::{QUERIES, SIZE, model, model_sized, queries, scene};
 
 use cpu_time::{ProcessCpuTime, ThreadCpuTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
-
-const SIZE: usize = 256;
-const QUERIES: usize = 4096;
-
-fn lobe(rng: &mut Pcg32) -> PackedLobe {
-    let d = warp::square_to_cosine_hemisphere(rng.next_2d());
-    PackedLobe::pack(&[
-        0.2 + rng.next_f32(),
-        d.x,
-        d.y,
-        d.z,
-        1.0 + 80.0 * rng.next_f32() * rng.next_f32(),
-    ])
-}
-
-/// A random model of `kind` on the UBO2003 directions, `SIZE`² texels, 256 clusters for PLM-C.
-fn model(kind: ModelKind) -> PlmcModel {
-    let set = DirectionSet::ubo2003();
-    let mut rng = Pcg32::new(kind.code() as u64, 1);
-    let texels = SIZE * SIZE;
-    let k = 256;
-    let params = (0..set.len())
-        .map(|_| match kind {
-            ModelKind::PlmC => ViewParams::Clustered {
-                k,
-                table: (0..3 * k).map(|_| lobe(&mut rng)).collect(),
-                index: (0..3 * texels)
-                    .map(|_| rng.next_below(k as u32) as u16)
-                    .collect(),
-            },
-            _ => {
-                // Per-texel lobes: a pool of random lobes repeated (generation cost only).
-                let pool: Vec<PackedLobe> = (0..4096).map(|_| lobe(&mut rng)).collect();
-                ViewParams::Texel(
-                    (0..3 * texels)
-                        .map(|i| pool[(i * 2654435761) % pool.len()])
-                        .collect(),
-                )
-            }
-        })
-        .collect();
-    let polys = if kind.has_polys() {
-        (0..set.len() * set.len() * 3)
-            .map(|_| {
-                [
-                    0.01 * rng.next_f32(),
-                    0.9 + 0.2 * rng.next_f32(),
-                    0.1 * rng.next_f32(),
-                    -0.05 * rng.next_f32(),
-                    0.01 * rng.next_f32(),
-                ]
-            })
-            .collect()
-    } else {
-        Vec::new()
-    };
-    PlmcModel {
-        kind,
-        views: set.clone(),
-        lights: set,
-        width: SIZE,
-        height: SIZE,
-        clusters: if kind == ModelKind::PlmC { k } else { 0 },
-        space: ValueSpace::Linear,
-        params,
-        polys,
-    }
-}
-
-fn queries() -> Vec<(SurfaceInteraction, Vec3)> {
-    let mut rng = Pcg32::new(42, 42);
-    (0..QUERIES)
-        .map(|_| {
-            let wi = warp::square_to_uniform_hemisphere(rng.next_2d());
-            let wo = warp::square_to_uniform_hemisphere(rng.next_2d());
-            let mut si = SurfaceInteraction::for_tests(wi, rng.next_2d());
-            si.sh_frame = Frame::from_normal(Vec3::Z);
-            (si, wo)
-        })
-        .collect()
-}
 
 fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
     let q = queries();
@@ -142,6 +67,23 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
             })
         });
         if kind == ModelKind::PlmC {
+            // A 64² model (1.3 MB of index planes: cache-resident), to separate compute from the
+            // 256² model's memory misses.
+            let small = PlmcBsdf::new(
+                Arc::new(PlmcMaterial::new(&model_sized(kind, 64)).unwrap()),
+                1.0,
+                false,
+            )
+            .unwrap();
+            g.bench_function("plmc_64", |b| {
+                b.iter(|| {
+                    let mut acc = Spectrum::ZERO;
+                    for (si, wo) in &q {
+                        acc += small.eval(black_box(si), black_box(*wo));
+                    }
+                    acc
+                })
+            });
             // The same model on the baseline SSE2 kernel (equal to `plmc` on CPUs without AVX2+FMA).
             let sse2 = PlmcBsdf::new(
                 Arc::new(PlmcMaterial::new(&model(kind)).unwrap().without_avx2()),
@@ -214,72 +156,6 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
         });
     }
     g.finish();
-}
-
-/// A closed box with two spheres and an area light; every surface uses `bsdf`.
-fn scene(bsdf: Bsdf) -> RenderScene {
-    let mut meshes = Vec::new();
-    let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
-    let o = Vec3::new(-1.0, -1.0, -1.0);
-    for (c, e1, e2) in [
-        (o, z, x),
-        (o + y, x, z),
-        (o, x, y),
-        (o, y, z),
-        (o + x, z, y),
-    ] {
-        meshes.push(quad(c, e1, e2));
-    }
-    let mut light = quad(
-        Vec3::new(-0.3, 0.99, -0.3),
-        Vec3::new(0.6, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 0.6),
-    );
-    light.emitter = Some(Spectrum::splat(15.0));
-    meshes.push(light);
-    meshes.push(sphere(
-        Vec3::new(-0.4, -0.6, -0.3),
-        0.4,
-        32,
-        64,
-        false,
-        true,
-    ));
-    meshes.push(sphere(
-        Vec3::new(0.45, -0.65, 0.3),
-        0.35,
-        32,
-        64,
-        false,
-        true,
-    ));
-    let dir = Vec3::new(0.0, 0.0, -1.0);
-    let origin = Vec3::new(0.0, 0.0, 3.4);
-    let left = Vec3::Y.cross(dir).normalize();
-    let up = dir.cross(left);
-    let scene = Scene {
-        source: "box (in code)".into(),
-        camera: Camera {
-            to_world: Mat4::from_cols(
-                left.extend(0.0),
-                up.extend(0.0),
-                dir.extend(0.0),
-                origin.extend(1.0),
-            ),
-            fov_x_deg: 40.0,
-            near_clip: 1e-3,
-            far_clip: 100.0,
-            width: 64,
-            height: 64,
-            crop: None,
-        },
-        integrator: IntegratorSettings::default(),
-        spp: 4,
-        meshes,
-        bsdfs: vec![bsdf],
-        emitters: vec![],
-    };
-    RenderScene::new(scene).expect("valid scene")
 }
 
 fn bench_render(c: &mut Criterion<ProcessCpuTime>) {

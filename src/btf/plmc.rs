@@ -18,6 +18,12 @@
 //! - polynomial coefficients: dense `[view][light]` rows of 16 f32 (a_0..a_4 for R, G, B + pad),
 //!   64-byte aligned: light interpolation is three 16-wide multiply-adds on three cache lines.
 //!
+//! Kernels: on AVX-512 CPUs the PLM-C case of the renderer (u8 indices, nearest texel) runs
+//! `avx512.rs`, the 9 lanes in one 16-lane register (about a third of the 4-wide build's
+//! instructions); everything else runs the generic 4-wide kernel below, built for AVX2+FMA where
+//! the CPU has it, else SSE2. A shading hit's view lookup and texel addressing are done once by
+//! [`PlmcBsdf::prepare`] and shared by its `eval_pdf` and `sample` ([`PlmcHit`]).
+//!
 //! Sampling reuses the raw material's tabulated light distribution ([`BtfMaterial`]), built at
 //! load from the model's texel-averaged values at the measured directions, mixed with the uniform
 //! defensive component exactly as for raw data.
@@ -154,6 +160,10 @@ pub struct PlmcMaterial {
     /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
     #[cfg(target_arch = "x86_64")]
     avx2: Option<f4::Avx2Fma>,
+    /// Set if this CPU has AVX-512F (and AVX2 + FMA): PLM-C with u8 indices, nearest texel,
+    /// runs the 16-lane kernel of `avx512.rs`.
+    #[cfg(target_arch = "x86_64")]
+    avx512: Option<avx512::Avx512>,
 }
 
 impl PlmcMaterial {
@@ -258,6 +268,8 @@ impl PlmcMaterial {
             sampler,
             #[cfg(target_arch = "x86_64")]
             avx2: f4::Avx2Fma::detect(),
+            #[cfg(target_arch = "x86_64")]
+            avx512: avx512::Avx512::detect(),
         })
     }
 
@@ -267,6 +279,17 @@ impl PlmcMaterial {
         #[cfg(target_arch = "x86_64")]
         {
             self.avx2 = None;
+            self.avx512 = None;
+        }
+        self
+    }
+
+    /// The same material without the AVX-512 kernel (the generic kernel's AVX2+FMA build where
+    /// the CPU has it): to compare the builds; results agree to float rounding.
+    pub fn without_avx512(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx512 = None;
         }
         self
     }
@@ -275,6 +298,14 @@ impl PlmcMaterial {
     pub fn uses_avx2(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
         return self.avx2.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// True if PLM-C evaluations (u8 indices, nearest texel) run the AVX-512 kernel.
+    pub fn uses_avx512(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.avx512.is_some() && matches!(self.params, Params::Clustered8 { .. });
         #[cfg(not(target_arch = "x86_64"))]
         false
     }
@@ -378,6 +409,26 @@ impl PlmcMaterial {
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(token), Params::Clustered8 { k, records, index }, [(texel, tw)]) =
+            (self.avx512, &self.params, texels)
+            && !self.polys.is_empty()
+        {
+            let t = avx512::Tables {
+                k: *k,
+                n_views: self.n_views,
+                n_lights: self.n_lights,
+                records,
+                index,
+                polys: &self.polys,
+                y_max: &self.y_max,
+                out_max: &self.out_max,
+                srgb: self.space == ValueSpace::Srgb,
+            };
+            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
+            let b = unsafe { avx512::eval(token, &t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel) };
+            return b.map(|x| x * tw);
+        }
         #[cfg(target_arch = "x86_64")]
         if let Some(isa) = self.avx2 {
             // SAFETY: the token exists only if this CPU has AVX2 and FMA.
@@ -770,7 +821,7 @@ impl PlmcBsdf {
         let m = &self.material;
         let idx = |c: f32, n: usize| {
             let s = c * self.uv_scale;
-            let f = s - s.floor();
+            let f = s - floor_fast(s);
             ((f * n as f32) as usize).min(n - 1)
         };
         (idx(uv.x, m.width), idx(uv.y, m.height))
@@ -787,8 +838,8 @@ impl PlmcBsdf {
         }
         let axis = |c: f32, n: usize| {
             let s = c * self.uv_scale;
-            let p = (s - s.floor()) * n as f32 - 0.5;
-            let f = p.floor();
+            let p = (s - floor_fast(s)) * n as f32 - 0.5;
+            let f = floor_fast(p);
             let i0 = (f as i64).rem_euclid(n as i64) as usize;
             (i0, (i0 + 1) % n, (p - f).clamp(0.0, 1.0))
         };
@@ -824,35 +875,51 @@ impl PlmcBsdf {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
-    /// f·cos θ_o and the pdf at `wo` for the views `vi`/`vw`: one light-triangulation search
-    /// serves both (the model and its sampling tables share the light direction set).
+    /// The per-hit state of a shading point (see [`PlmcHit`]); None below the horizon (where
+    /// every call returns zero) — the caller then uses the stateless methods. Also starts the
+    /// loads of the texels' index entries ([`PlmcBsdf::prefetch`]) before the view lookup, so
+    /// the lookup overlaps with them.
     #[inline]
-    fn eval_pdf_with_views(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        uv: Vec2,
-    ) -> (Spectrum, f32) {
-        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
-        self.eval_pdf_located(vi, vw, wo, uv, located)
+    pub fn prepare(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        let (texels, n) = self.texels(si.uv);
+        if self.prefetch {
+            for &(texel, _) in &texels[..n] {
+                self.material.prefetch_texel(texel);
+            }
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        Some(PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        })
     }
 
-    /// [`PlmcBsdf::eval_pdf_with_views`] with `wo` already located in the light triangulation.
+    /// f·cos θ_o and the pdf at `wo` for a prepared hit: one light-triangulation search serves
+    /// both (the model and its sampling tables share the light direction set).
+    #[inline]
+    fn eval_pdf_hit_inner(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
+        self.eval_pdf_located(hit, wo, located)
+    }
+
+    /// [`PlmcBsdf::eval_pdf_hit_inner`] with `wo` already located in the light triangulation.
     #[inline]
     fn eval_pdf_located(
         &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
+        hit: &PlmcHit,
         wo: Vec3,
-        uv: Vec2,
         located: (usize, [f32; 3]),
     ) -> (Spectrum, f32) {
         let m = &*self.material;
-        let (t, w) = self.texels(uv);
         let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
-        let f = Spectrum::from(m.eval_b_with(vi, vw, li, lw, wo, &t[..w])) * INV_PI;
-        (f, m.sampler.light_pdf_located(vi, vw, wo, located))
+        let t = &hit.texels[..hit.n as usize];
+        let f = Spectrum::from(m.eval_b_with(hit.vi, hit.vw, li, lw, wo, t)) * INV_PI;
+        (f, m.sampler.light_pdf_located(hit.vi, hit.vw, wo, located))
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
@@ -867,6 +934,16 @@ impl PlmcBsdf {
         Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
     }
 
+    /// [`PlmcBsdf::eval`] at a prepared hit (the same value).
+    #[inline]
+    pub fn eval_hit(&self, hit: &PlmcHit, wo: Vec3) -> Spectrum {
+        if wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let t = &hit.texels[..hit.n as usize];
+        Spectrum::from(self.material.eval_b_with_views(hit.vi, hit.vw, wo, t)) * INV_PI
+    }
+
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
     #[inline]
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
@@ -877,6 +954,15 @@ impl PlmcBsdf {
         self.material.sampler.light_pdf(vi, vw, wo)
     }
 
+    /// [`PlmcBsdf::pdf`] at a prepared hit (the same value).
+    #[inline]
+    pub fn pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.material.sampler.light_pdf(hit.vi, hit.vw, wo)
+    }
+
     /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
@@ -884,7 +970,23 @@ impl PlmcBsdf {
             return (Spectrum::ZERO, 0.0);
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        self.eval_pdf_with_views(vi, vw, wo, si.uv)
+        let (texels, n) = self.texels(si.uv);
+        let hit = PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        };
+        self.eval_pdf_hit_inner(&hit, wo)
+    }
+
+    /// [`PlmcBsdf::eval_pdf`] at a prepared hit (the same values).
+    #[inline]
+    pub fn eval_pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        if wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        self.eval_pdf_hit_inner(hit, wo)
     }
 
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
@@ -897,9 +999,29 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 {
             return None;
         }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        let (texels, n) = self.texels(si.uv);
+        let hit = PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        };
+        self.sample_hit(&hit, sample1, sample2)
+    }
+
+    /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).
+    #[inline]
+    pub fn sample_hit(
+        &self,
+        hit: &PlmcHit,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
         let m = &*self.material;
-        let (vi, vw) = m.view_lookup(si.wi);
-        let (wo, tri) = m.sampler.sample_light_located(vi, vw, sample1, sample2);
+        let (wo, tri) = m
+            .sampler
+            .sample_light_located(hit.vi, hit.vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
@@ -910,7 +1032,7 @@ impl PlmcBsdf {
             Some(t) => (t, lights.triangle_weights(t, [wo.x, wo.y])),
             None => lights.locate([wo.x, wo.y]),
         };
-        let (f, pdf) = self.eval_pdf_located(vi, vw, wo, si.uv, located);
+        let (f, pdf) = self.eval_pdf_located(hit, wo, located);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -921,6 +1043,32 @@ impl PlmcBsdf {
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
         Some((s, f / pdf))
+    }
+}
+
+/// What every BSDF call at one shading point shares, computed once per hit by
+/// [`PlmcBsdf::prepare`]: the 3 measured views around wi with their weights and the texels
+/// that filter uv. Saves a view-triangulation search and the texel addressing per call (a path
+/// vertex makes two: emitter sampling's `eval_pdf` and `sample`). Plain data on the stack.
+#[derive(Clone, Copy, Debug)]
+pub struct PlmcHit {
+    vi: [u32; 3],
+    vw: [f32; 3],
+    texels: [(usize, f32); 4],
+    n: u8,
+}
+
+/// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):
+/// truncation, one down for negative non-integers; |x| ≥ 2^23 (already integers), infinities
+/// and NaN take `floor` itself. Equal to `x.floor()` for every f32.
+#[inline(always)]
+fn floor_fast(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        // copysign: floor(−0) = −0.
+        let t = (x as i32 as f32).copysign(x);
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x.floor()
     }
 }
 
@@ -1015,6 +1163,8 @@ pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
     crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
 }
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 mod f4;
 #[cfg(test)]
 mod tests;

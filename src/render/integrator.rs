@@ -134,7 +134,8 @@ impl PathTracer {
             let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
                 break;
             };
-            bsdf.prefetch(&si);
+            // Per-hit state shared by the calls below (a BTF model's view lookup and texels).
+            let prep = bsdf.prepare(&si);
             // ------------------------- emitter sampling -------------------------
             if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
                 let u_sel = rng.next_f32();
@@ -143,9 +144,9 @@ impl PathTracer {
                     let wo = si.to_local(ls.wi);
                     // One call for both: BSDFs with a per-hit lookup (BTF) share it.
                     let (f, bsdf_pdf) = if ls.delta {
-                        (bsdf.eval(&si, wo), 0.0)
+                        (bsdf.eval_prepared(&si, &prep, wo), 0.0)
                     } else {
-                        bsdf.eval_pdf(&si, wo)
+                        bsdf.eval_pdf_prepared(&si, &prep, wo)
                     };
                     if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
                         let so = offset_origin(si.p, si.n, ls.wi);
@@ -176,7 +177,7 @@ impl PathTracer {
             // -------------------------- BSDF sampling ---------------------------
             let u1 = rng.next_f32();
             let u2 = rng.next_2d();
-            let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
+            let Some((bs, weight)) = bsdf.sample_prepared(&si, &prep, u1, u2) else {
                 break;
             };
             let wo_world = si.to_world(bs.wo);

@@ -87,8 +87,10 @@ fn model(kind: ModelKind, space: ValueSpace, w: usize, h: usize, k: usize, seed:
 
 struct Fixture {
     model: PlmcModel,
-    /// The material as built (the AVX2+FMA kernel where the CPU has it).
+    /// The material as built (the AVX-512 or AVX2+FMA kernel where the CPU has it).
     bsdf: PlmcBsdf,
+    /// The same model without the AVX-512 kernel (AVX2+FMA where the CPU has it).
+    avx2: PlmcBsdf,
     /// The same model forced onto the baseline SSE2 kernel.
     sse2: PlmcBsdf,
 }
@@ -112,7 +114,19 @@ fn fixture(kind: ModelKind, space: ValueSpace) -> &'static Fixture {
             let plain = Arc::new(PlmcMaterial::new(&model).unwrap().without_avx2());
             assert!(!plain.uses_avx2());
             let sse2 = PlmcBsdf::new(plain, 1.0, false).unwrap();
-            v.push((kind, space, Fixture { model, bsdf, sse2 }));
+            let no512 = Arc::new(PlmcMaterial::new(&model).unwrap().without_avx512());
+            assert!(!no512.uses_avx512());
+            let avx2 = PlmcBsdf::new(no512, 1.0, false).unwrap();
+            v.push((
+                kind,
+                space,
+                Fixture {
+                    model,
+                    bsdf,
+                    avx2,
+                    sse2,
+                },
+            ));
         }
         v
     });
@@ -191,16 +205,17 @@ fn eval_at_measured_directions_is_the_reconstruction() {
                         Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32),
                     );
                     si.wi = set.dirs[v];
-                    for b in [&f.bsdf, &f.sse2] {
+                    for b in [&f.bsdf, &f.avx2, &f.sse2] {
                         let got = b.eval(&si, set.dirs[l]) * std::f32::consts::PI;
                         let i = 3 * ((l * h + y) * w + x);
                         for c in 0..3 {
                             assert!(
                                 close(got[c], img[i + c], 2e-4),
-                                "{kind:?} {space:?} view {v} light {l} texel ({x},{y}) ch {c}: {} vs {} (avx2 {})",
+                                "{kind:?} {space:?} view {v} light {l} texel ({x},{y}) ch {c}: {} vs {} (avx2 {} avx512 {})",
                                 got[c],
                                 img[i + c],
-                                b.material().uses_avx2()
+                                b.material().uses_avx2(),
+                                b.material().uses_avx512()
                             );
                         }
                     }
@@ -277,13 +292,14 @@ fn eval_between_directions_matches_the_scalar_reference() {
             let si = SurfaceInteraction::for_tests(wi, uv);
             let (x, y) = f.bsdf.texel(uv);
             let want = reference_b(&f.model, &interp, wi, wo, y * w + x);
-            for b in [&f.bsdf, &f.sse2] {
+            for b in [&f.bsdf, &f.avx2, &f.sse2] {
                 let got = b.eval(&si, wo) * std::f32::consts::PI;
                 for c in 0..3 {
                     assert!(
                         close(got[c], want[c], 3e-4),
-                        "{kind:?} {space:?} wi {wi} wo {wo}: {got} vs {want:?} (avx2 {})",
-                        b.material().uses_avx2()
+                        "{kind:?} {space:?} wi {wi} wo {wo}: {got} vs {want:?} (avx2 {} avx512 {})",
+                        b.material().uses_avx2(),
+                        b.material().uses_avx512()
                     );
                 }
             }
@@ -544,4 +560,100 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
+}
+
+#[test]
+fn avx512_kernel_is_the_avx2_kernel() {
+    // Same operations in the same order: equal to the AVX2+FMA build up to the last bits (the
+    // generic kernel's lanes and the 16-lane kernel may differ only where LLVM reassociates).
+    let mut rng = Pcg32::new(21, 4);
+    for space in [ValueSpace::Linear, ValueSpace::Srgb] {
+        let f = fixture(ModelKind::PlmC, space);
+        if !f.bsdf.material().uses_avx512() || !f.avx2.material().uses_avx2() {
+            return;
+        }
+        for _ in 0..2000 {
+            let wi = warp::square_to_uniform_hemisphere(rng.next_2d());
+            let wo = warp::square_to_uniform_hemisphere(rng.next_2d());
+            let si = SurfaceInteraction::for_tests(wi, rng.next_2d());
+            let (a, b) = (f.bsdf.eval(&si, wo), f.avx2.eval(&si, wo));
+            for c in 0..3 {
+                assert!(close(a[c], b[c], 1e-6), "{space:?} {wi} {wo}: {a} vs {b}");
+            }
+        }
+    }
+}
+
+#[test]
+fn prepared_calls_equal_the_stateless_ones() {
+    use crate::bsdf::{Bsdf, Prepared};
+    let mut rng = Pcg32::new(8, 8);
+    for (kind, space) in ALL {
+        let f = fixture(kind, space);
+        for bilinear in [false, true] {
+            let b = PlmcBsdf::new(f.bsdf.material().clone(), 1.7, bilinear).unwrap();
+            let bsdf = Bsdf::Plmc(b);
+            for _ in 0..300 {
+                let mut wi = warp::square_to_uniform_sphere(rng.next_2d());
+                if rng.next_f32() < 0.7 {
+                    wi.z = wi.z.abs();
+                }
+                let wo = warp::square_to_uniform_sphere(rng.next_2d());
+                let si = SurfaceInteraction::for_tests(wi, rng.next_2d());
+                let prep = bsdf.prepare(&si);
+                assert_eq!(matches!(prep, Prepared::Plmc(_)), wi.z > 0.0);
+                assert_eq!(bsdf.eval_prepared(&si, &prep, wo), bsdf.eval(&si, wo));
+                assert_eq!(bsdf.pdf_prepared(&si, &prep, wo), bsdf.pdf(&si, wo));
+                assert_eq!(
+                    bsdf.eval_pdf_prepared(&si, &prep, wo),
+                    bsdf.eval_pdf(&si, wo)
+                );
+                let (u1, u2) = (rng.next_f32(), rng.next_2d());
+                let a = bsdf.sample_prepared(&si, &prep, u1, u2);
+                let s = bsdf.sample(&si, u1, u2);
+                assert_eq!(
+                    a.map(|x| (x.0.wo, x.0.pdf, x.1)),
+                    s.map(|x| (x.0.wo, x.0.pdf, x.1))
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn floor_fast_is_floor() {
+    let mut rng = Pcg32::new(2, 9);
+    let specials = [
+        0.0f32,
+        -0.0,
+        0.5,
+        -0.5,
+        1.0,
+        -1.0,
+        0.99999994,
+        -0.99999994,
+        8388607.5,
+        -8388607.5,
+        8388608.0,
+        -8388608.0,
+        1e10,
+        -1e10,
+        f32::MAX,
+        f32::MIN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        f32::MIN_POSITIVE,
+        -f32::MIN_POSITIVE,
+        1e-45,
+        -1e-45,
+    ];
+    let randoms = (0..100_000).map(|_| {
+        let e = rng.next_f32() * 60.0 - 30.0;
+        let s = if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+        s * e.exp2() * rng.next_f32()
+    });
+    for x in specials.into_iter().chain(randoms) {
+        assert_eq!(floor_fast(x).to_bits(), x.floor().to_bits(), "{x}");
+    }
+    assert!(floor_fast(f32::NAN).is_nan());
 }
