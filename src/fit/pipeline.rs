@@ -11,6 +11,7 @@ use super::kmeans;
 use super::lafortune::{self, Lobe, LobeFitter};
 use super::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use super::polynomial::{self, Poly};
+use super::refine;
 use super::select;
 use crate::btf::{BtfSource, DirectionSet, StoredEncoding, format};
 use crate::math::color::linear_to_srgb;
@@ -35,7 +36,13 @@ pub struct FitOptions {
     pub fit_stored: bool,
     /// What K-means clusters the texels on (PLM-C).
     pub cluster_on: ClusterOn,
+    /// Rounds of model-space refinement after K-means (PLM-C; 0 = the paper's method, see
+    /// [`refine`]).
+    pub refine_iters: usize,
 }
+
+/// Clusters a texel may move to per refinement round (the nearest to its own, by lobe curve).
+pub const REFINE_CANDIDATES: usize = 16;
 
 /// The K-means features of PLM-C: each texel's values in the KL-selected images, either measured
 /// or as its own LM lobe predicts them.
@@ -67,6 +74,7 @@ impl Default for FitOptions {
             kmeans_iters: 40,
             fit_stored: true,
             cluster_on: ClusterOn::LmModel,
+            refine_iters: 6,
         }
     }
 }
@@ -99,6 +107,14 @@ pub struct ViewStats {
     pub matched_polys: usize,
     /// Mappings where the texel-wise least-squares regression had the lower MAE and was kept.
     pub regression_polys: usize,
+    /// Texel moves of the model-space refinement (summed over channels).
+    pub refine_moves: usize,
+    /// Refinement rounds run (summed over channels).
+    pub refine_rounds: usize,
+    /// Summed L1 error of the cluster lobes (before the polynomials) before refinement.
+    pub refine_error_before: f64,
+    /// The same after refinement.
+    pub refine_error_after: f64,
 }
 
 /// One view's result: the parameters at the requested level, its polynomials and the
@@ -243,7 +259,7 @@ pub fn fit_view(
                 *s += v as f64;
             }
         }
-        let results: Vec<(Lobe, bool, f64)> = (0..k)
+        let results: Vec<(Lobe, bool)> = (0..k)
             .into_par_iter()
             .map(|a| {
                 let n = count[a].max(1) as f64;
@@ -259,23 +275,13 @@ pub fn fit_view(
                 }
                 let avg = PackedLobe::pack(&avg).unpack();
                 let (e_refit, e_avg) = (fitter.sse(&refit, &y), fitter.sse(&avg, &y));
-                let bright = y.iter().map(|&v| v as f64).sum::<f64>();
                 if e_refit <= e_avg {
-                    (refit, true, bright)
+                    (refit, true)
                 } else {
-                    (avg, false, bright)
+                    (avg, false)
                 }
             })
             .collect();
-        // Order clusters by brightness so the three channels' indices correlate (the file's
-        // channel-delta filter then deflates well).
-        let mut order: Vec<usize> = (0..k).collect();
-        order.sort_by(|&a, &b| results[a].2.total_cmp(&results[b].2).then(a.cmp(&b)));
-        let mut rank = vec![0u16; k];
-        for (r, &a) in order.iter().enumerate() {
-            rank[a] = r as u16;
-        }
-        tables[c] = order.iter().map(|&a| results[a].0).collect();
         for r in &results {
             if r.1 {
                 out.stats.refit_wins += 1;
@@ -283,8 +289,55 @@ pub fn fit_view(
                 out.stats.average_wins += 1;
             }
         }
+        let mut lobes: Vec<Lobe> = results.iter().map(|r| r.0).collect();
+        let mut assign = km.assign;
+        if opts.refine_iters > 0 {
+            let mut ytex = vec![0.0f32; texels * nl];
+            for t in 0..texels {
+                for l in 0..nl {
+                    ytex[t * nl + l] = data[(l * texels + t) * 3 + c];
+                }
+            }
+            // The PLM mappings of this channel stand in for the PLM-C ones fitted afterwards.
+            let map: Vec<Poly> = (0..nl).map(|l| out.plm_polys[3 * l + c]).collect();
+            let r = refine::refine(
+                fitter,
+                &ytex,
+                stored_from_linear,
+                Some(&map),
+                &mut lobes,
+                &mut assign,
+                refine::RefineOptions {
+                    iterations: opts.refine_iters,
+                    candidates: REFINE_CANDIDATES,
+                },
+            );
+            out.stats.refine_moves += r.moves;
+            out.stats.refine_rounds += r.errors.len().saturating_sub(1);
+            if let (Some(a), Some(b)) = (r.errors.first(), r.errors.last()) {
+                out.stats.refine_error_before += a;
+                out.stats.refine_error_after += b;
+            }
+        }
+        // Order clusters by brightness so the three channels' indices correlate (the file's
+        // channel-delta filter then deflates well).
+        let mut cv = vec![0.0f32; nl];
+        let bright: Vec<f64> = lobes
+            .iter()
+            .map(|l| {
+                lafortune::eval_all(l, fitter, &mut cv);
+                cv.iter().map(|&v| v as f64).sum::<f64>()
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..k).collect();
+        order.sort_by(|&a, &b| bright[a].total_cmp(&bright[b]).then(a.cmp(&b)));
+        let mut rank = vec![0u16; k];
+        for (r, &a) in order.iter().enumerate() {
+            rank[a] = r as u16;
+        }
+        tables[c] = order.iter().map(|&a| lobes[a]).collect();
         for t in 0..texels {
-            index[3 * t + c] = rank[km.assign[t] as usize];
+            index[3 * t + c] = rank[assign[t] as usize];
         }
     }
     // Tables of the three channels share one K: pad shorter channels (constant data) with a copy
@@ -436,6 +489,7 @@ pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) ->
     add(opts.kmeans_iters as u64);
     add(opts.fit_stored as u64);
     add(opts.cluster_on as u64);
+    add(opts.refine_iters as u64);
     add(source.width() as u64);
     add(source.height() as u64);
     add(source.encoding() as u64);
@@ -456,7 +510,7 @@ pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) ->
 }
 
 /// Bumped whenever the fitting code changes results, so stale parts are refitted.
-const FIT_CODE_VERSION: u64 = 3;
+const FIT_CODE_VERSION: u64 = 4;
 
 /// The sidecar directory holding finished views of an interrupted fit: `mat.plmc.parts/`.
 pub fn parts_dir(output: &Path) -> PathBuf {
@@ -634,6 +688,10 @@ pub fn fit_model_keyed(
         stats.kmeans_iterations += s.kmeans_iterations;
         stats.matched_polys += s.matched_polys;
         stats.regression_polys += s.regression_polys;
+        stats.refine_moves += s.refine_moves;
+        stats.refine_rounds += s.refine_rounds;
+        stats.refine_error_before += s.refine_error_before;
+        stats.refine_error_after += s.refine_error_after;
     }
     model.validate()?;
     Ok(FitOutcome {
