@@ -48,6 +48,9 @@ pub struct FitOptions {
 /// Reweighting rounds of the least-absolute-error mapping regression (see [`fit_polys`]).
 pub const L1_ROUNDS: usize = 4;
 
+/// Rounds of the second refinement, through the PLM-C mappings (see [`fit_view`]).
+pub const SECOND_REFINE_ITERS: usize = 2;
+
 /// Clusters a texel may move to per refinement round (the nearest to its own, by lobe curve).
 pub const REFINE_CANDIDATES: usize = 16;
 
@@ -122,6 +125,8 @@ pub struct ViewStats {
     pub refine_error_before: f64,
     /// The same after refinement.
     pub refine_error_after: f64,
+    /// Views whose second refinement (through the PLM-C mappings) lowered the error and was kept.
+    pub refine_second_kept: usize,
 }
 
 /// One view's result: the parameters at the requested level, its polynomials and the
@@ -362,9 +367,81 @@ pub fn fit_view(
         }
     }
     let unpacked: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
-    let polys = fit_polys(lights, data, &sorted, texels, &mut out.stats, |t, c, u| {
+    let mut stats = out.stats;
+    let mut polys = fit_polys(lights, data, &sorted, texels, &mut stats, |t, c, u| {
         lafortune::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
     });
+    if opts.refine_iters > 0 {
+        // A second, short refinement through the PLM-C mappings themselves (the first used PLM's),
+        // then the mappings refitted; kept only if the view's absolute error drops.
+        let view_err = |table: &[PackedLobe], index: &[u16], polys: &[Poly]| -> f64 {
+            let lobes: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
+            (0..nl)
+                .into_par_iter()
+                .map(|l| {
+                    let u = lights.dirs[l];
+                    let vals: Vec<f32> = (0..3 * k)
+                        .map(|i| {
+                            let c = i % 3;
+                            let v = lafortune::eval(&lobes[i], u);
+                            polynomial::eval(&polys[3 * l + c], v).max(0.0)
+                        })
+                        .collect();
+                    (0..3 * texels)
+                        .map(|i| {
+                            let (t, c) = (i / 3, i % 3);
+                            let m = vals[3 * index[i] as usize + c];
+                            (m - data[(l * texels + t) * 3 + c]).abs() as f64
+                        })
+                        .sum::<f64>()
+                })
+                .sum()
+        };
+        let (mut table2, mut index2) = (table.clone(), index.clone());
+        let mut ytex = vec![0.0f32; texels * nl];
+        for c in 0..3 {
+            let mut lobes: Vec<Lobe> = (0..k).map(|j| table[3 * j + c].unpack()).collect();
+            let mut assign: Vec<u32> = (0..texels).map(|t| index[3 * t + c] as u32).collect();
+            for t in 0..texels {
+                for l in 0..nl {
+                    ytex[t * nl + l] = data[(l * texels + t) * 3 + c];
+                }
+            }
+            let map: Vec<Poly> = (0..nl).map(|l| polys[3 * l + c]).collect();
+            let r = refine::refine(
+                fitter,
+                &ytex,
+                stored_from_linear,
+                Some(&map),
+                &mut lobes,
+                &mut assign,
+                refine::RefineOptions {
+                    iterations: SECOND_REFINE_ITERS,
+                    candidates: REFINE_CANDIDATES,
+                },
+            );
+            out.stats.refine_moves += r.moves;
+            out.stats.refine_rounds += r.errors.len().saturating_sub(1);
+            for (j, l) in lobes.iter().enumerate() {
+                table2[3 * j + c] = PackedLobe::pack(l);
+            }
+            for t in 0..texels {
+                index2[3 * t + c] = assign[t] as u16;
+            }
+        }
+        let unpacked2: Vec<Lobe> = table2.iter().map(|p| p.unpack()).collect();
+        let mut stats2 = out.stats;
+        let polys2 = fit_polys(lights, data, &sorted, texels, &mut stats2, |t, c, u| {
+            lafortune::eval(&unpacked2[3 * index2[3 * t + c] as usize + c], u)
+        });
+        if view_err(&table2, &index2, &polys2) < view_err(&table, &index, &polys) {
+            (table, index, polys, stats) = (table2, index2, polys2, stats2);
+            stats.refine_second_kept += 1;
+        }
+    }
+    out.stats.matched_polys = stats.matched_polys;
+    out.stats.regression_polys = stats.regression_polys;
+    out.stats.refine_second_kept = stats.refine_second_kept;
     out.plmc = Some((ViewParams::Clustered { k, table, index }, polys));
     stage(Stage::PlmC);
     out
@@ -702,6 +779,7 @@ pub fn fit_model_keyed(
         stats.refine_rounds += s.refine_rounds;
         stats.refine_error_before += s.refine_error_before;
         stats.refine_error_after += s.refine_error_after;
+        stats.refine_second_kept += s.refine_second_kept;
     }
     model.validate()?;
     Ok(FitOutcome {

@@ -340,6 +340,63 @@ mod tests {
     }
 
     #[test]
+    fn the_error_through_a_mapping_is_what_is_refined() {
+        // The data are the squares of the type lobes' values; through the mapping y ↦ y² the
+        // type lobes explain them exactly. Planted bad assignments must be fixed under the map,
+        // and the refined lobes must stay near the type lobes (not fit the squared data raw).
+        let f = LobeFitter::new(&DirectionSet::ubo2003().dirs).unwrap();
+        let types = types();
+        let (y, truth) = texels(&f, &types, 10, 0.0);
+        let y: Vec<f32> = y.iter().map(|v| v * v).collect();
+        let square: Vec<Poly> = vec![[0.0, 0.0, 1.0, 0.0, 0.0]; f.lights()];
+        let mut assign = truth.clone();
+        assign[1] = 2;
+        assign[2] = 0;
+        let mut lobes = types.clone();
+        let s = refine(
+            &f,
+            &y,
+            false,
+            Some(&square),
+            &mut lobes,
+            &mut assign,
+            RefineOptions {
+                iterations: 4,
+                candidates: 4,
+            },
+        );
+        assert_eq!(assign, truth, "{s:?}");
+        for w in s.errors.windows(2) {
+            assert!(w[1] <= w[0], "error rose: {:?}", s.errors);
+        }
+        assert!(
+            s.errors.last().unwrap() < &(1e-2 * s.errors[0]),
+            "{:?}",
+            s.errors
+        );
+        for (l, t) in lobes.iter().zip(&types) {
+            assert!((l[0] - t[0]).abs() < 0.02 * t[0], "{l:?} vs {t:?}");
+        }
+        // A map of the wrong length is refused (nothing changes).
+        let short = vec![[0.0, 1.0, 0.0, 0.0, 0.0]; 3];
+        let mut a2 = assign.clone();
+        a2[0] = 1;
+        let s = refine(
+            &f,
+            &y,
+            false,
+            Some(&short),
+            &mut lobes,
+            &mut a2,
+            RefineOptions {
+                iterations: 2,
+                candidates: 4,
+            },
+        );
+        assert!(s.errors.is_empty() && a2[0] == 1);
+    }
+
+    #[test]
     fn empty_clusters_are_reseeded_and_the_error_never_rises() {
         let f = LobeFitter::new(&DirectionSet::ubo2003().dirs).unwrap();
         let types = types();
