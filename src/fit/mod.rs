@@ -12,6 +12,7 @@ pub mod pca;
 pub mod pipeline;
 pub mod plot;
 pub mod polynomial;
+pub mod refine;
 pub mod report;
 pub mod select;
 pub mod tiling;
