@@ -23,13 +23,13 @@ use btfpt::btf::plmc::PlmcMaterial;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
 use btfpt::fit::model::ModelKind;
 use btfpt::math::{Pcg32, Spectrum};
-use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::render::film::RenderState;
 #[path = "common/btf_scene.rs"]
 mod btf_scene;
 #[path = "common/cpu_time.rs"]
 mod cpu_time;
 
-use btf_scene::{QUERIES, SIZE, model, model_sized, queries, scene};
+use btf_scene::{QUERIES, SIZE, box_scene, model, model_sized, queries, scene};
 
 use cpu_time::{ProcessCpuTime, ThreadCpuTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -160,18 +160,8 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
 
 fn bench_render(c: &mut Criterion<ProcessCpuTime>) {
     let plmc = Arc::new(PlmcMaterial::new(&model(ModelKind::PlmC)).unwrap());
-    let settings = RenderSettings {
-        width: 64,
-        height: 64,
-        crop: [0, 0, 64, 64],
-        spp_begin: 0,
-        spp_end: 4,
-        seed: 0,
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .expect("thread pool");
+    let settings = box_scene::settings();
+    let pool = box_scene::single_thread_pool();
     let stop = AtomicBool::new(false);
     let mut g = c.benchmark_group("render_box_64x64_4spp");
     g.sample_size(20);

@@ -13,7 +13,7 @@ use btfpt::bsdf::{Bsdf, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::plmc::PlmcMaterial;
 use btfpt::fit::model::ModelKind;
 use btfpt::math::{Pcg32, Spectrum};
-use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::render::film::RenderState;
 use std::hint::black_box;
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
@@ -40,18 +40,8 @@ fn main() {
             Bsdf::Plmc(PlmcBsdf::new(Arc::new(m), 4.0, false).unwrap())
         };
         let rs = btf_scene::scene(bsdf);
-        let settings = RenderSettings {
-            width: 64,
-            height: 64,
-            crop: [0, 0, 64, 64],
-            spp_begin: 0,
-            spp_end: 4,
-            seed: 0,
-        };
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap();
+        let settings = btf_scene::box_scene::settings();
+        let pool = btf_scene::box_scene::single_thread_pool();
         let stop = AtomicBool::new(false);
         let mut best = f64::INFINITY;
         let mut rays = 0;

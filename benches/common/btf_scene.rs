@@ -5,10 +5,11 @@ use btfpt::bsdf::Bsdf;
 use btfpt::btf::DirectionSet;
 use btfpt::fit::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use btfpt::geometry::SurfaceInteraction;
-use btfpt::geometry::generate::{quad, sphere};
-use btfpt::math::{Frame, Mat4, Pcg32, Spectrum, Vec3, warp};
+use btfpt::math::{Frame, Pcg32, Vec3, warp};
 use btfpt::render::RenderScene;
-use btfpt::scene::{Camera, IntegratorSettings, Scene};
+
+#[path = "box_scene.rs"]
+pub mod box_scene;
 
 pub const SIZE: usize = 256;
 pub const QUERIES: usize = 4096;
@@ -96,68 +97,7 @@ pub fn queries() -> Vec<(SurfaceInteraction, Vec3)> {
         .collect()
 }
 
-/// A closed box with two spheres and an area light; every surface uses `bsdf`.
+/// The shared box ([`box_scene::box_scene`]) with `bsdf` on every surface.
 pub fn scene(bsdf: Bsdf) -> RenderScene {
-    let mut meshes = Vec::new();
-    let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
-    let o = Vec3::new(-1.0, -1.0, -1.0);
-    for (c, e1, e2) in [
-        (o, z, x),
-        (o + y, x, z),
-        (o, x, y),
-        (o, y, z),
-        (o + x, z, y),
-    ] {
-        meshes.push(quad(c, e1, e2));
-    }
-    let mut light = quad(
-        Vec3::new(-0.3, 0.99, -0.3),
-        Vec3::new(0.6, 0.0, 0.0),
-        Vec3::new(0.0, 0.0, 0.6),
-    );
-    light.emitter = Some(Spectrum::splat(15.0));
-    meshes.push(light);
-    meshes.push(sphere(
-        Vec3::new(-0.4, -0.6, -0.3),
-        0.4,
-        32,
-        64,
-        false,
-        true,
-    ));
-    meshes.push(sphere(
-        Vec3::new(0.45, -0.65, 0.3),
-        0.35,
-        32,
-        64,
-        false,
-        true,
-    ));
-    let dir = Vec3::new(0.0, 0.0, -1.0);
-    let origin = Vec3::new(0.0, 0.0, 3.4);
-    let left = Vec3::Y.cross(dir).normalize();
-    let up = dir.cross(left);
-    let scene = Scene {
-        source: "box (in code)".into(),
-        camera: Camera {
-            to_world: Mat4::from_cols(
-                left.extend(0.0),
-                up.extend(0.0),
-                dir.extend(0.0),
-                origin.extend(1.0),
-            ),
-            fov_x_deg: 40.0,
-            near_clip: 1e-3,
-            far_clip: 100.0,
-            width: 64,
-            height: 64,
-            crop: None,
-        },
-        integrator: IntegratorSettings::default(),
-        spp: 4,
-        meshes,
-        bsdfs: vec![bsdf],
-        emitters: vec![],
-    };
-    RenderScene::new(scene).expect("valid scene")
+    box_scene::box_scene(vec![bsdf], [0; 5])
 }
