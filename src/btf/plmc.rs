@@ -884,19 +884,26 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 {
             return None;
         }
+        Some(self.hit_at(si, self.prefetch))
+    }
+
+    /// The view lookup and texel addressing of `si` (wi above the horizon), with the texels'
+    /// index entries prefetched first when `prefetch` is set.
+    #[inline]
+    fn hit_at(&self, si: &SurfaceInteraction, prefetch: bool) -> PlmcHit {
         let (texels, n) = self.texels(si.uv);
-        if self.prefetch {
+        if prefetch {
             for &(texel, _) in &texels[..n] {
                 self.material.prefetch_texel(texel);
             }
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        Some(PlmcHit {
+        PlmcHit {
             vi,
             vw,
             texels,
             n: n as u8,
-        })
+        }
     }
 
     /// f·cos θ_o and the pdf at `wo` for a prepared hit: one light-triangulation search serves
@@ -969,15 +976,7 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
-        let (vi, vw) = self.material.view_lookup(si.wi);
-        let (texels, n) = self.texels(si.uv);
-        let hit = PlmcHit {
-            vi,
-            vw,
-            texels,
-            n: n as u8,
-        };
-        self.eval_pdf_hit_inner(&hit, wo)
+        self.eval_pdf_hit_inner(&self.hit_at(si, false), wo)
     }
 
     /// [`PlmcBsdf::eval_pdf`] at a prepared hit (the same values).
@@ -999,15 +998,7 @@ impl PlmcBsdf {
         if si.wi.z <= 0.0 {
             return None;
         }
-        let (vi, vw) = self.material.view_lookup(si.wi);
-        let (texels, n) = self.texels(si.uv);
-        let hit = PlmcHit {
-            vi,
-            vw,
-            texels,
-            n: n as u8,
-        };
-        self.sample_hit(&hit, sample1, sample2)
+        self.sample_hit(&self.hit_at(si, false), sample1, sample2)
     }
 
     /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).

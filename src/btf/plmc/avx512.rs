@@ -107,15 +107,7 @@ fn exp2(x: __m512) -> __m512 {
     let x = _mm512_min_ps(_mm512_max_ps(x, splat(-125.0)), splat(127.0));
     let r = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x);
     let f = _mm512_sub_ps(x, r);
-    let l = std::f32::consts::LN_2;
-    let c = [
-        l,
-        l * l / 2.0,
-        l * l * l / 6.0,
-        l * l * l * l / 24.0,
-        l * l * l * l * l / 120.0,
-        l * l * l * l * l * l / 720.0,
-    ];
+    let c = super::f4::EXP2_COEFFS;
     let f2 = _mm512_mul_ps(f, f);
     let p01 = _mm512_fmadd_ps(splat(c[0]), f, splat(1.0));
     let p23 = _mm512_fmadd_ps(splat(c[2]), f, splat(c[1]));

@@ -282,19 +282,25 @@ impl F4 {
     }
 }
 
-/// 2^f on [−½, ½]: degree-6 Taylor series of e^(f ln 2) (relative error < 3e-7), in Estrin
-/// form (three independent pairs, then f² and f⁴ combine them: 3 dependent steps, not 6).
-#[inline(always)]
-fn exp2_poly<I: Isa>(isa: I, f: F4) -> F4 {
+/// (ln 2)^k / k! for k = 1..6: the series coefficients of [`exp2_poly`] after the constant 1
+/// (shared with the AVX-512 kernel, which evaluates the same series in the same order).
+pub(super) const EXP2_COEFFS: [f32; 6] = {
     let l = std::f32::consts::LN_2;
-    let c = [
+    [
         l,
         l * l / 2.0,
         l * l * l / 6.0,
         l * l * l * l / 24.0,
         l * l * l * l * l / 120.0,
         l * l * l * l * l * l / 720.0,
-    ];
+    ]
+};
+
+/// 2^f on [−½, ½]: degree-6 Taylor series of e^(f ln 2) (relative error < 3e-7), in Estrin
+/// form (three independent pairs, then f² and f⁴ combine them: 3 dependent steps, not 6).
+#[inline(always)]
+fn exp2_poly<I: Isa>(isa: I, f: F4) -> F4 {
+    let c = EXP2_COEFFS;
     let s = F4::splat;
     let f2 = f * f;
     let p01 = isa.fma(s(c[0]), f, s(1.0)); // 1 + c1 f
