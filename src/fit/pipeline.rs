@@ -179,9 +179,7 @@ pub fn fit_view(
             || vec![0.0f32; nl],
             |y, i| {
                 let (t, c) = (i / 3, i % 3);
-                for (l, v) in y.iter_mut().enumerate() {
-                    *v = data[(l * texels + t) * 3 + c];
-                }
+                texel_curve(data, texels, t, c, y);
                 PackedLobe::pack(&fitter.fit(y).lobe)
             },
         )
@@ -307,11 +305,7 @@ pub fn fit_view(
         let mut assign = km.assign;
         if opts.refine_iters > 0 {
             let mut ytex = vec![0.0f32; texels * nl];
-            for t in 0..texels {
-                for l in 0..nl {
-                    ytex[t * nl + l] = data[(l * texels + t) * 3 + c];
-                }
-            }
+            channel_curves(data, texels, c, &mut ytex);
             // The PLM mappings of this channel stand in for the PLM-C ones fitted afterwards.
             let map: Vec<Poly> = (0..nl).map(|l| out.plm_polys[3 * l + c]).collect();
             let r = refine::refine(
@@ -404,11 +398,7 @@ pub fn fit_view(
         for c in 0..3 {
             let mut lobes: Vec<Lobe> = (0..k).map(|j| table[3 * j + c].unpack()).collect();
             let mut assign: Vec<u32> = (0..texels).map(|t| index[3 * t + c] as u32).collect();
-            for t in 0..texels {
-                for l in 0..nl {
-                    ytex[t * nl + l] = data[(l * texels + t) * 3 + c];
-                }
-            }
+            channel_curves(data, texels, c, &mut ytex);
             let map: Vec<Poly> = (0..nl).map(|l| polys[3 * l + c]).collect();
             let r = refine::refine(
                 fitter,
@@ -455,6 +445,22 @@ pub fn value_space(encoding: StoredEncoding, opts: &FitOptions) -> ValueSpace {
         ValueSpace::Srgb
     } else {
         ValueSpace::Linear
+    }
+}
+
+/// Texel `t`'s values over the lights in channel `c` (`out.len()` lights) from the view's
+/// images `data` = `[light][texel][rgb]`.
+fn texel_curve(data: &[f32], texels: usize, t: usize, c: usize, out: &mut [f32]) {
+    for (l, v) in out.iter_mut().enumerate() {
+        *v = data[(l * texels + t) * 3 + c];
+    }
+}
+
+/// Every texel's curve of channel `c`, `[texel][light]` (`out.len() / texels` lights).
+fn channel_curves(data: &[f32], texels: usize, c: usize, out: &mut [f32]) {
+    let nl = out.len() / texels;
+    for (t, y) in out.chunks_exact_mut(nl).enumerate() {
+        texel_curve(data, texels, t, c, y);
     }
 }
 
