@@ -26,6 +26,10 @@ pub enum Error {
     /// An invalid argument or setting that is not tied to a file.
     #[error("{0}")]
     Invalid(String),
+    /// Work stopped on request (Ctrl-C, SIGTERM, SIGHUP) after saving what can be resumed; the
+    /// message says what was kept and how to continue.
+    #[error("{0}")]
+    Interrupted(String),
 }
 
 /// Shorthand used throughout the library.

@@ -1,6 +1,7 @@
 //! Kill tests: a render interrupted by SIGINT and then SIGKILL and resumed twice ends with the same
-//! EXR bytes as an uninterrupted render (same seed); a fit killed midway and rerun writes the same
-//! `.plmc` bytes as an uninterrupted fit.
+//! EXR bytes as an uninterrupted render (same seed); so does one stopped the way a scheduler stops a
+//! job (SIGTERM at a time limit or on preemption, SIGHUP), resuming where it stopped; a fit killed
+//! midway, or stopped by SIGTERM, and rerun writes the same `.plmc` bytes as an uninterrupted fit.
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::path::{Path, PathBuf};
@@ -142,6 +143,72 @@ fn render_killed_by_sigint_then_sigkill_resumes_bit_exactly() {
     assert!(!ckpt.exists(), "the checkpoint is removed after success");
 }
 
+/// The number just before the first `after` and after the last `before` preceding it: the P of a
+/// stopped render's "interrupted at P%" or of its resume's "(P% done)".
+fn percent(text: &str, before: &str, after: &str) -> String {
+    let j = text
+        .find(after)
+        .unwrap_or_else(|| panic!("no '{after}' in: {text}"));
+    let i = text[..j]
+        .rfind(before)
+        .unwrap_or_else(|| panic!("no '{before}' before '{after}' in: {text}"))
+        + before.len();
+    text[i..j].to_string()
+}
+
+#[test]
+fn render_stopped_by_sigterm_and_sighup_resumes_bit_exactly_without_redoing_samples() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.xml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let reference = dir.path().join("ref.exr");
+    let (st, err) = stderr_of(
+        btfpt()
+            .args(render_args(&scene, &reference))
+            .spawn()
+            .unwrap(),
+    );
+    assert!(st.success(), "{err}");
+
+    let out = dir.path().join("out.exr");
+    let ckpt: PathBuf = dir.path().join("out.exr.ckpt");
+    let mut resume = render_args(&scene, &out);
+    resume.push("--resume".into());
+    // SIGTERM (a scheduler's time limit), then SIGHUP on the resumed run: each writes the final
+    // checkpoint as Ctrl-C does, exits non-zero, and the next run starts exactly where it stopped.
+    let mut stopped_at = None;
+    for (sig, args) in [("TERM", render_args(&scene, &out)), ("HUP", resume.clone())] {
+        let before = mtime(&ckpt);
+        let mut child = btfpt().args(&args).spawn().unwrap();
+        wait_for(&mut child, "a new checkpoint", || {
+            mtime(&ckpt).is_some_and(|t| Some(t) != before)
+        });
+        signal(&child, sig);
+        let (st, err) = stderr_of(child);
+        assert!(
+            !st.success(),
+            "a render stopped by SIG{sig} must exit non-zero"
+        );
+        assert!(err.contains("--resume"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(ckpt.exists() && !out.exists(), "{err}");
+        if let Some(p) = &stopped_at {
+            assert_eq!(&percent(&err, "(", "% done"), p, "{err}");
+        }
+        stopped_at = Some(percent(&err, "interrupted at ", "%; checkpoint"));
+    }
+    let (st, err) = stderr_of(btfpt().args(&resume).spawn().unwrap());
+    assert!(st.success(), "{err}");
+    let p = stopped_at.unwrap();
+    assert_eq!(percent(&err, "(", "% done"), p, "{err}");
+    assert!(p.parse::<f64>().unwrap() > 0.0, "{err}");
+    assert!(
+        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
+        "resumed EXR differs from the uninterrupted one"
+    );
+    assert!(!ckpt.exists(), "the checkpoint is removed after success");
+}
+
 /// A 4×4-texel BTF on the 81 UBO2003 directions with texture and a light-dependent lobe.
 fn fit_data(path: &Path) {
     let d = DirectionSet::ubo2003();
@@ -235,4 +302,74 @@ fn fit_killed_midway_and_rerun_writes_the_same_model() {
         "the resumed fit's .plmc differs from the uninterrupted one"
     );
     assert!(!parts.exists(), "parts are removed after success");
+}
+
+#[test]
+fn fit_stopped_by_sigterm_keeps_finished_views_and_resumes_to_the_same_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("m.btfc");
+    fit_data(&data);
+    let reference = dir.path().join("ref.plmc");
+    let (st, err) = stderr_of(
+        btfpt()
+            .args(fit_args(&data, &reference))
+            .env("RAYON_NUM_THREADS", "1")
+            .spawn()
+            .unwrap(),
+    );
+    assert!(st.success(), "{err}");
+
+    let out = dir.path().join("out.plmc");
+    let parts = dir.path().join("out.plmc.parts");
+    let names = |p: &Path| -> Vec<String> {
+        std::fs::read_dir(p)
+            .map(|r| {
+                r.flatten()
+                    .map(|e| e.file_name().to_string_lossy().to_string())
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    let count = |p: &Path| names(p).iter().filter(|n| n.ends_with(".part")).count();
+    let mut child = btfpt()
+        .args(fit_args(&data, &out))
+        .env("RAYON_NUM_THREADS", "1")
+        .spawn()
+        .unwrap();
+    wait_for(&mut child, "a few finished views", || count(&parts) >= 3);
+    signal(&child, "TERM");
+    let (st, err) = stderr_of(child);
+    assert!(!st.success(), "a fit stopped by SIGTERM must exit non-zero");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.exists(), "a stopped fit must not leave a model file");
+    let kept = count(&parts);
+    assert!(
+        (3..81).contains(&kept),
+        "{kept} views kept: the fit must stop early and keep what it finished"
+    );
+    assert!(
+        err.contains(&format!("interrupted: {kept} of 81 views finished")),
+        "{err}"
+    );
+    assert!(
+        names(&parts).iter().all(|n| n.ends_with(".part")),
+        "no temporary files left: {:?}",
+        names(&parts)
+    );
+
+    let o = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+        .args(fit_args(&data, &out))
+        .env("RAYON_NUM_THREADS", "1")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        text.contains(&format!("{kept} views resumed from")),
+        "every kept view is reused, none refitted: {text}"
+    );
+    assert!(
+        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
+        "the resumed fit's .plmc differs from the uninterrupted one"
+    );
 }

@@ -183,18 +183,20 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     let (_mp, bars) = stage_bars(views, labels);
     let start = std::time::Instant::now();
     let key = stitch.as_ref().map_or(0, |s| s.key());
-    let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &|_, stage| {
-        let i = match stage {
-            Stage::Lm => 0,
-            Stage::Plm => 1,
-            Stage::PlmC => 2,
-            Stage::Done => labels.len() - 1,
-        };
-        if let Some(b) = bars.get(i) {
-            b.inc(1);
-        }
-    })
-    .with_context(|| format!("fitting {}", args.data.display()))?;
+    let stop = super::interrupt::stop_flag();
+    let outcome =
+        pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &stop, &|_, stage| {
+            let i = match stage {
+                Stage::Lm => 0,
+                Stage::Plm => 1,
+                Stage::PlmC => 2,
+                Stage::Done => labels.len() - 1,
+            };
+            if let Some(b) = bars.get(i) {
+                b.inc(1);
+            }
+        })
+        .with_context(|| format!("fitting {}", args.data.display()))?;
     bars.iter().for_each(|b| b.finish());
     let section = stitch.as_ref().map(|s| s.section()).transpose()?;
     format::write_tiled(&args.output, &outcome.model, section.as_ref())?;

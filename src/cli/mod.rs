@@ -3,6 +3,7 @@
 pub mod compare;
 pub mod convert;
 pub mod info;
+pub mod interrupt;
 pub mod merge;
 pub mod render;
 pub mod synth;

@@ -1,5 +1,6 @@
 //! `btfpt render`: render a scene (or a crop window / sample range of it) to EXR + PNG preview,
-//! with progress, checkpoints every `--checkpoint-interval` seconds and on Ctrl-C, and `--resume`.
+//! with progress, checkpoints every `--checkpoint-interval` seconds and on Ctrl-C, SIGTERM or
+//! SIGHUP (a scheduler's time limit or preemption), and `--resume`.
 
 use anyhow::{Context, bail};
 use btfpt::render::film::{RenderSettings, RenderState};
@@ -7,8 +8,7 @@ use btfpt::render::partial::{PartialMeta, write_partial_exr};
 use btfpt::render::{RenderScene, checkpoint};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// Arguments of `btfpt render`.
@@ -240,15 +240,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         RenderState::new(settings)?
     };
 
-    let interrupt = Arc::new(AtomicBool::new(false));
-    {
-        let flag = interrupt.clone();
-        if let Err(e) = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst)) {
-            eprintln!(
-                "warning: cannot install the Ctrl-C handler ({e}); no checkpoint on interrupt"
-            );
-        }
-    }
+    let interrupt = super::interrupt::stop_flag();
     let pool = {
         let mut b = rayon::ThreadPoolBuilder::new();
         if let Some(t) = args.threads {

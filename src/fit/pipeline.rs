@@ -22,7 +22,7 @@ use crate::math::color::linear_to_srgb;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// Fitting settings (the `btfpt fit` options).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -688,16 +688,19 @@ pub fn fit_model(
     parts: Option<&Path>,
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
-    fit_model_keyed(source, opts, 0, parts, progress)
+    fit_model_keyed(source, opts, 0, parts, &AtomicBool::new(false), progress)
 }
 
 /// [`fit_model`] whose part files are keyed by `key` too (see [`fingerprint_keyed`]), for sources
-/// derived from the data (tiles), so parts of another derivation are never reused.
+/// derived from the data (tiles), so parts of another derivation are never reused. Once `stop` is
+/// set (a signal handler) no further view is started; views already running finish and are saved,
+/// then the fit returns [`Error::Interrupted`] saying how many views are kept.
 pub fn fit_model_keyed(
     source: &dyn BtfSource,
     opts: &FitOptions,
     key: u64,
     parts: Option<&Path>,
+    stop: &AtomicBool,
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
     if opts.kind == ModelKind::PlmC && !(1..=65536).contains(&opts.clusters) {
@@ -716,9 +719,13 @@ pub fn fit_model_keyed(
     }
     let texels = source.width() * source.height();
     let resumed = AtomicUsize::new(0);
-    let views: Vec<(ViewParams, Vec<Poly>, ViewStats)> = (0..source.views().len())
+    let finished = AtomicUsize::new(0);
+    let result: Result<Vec<(ViewParams, Vec<Poly>, ViewStats)>> = (0..source.views().len())
         .into_par_iter()
         .map(|v| -> Result<(ViewParams, Vec<Poly>, ViewStats)> {
+            if stop.load(Ordering::SeqCst) {
+                return Err(Error::Interrupted(String::new()));
+            }
             let part_path = parts.map(|d| d.join(format!("view{v:05}.part")));
             if let Some(p) = &part_path
                 && p.exists()
@@ -730,6 +737,7 @@ pub fn fit_model_keyed(
                     && m.width * m.height == texels
                 {
                     resumed.fetch_add(1, Ordering::Relaxed);
+                    finished.fetch_add(1, Ordering::Relaxed);
                     progress(v, Stage::Done);
                     return Ok((m.params.remove(0), m.polys, ViewStats::default()));
                 }
@@ -762,11 +770,31 @@ pub fn fit_model_keyed(
                 let bytes = format::part_to_bytes(fp, v, &m)?;
                 crate::io::write_atomic(p, |w| w.write_all(&bytes).map_err(|e| Error::io(p, e)))?;
             }
+            finished.fetch_add(1, Ordering::Relaxed);
             progress(v, Stage::Done);
             let mut m = m;
             Ok((m.params.remove(0), m.polys, fit.stats))
         })
-        .collect::<Result<_>>()?;
+        .collect();
+    // Rayon returns only after the views already running have finished (and saved their parts),
+    // so `finished` is final here.
+    let views = match result {
+        Err(Error::Interrupted(_)) => {
+            let kept = match parts {
+                Some(dir) => format!(
+                    "kept in {} (run the same command again to continue)",
+                    dir.display()
+                ),
+                None => "not kept (no parts directory)".into(),
+            };
+            return Err(Error::Interrupted(format!(
+                "interrupted: {} of {} views finished, {kept}",
+                finished.load(Ordering::SeqCst),
+                source.views().len()
+            )));
+        }
+        r => r?,
+    };
     let mut model = skeleton(
         source,
         opts.kind,
