@@ -93,3 +93,68 @@ fn render_cli_reports_a_missing_scene_and_bad_arguments() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--crop"));
 }
+
+/// A small scene file for the command-line renders below.
+const BAND_SCENE: &str = r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="7"/>
+            <rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="diffuse"/></shape>
+    <emitter type="constant"/>
+</scene>
+"#;
+
+#[test]
+fn render_bands_merge_byte_identically_and_bad_bands_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.xml");
+    std::fs::write(&scene, BAND_SCENE).unwrap();
+    let run = |extra: &[&str], out: &str| {
+        btfpt()
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(dir.path().join(out))
+            .args(["--seed", "5"])
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert!(run(&[], "full.exr").status.success());
+    // 7 rows in 3 bands: 2, 2 and 3 rows.
+    let mut merge = btfpt();
+    merge.arg("merge");
+    for i in 0..3 {
+        let name = format!("b{i}.exr");
+        let o = run(&["--band", &format!("{i}/3")], &name);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (_, meta) = read_partial_exr(&dir.path().join(&name)).unwrap();
+        let rows = [[0, 2], [2, 2], [4, 3]][i];
+        assert_eq!(meta.crop, [0, rows[0], 12, rows[1]], "band {i}");
+        merge.arg(dir.path().join(name));
+    }
+    let merged = dir.path().join("merged.exr");
+    assert!(merge.arg("-o").arg(&merged).status().unwrap().success());
+    assert!(
+        std::fs::read(&merged).unwrap() == std::fs::read(dir.path().join("full.exr")).unwrap(),
+        "merged bands differ from the one-process render"
+    );
+    for (band, msg) in [
+        ("3/3", "0..3"),
+        ("1/0", "0..0"),
+        ("x/2", "bad band index"),
+        ("1", "expected I/N"),
+        ("0/8", "only 7 rows"),
+    ] {
+        let o = run(&["--band", band], "bad.exr");
+        assert_eq!(o.status.code(), Some(1), "--band {band}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains("--band") && err.contains(msg), "{band}: {err}");
+    }
+    let o = run(&["--band", "0/2", "--crop", "0,0,2,2"], "bad.exr");
+    assert!(!o.status.success(), "--band and --crop conflict");
+}

@@ -34,6 +34,11 @@ pub struct RenderArgs {
     /// Render only the window x,y,w,h of the film (pixels).
     #[arg(long, value_name = "X,Y,W,H")]
     pub crop: Option<String>,
+    /// Render only band I of N equal bands of rows (0-based; rows H·I/N..H·(I+1)/N of the
+    /// scene's window), so N machines split one image without knowing its size; `merge` joins
+    /// the bands byte-identically to a one-machine render.
+    #[arg(long, value_name = "I/N", conflicts_with = "crop")]
+    pub band: Option<String>,
     /// Override a scene `<default>` parameter, e.g. -D spp=64 (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
@@ -80,6 +85,24 @@ fn parse_crop(s: &str) -> anyhow::Result<[u32; 4]> {
         bail!("--crop '{s}': expected four numbers x,y,w,h");
     }
     Ok([v[0], v[1], v[2], v[3]])
+}
+
+fn parse_band(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (i, n) = s
+        .split_once('/')
+        .with_context(|| format!("--band '{s}': expected I/N, e.g. 0/4"))?;
+    let i: u32 = i
+        .trim()
+        .parse()
+        .with_context(|| format!("--band '{s}': bad band index"))?;
+    let n: u32 = n
+        .trim()
+        .parse()
+        .with_context(|| format!("--band '{s}': bad band count"))?;
+    if n == 0 || i >= n {
+        bail!("--band '{s}': the index must be in 0..{n} (0-based)");
+    }
+    Ok((i, n))
 }
 
 fn parse_defines(d: &[String]) -> anyhow::Result<Vec<(String, String)>> {
@@ -140,6 +163,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let defines = parse_defines(&args.defines)?;
     let range = args.spp_range.as_deref().map(parse_range).transpose()?;
     let crop_arg = args.crop.as_deref().map(parse_crop).transpose()?;
+    let band = args.band.as_deref().map(parse_band).transpose()?;
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
     }
@@ -172,13 +196,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if spp_end == 0 {
         bail!("sample count must be at least 1");
     }
-    let crop = match crop_arg {
+    let mut crop = match crop_arg {
         Some(c) => c,
         None => scene
             .camera
             .crop
             .unwrap_or([0, 0, scene.camera.width, scene.camera.height]),
     };
+    if let Some((i, n)) = band {
+        let [_, y, _, h] = crop;
+        if n > h {
+            bail!("--band {i}/{n}: the window has only {h} rows");
+        }
+        let row = |k: u32| (h as u64 * k as u64 / n as u64) as u32;
+        crop[1] = y + row(i);
+        crop[3] = row(i + 1) - row(i);
+    }
     let settings = RenderSettings {
         width: scene.camera.width,
         height: scene.camera.height,
