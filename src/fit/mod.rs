@@ -16,3 +16,4 @@ pub mod refine;
 pub mod report;
 pub mod select;
 pub mod tiling;
+pub mod views;
