@@ -6,6 +6,7 @@ use btfpt::fit::model::ModelKind;
 use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
 use btfpt::fit::report::raw_bytes;
 use btfpt::fit::tiling;
+use btfpt::fit::views::ViewSelection;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -85,10 +86,16 @@ pub struct FitArgs {
     /// Overlap band of the cuts in texels (with --tile; default min(W,H)/4 within 2..=16).
     #[arg(long)]
     pub overlap: Option<usize>,
-    /// Keep OUTPUT.parts/ (one file per fitted view) after the model is written, e.g. to merge
-    /// views fitted on several machines or to refit with other options later.
+    /// Keep OUTPUT.parts/ (one file per fitted view) after the model is written, e.g. to
+    /// assemble the same model again later.
     #[arg(long)]
     pub keep_parts: bool,
+    /// Fit only these views into OUTPUT.parts/ and do not write OUTPUT: A..B (views A to B-1), A,
+    /// a comma-separated list, or I/N (part I of N equal ranges, 0-based). Once every view has a
+    /// part, the same command without --views assembles the model without refitting anything
+    /// (byte-identical to a one-process fit); see docs/farm.md.
+    #[arg(long, value_name = "A..B|I/N")]
+    pub views: Option<String>,
 }
 
 /// Progress bars for the per-view stages.
@@ -175,27 +182,58 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     };
     let parts = pipeline::parts_dir(&args.output);
     let views = source.views().len();
+    let selection = args
+        .views
+        .as_deref()
+        .map(|spec| ViewSelection::parse(spec, views))
+        .transpose()?;
     let labels: &[&str] = match opts.kind {
         ModelKind::Lm => &["LM", "done"],
         ModelKind::Plm => &["LM", "PLM", "done"],
         ModelKind::PlmC => &["LM", "PLM", "PLM-C", "done"],
     };
-    let (_mp, bars) = stage_bars(views, labels);
+    let (_mp, bars) = stage_bars(selection.as_ref().map_or(views, |s| s.len()), labels);
     let start = std::time::Instant::now();
     let key = stitch.as_ref().map_or(0, |s| s.key());
     let stop = super::interrupt::stop_flag();
-    let outcome =
-        pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &stop, &|_, stage| {
-            let i = match stage {
-                Stage::Lm => 0,
-                Stage::Plm => 1,
-                Stage::PlmC => 2,
-                Stage::Done => labels.len() - 1,
-            };
-            if let Some(b) = bars.get(i) {
-                b.inc(1);
-            }
-        })
+    let progress = |_, stage| {
+        let i = match stage {
+            Stage::Lm => 0,
+            Stage::Plm => 1,
+            Stage::PlmC => 2,
+            Stage::Done => labels.len() - 1,
+        };
+        if let Some(b) = bars.get(i) {
+            b.inc(1);
+        }
+    };
+    if let Some(sel) = &selection {
+        let done = pipeline::fit_views_keyed(source, &opts, key, &parts, sel, &stop, &progress)
+            .with_context(|| format!("fitting views {sel} of {}", args.data.display()))?;
+        bars.iter().for_each(|b| b.finish());
+        println!(
+            "views {sel}: {} fitted, {} already in {} ({:.1} s); {} not written",
+            done.fitted,
+            done.resumed,
+            parts.display(),
+            start.elapsed().as_secs_f64(),
+            args.output.display()
+        );
+        if done.missing.is_empty() {
+            println!(
+                "all {views} views have parts: run the same command without --views to assemble {}",
+                args.output.display()
+            );
+        } else {
+            println!(
+                "{} of {views} views still missing: {}",
+                done.missing.len(),
+                btfpt::fit::views::describe(&done.missing)
+            );
+        }
+        return Ok(());
+    }
+    let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &stop, &progress)
         .with_context(|| format!("fitting {}", args.data.display()))?;
     bars.iter().for_each(|b| b.finish());
     let section = stitch.as_ref().map(|s| s.section()).transpose()?;

@@ -17,6 +17,7 @@ use super::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use super::polynomial::{self, Poly};
 use super::refine;
 use super::select;
+use super::views::ViewSelection;
 use crate::btf::{BtfSource, DirectionSet, StoredEncoding, format};
 use crate::math::color::linear_to_srgb;
 use crate::{Error, Result};
@@ -703,6 +704,133 @@ pub fn fit_model_keyed(
     stop: &AtomicBool,
     progress: &(dyn Fn(usize, Stage) + Sync),
 ) -> Result<FitOutcome> {
+    let run = fit_selected(source, opts, key, parts, &|_| true, stop, progress)?;
+    let views: Vec<_> = run
+        .views
+        .into_iter()
+        .map(|v| v.ok_or_else(|| Error::Invalid("a view was not fitted".into())))
+        .collect::<Result<_>>()?;
+    let mut model = skeleton(
+        source,
+        opts.kind,
+        opts.clusters,
+        value_space(source.encoding(), opts),
+    );
+    let mut stats = ViewStats::default();
+    for (p, polys, s) in views {
+        model.params.push(p);
+        model.polys.extend(polys);
+        stats.refit_wins += s.refit_wins;
+        stats.average_wins += s.average_wins;
+        stats.clusters += s.clusters;
+        stats.kmeans_iterations += s.kmeans_iterations;
+        stats.matched_polys += s.matched_polys;
+        stats.regression_polys += s.regression_polys;
+        stats.refine_moves += s.refine_moves;
+        stats.refine_rounds += s.refine_rounds;
+        stats.refine_error_before += s.refine_error_before;
+        stats.refine_error_after += s.refine_error_after;
+        stats.refine_second_kept += s.refine_second_kept;
+    }
+    model.validate()?;
+    Ok(FitOutcome {
+        model,
+        resumed_views: run.resumed,
+        stats,
+    })
+}
+
+/// Result of [`fit_views_keyed`].
+#[derive(Clone, Debug)]
+pub struct PartsOutcome {
+    /// Selected views fitted by this run.
+    pub fitted: usize,
+    /// Selected views whose parts were already there.
+    pub resumed: usize,
+    /// Views of the whole BTF that still have no part file (the assembling run fits them).
+    pub missing: Vec<usize>,
+}
+
+/// Fits only the `views` selected into the parts directory `parts` (no model is assembled), so
+/// one fit is split over processes or machines: a later [`fit_model_keyed`] with the same options
+/// and parts directory finds every part and only assembles, refitting nothing. Parts already there
+/// are reused; parts of another fit are refused as in [`fit_model_keyed`].
+pub fn fit_views_keyed(
+    source: &dyn BtfSource,
+    opts: &FitOptions,
+    key: u64,
+    parts: &Path,
+    views: &ViewSelection,
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize, Stage) + Sync),
+) -> Result<PartsOutcome> {
+    let run = fit_selected(
+        source,
+        opts,
+        key,
+        Some(parts),
+        &|v| views.contains(v),
+        stop,
+        progress,
+    )?;
+    let missing = (0..source.views().len())
+        .filter(|&v| !part_path(parts, v).exists())
+        .collect();
+    Ok(PartsOutcome {
+        fitted: views.len() - run.resumed,
+        resumed: run.resumed,
+        missing,
+    })
+}
+
+/// The part file of view `v` in a parts directory.
+fn part_path(parts: &Path, v: usize) -> PathBuf {
+    parts.join(format!("view{v:05}.part"))
+}
+
+/// Refuses a parts directory holding a part of another fit (other options, data, tiles or code
+/// version), so parts are never mixed. Corrupt parts (a crash of the machine) pass: they are
+/// refitted. Temporaries and unrelated files are ignored.
+fn check_parts(parts: &Path, fp: u64, views: usize) -> Result<()> {
+    for v in 0..views {
+        let p = part_path(parts, v);
+        if !p.exists() {
+            continue;
+        }
+        let bytes = std::fs::read(&p).map_err(|e| Error::io(&p, e))?;
+        if let Ok(None) = format::part_from_bytes(&bytes, &p, fp, v) {
+            return Err(Error::format(
+                &p,
+                format!(
+                    "written by a fit with other options, data or btfpt version; parts are never \
+                     mixed: rerun with the options that made {}, or remove it to start over",
+                    parts.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One view's fitted parameters, mapping polynomials and statistics.
+type ViewResult = (ViewParams, Vec<Poly>, ViewStats);
+
+/// What [`fit_selected`] produced: per view, its result if it was selected.
+struct SelectedRun {
+    views: Vec<Option<ViewResult>>,
+    resumed: usize,
+}
+
+/// Fits the views for which `selected` holds, in parallel, reusing and writing parts in `parts`.
+fn fit_selected(
+    source: &dyn BtfSource,
+    opts: &FitOptions,
+    key: u64,
+    parts: Option<&Path>,
+    selected: &(dyn Fn(usize) -> bool + Sync),
+    stop: &AtomicBool,
+    progress: &(dyn Fn(usize, Stage) + Sync),
+) -> Result<SelectedRun> {
     if opts.kind == ModelKind::PlmC && !(1..=65536).contains(&opts.clusters) {
         return Err(Error::Invalid(format!(
             "--clusters must be in 1..=65536, got {}",
@@ -716,17 +844,21 @@ pub fn fit_model_keyed(
     let fp = fingerprint_keyed(source, opts, key);
     if let Some(dir) = parts {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        check_parts(dir, fp, source.views().len())?;
     }
     let texels = source.width() * source.height();
     let resumed = AtomicUsize::new(0);
     let finished = AtomicUsize::new(0);
-    let result: Result<Vec<(ViewParams, Vec<Poly>, ViewStats)>> = (0..source.views().len())
+    let result: Result<Vec<Option<ViewResult>>> = (0..source.views().len())
         .into_par_iter()
-        .map(|v| -> Result<(ViewParams, Vec<Poly>, ViewStats)> {
+        .map(|v| -> Result<Option<ViewResult>> {
+            if !selected(v) {
+                return Ok(None);
+            }
             if stop.load(Ordering::SeqCst) {
                 return Err(Error::Interrupted(String::new()));
             }
-            let part_path = parts.map(|d| d.join(format!("view{v:05}.part")));
+            let part_path = parts.map(|d| part_path(d, v));
             if let Some(p) = &part_path
                 && p.exists()
             {
@@ -739,7 +871,7 @@ pub fn fit_model_keyed(
                     resumed.fetch_add(1, Ordering::Relaxed);
                     finished.fetch_add(1, Ordering::Relaxed);
                     progress(v, Stage::Done);
-                    return Ok((m.params.remove(0), m.polys, ViewStats::default()));
+                    return Ok(Some((m.params.remove(0), m.polys, ViewStats::default())));
                 }
             }
             let data = source.load_view(v)?;
@@ -773,12 +905,12 @@ pub fn fit_model_keyed(
             finished.fetch_add(1, Ordering::Relaxed);
             progress(v, Stage::Done);
             let mut m = m;
-            Ok((m.params.remove(0), m.polys, fit.stats))
+            Ok(Some((m.params.remove(0), m.polys, fit.stats)))
         })
         .collect();
     // Rayon returns only after the views already running have finished (and saved their parts),
     // so `finished` is final here.
-    let views = match result {
+    match result {
         Err(Error::Interrupted(_)) => {
             let kept = match parts {
                 Some(dir) => format!(
@@ -787,42 +919,18 @@ pub fn fit_model_keyed(
                 ),
                 None => "not kept (no parts directory)".into(),
             };
-            return Err(Error::Interrupted(format!(
-                "interrupted: {} of {} views finished, {kept}",
+            let total = (0..source.views().len()).filter(|&v| selected(v)).count();
+            Err(Error::Interrupted(format!(
+                "interrupted: {} of {total} views finished, {kept}",
                 finished.load(Ordering::SeqCst),
-                source.views().len()
-            )));
+            )))
         }
-        r => r?,
-    };
-    let mut model = skeleton(
-        source,
-        opts.kind,
-        opts.clusters,
-        value_space(source.encoding(), opts),
-    );
-    let mut stats = ViewStats::default();
-    for (p, polys, s) in views {
-        model.params.push(p);
-        model.polys.extend(polys);
-        stats.refit_wins += s.refit_wins;
-        stats.average_wins += s.average_wins;
-        stats.clusters += s.clusters;
-        stats.kmeans_iterations += s.kmeans_iterations;
-        stats.matched_polys += s.matched_polys;
-        stats.regression_polys += s.regression_polys;
-        stats.refine_moves += s.refine_moves;
-        stats.refine_rounds += s.refine_rounds;
-        stats.refine_error_before += s.refine_error_before;
-        stats.refine_error_after += s.refine_error_after;
-        stats.refine_second_kept += s.refine_second_kept;
+        Err(e) => Err(e),
+        Ok(views) => Ok(SelectedRun {
+            views,
+            resumed: resumed.into_inner(),
+        }),
     }
-    model.validate()?;
-    Ok(FitOutcome {
-        model,
-        resumed_views: resumed.into_inner(),
-        stats,
-    })
 }
 
 #[cfg(test)]
@@ -1039,14 +1147,54 @@ mod tests {
         assert_eq!(second.resumed_views, 1);
         assert_eq!(fitted.into_inner(), 2);
         assert_eq!(second.model, first.model);
-        // Parts of a fit with other options are not reused.
+        // Parts of a fit with other options are refused, never mixed or silently overwritten.
         let other = FitOptions { seed: 9, ..o };
-        assert_eq!(
-            fit_model(&btf, &other, Some(&parts), &|_, _| {})
-                .unwrap()
-                .resumed_views,
-            0
+        let e = fit_model(&btf, &other, Some(&parts), &|_, _| {})
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("view00000.part") && e.contains("other options"),
+            "{e}"
         );
+        assert_eq!(
+            fit_model(&btf, &o, Some(&parts), &|_, _| {}).unwrap().model,
+            first.model
+        );
+    }
+
+    #[test]
+    fn views_fitted_in_parts_assemble_to_the_one_process_model_without_refitting() {
+        let btf = synth(5, 6, 3);
+        let o = FitOptions {
+            clusters: 8,
+            ..FitOptions::default()
+        };
+        let whole = fit_model(&btf, &o, None, &|_, _| {}).unwrap().model;
+        let dir = tempfile::tempdir().unwrap();
+        let parts = parts_dir(&dir.path().join("m.plmc"));
+        let never = AtomicBool::new(false);
+        let sel = |s: &str| ViewSelection::parse(s, 5).unwrap();
+        let a = fit_views_keyed(&btf, &o, 0, &parts, &sel("3..5"), &never, &|_, _| {}).unwrap();
+        assert_eq!((a.fitted, a.resumed, a.missing), (2, 0, vec![0, 1, 2]));
+        let b = fit_views_keyed(&btf, &o, 0, &parts, &sel("0..2,4"), &never, &|_, _| {}).unwrap();
+        assert_eq!((b.fitted, b.resumed, b.missing), (2, 1, vec![2]));
+        let c = fit_views_keyed(&btf, &o, 0, &parts, &sel("2/5"), &never, &|_, _| {}).unwrap();
+        assert!(c.missing.is_empty());
+        let fitted = AtomicUsize::new(0);
+        let m = fit_model(&btf, &o, Some(&parts), &|_, s| {
+            if s == Stage::Lm {
+                fitted.fetch_add(1, Ordering::Relaxed);
+            }
+        })
+        .unwrap();
+        assert_eq!((m.resumed_views, fitted.into_inner()), (5, 0));
+        assert_eq!(m.model, whole);
+        // A views run with other options is refused too.
+        let other = FitOptions { clusters: 4, ..o };
+        let e = fit_views_keyed(&btf, &other, 0, &parts, &sel("0"), &never, &|_, _| {})
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("other options"), "{e}");
     }
 
     /// Sharp lobes over a constant floor: at grazing lights the LM images are ~1e-18 while the
