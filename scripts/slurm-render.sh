@@ -23,12 +23,11 @@
 # Prints the two job ids. Needs sbatch on PATH (SLURM_CONF is honoured).
 set -euo pipefail
 
-die() {
-    echo "slurm-render.sh: $*" >&2
-    exit 2
-}
+prog=slurm-render.sh
+# shellcheck source=scripts/slurm-common.sh
+. "$(dirname "$0")/slurm-common.sh"
 
-scene="" parts="" out="" spp="" split=rows work="" bin="${BTFPT:-}" sbatch_extra=""
+scene="" parts="" out="" spp="" split=rows work="" bin="" sbatch_extra=""
 render_opts=()
 while [ $# -gt 0 ]; do
     case "$1" in
@@ -56,22 +55,12 @@ done
 [ -f "$scene" ] || die "$scene: scene file not found"
 [ -n "$out" ] || die "no output given (-o OUT.exr)"
 case "$out" in *.exr | *.EXR) ;; *) die "$out: the output must be an .exr file" ;; esac
-[[ "$parts" =~ ^[1-9][0-9]*$ ]] || die "--parts '$parts': expected a positive integer"
+check_parts_count "$parts"
 [ -d "$(dirname "$out")" ] || die "$out: output directory $(dirname "$out") does not exist"
-command -v sbatch >/dev/null || die "sbatch not found: run this on a Slurm login node"
-
-if [ -z "$bin" ]; then
-    bin=$(command -v btfpt || true)
-    [ -n "$bin" ] || bin="$(cd "$(dirname "$0")/.." && pwd)/target/release/btfpt"
-fi
-[ -x "$bin" ] || die "$bin: btfpt binary not found or not executable (use --btfpt BIN)"
-
-abs() { # absolute path without resolving symlinks (the nodes see the same paths)
-    case "$1" in /*) printf '%s\n' "$1" ;; *) printf '%s/%s\n' "$PWD" "$1" ;; esac
-}
+check_sbatch
+bin=$(find_btfpt "$bin")
 scene=$(abs "$scene")
 out=$(abs "$out")
-bin=$(abs "$bin")
 work=$(abs "${work:-$out.farm}")
 
 case "$split" in
@@ -88,8 +77,6 @@ rows)
 esac
 
 mkdir -p "$work/logs"
-q() { [ $# -eq 0 ] || printf '%q ' "$@"; } # shell-quoted words, each followed by a space
-qw() { printf '%q' "$1"; }                  # one shell-quoted word
 
 # One task: its sample range or rows, resuming from its own checkpoint if an earlier run (preempted,
 # timed out, requeued) left one. `exec` so Slurm's SIGTERM reaches btfpt itself.
@@ -121,17 +108,6 @@ for ((i = 0; i < parts; i++)); do partfiles+=("$(printf '%s/part-%05d.exr' "$wor
 } >"$work/merge.sh"
 chmod +x "$work/render-task.sh" "$work/merge.sh"
 
-read -ra extra <<<"$sbatch_extra"
-jobid() { # sbatch --parsable prints ID or ID;CLUSTER
-    local id=${1%%;*}
-    [[ "$id" =~ ^[0-9]+$ ]] || die "unexpected sbatch output '$1'"
-    printf '%s\n' "$id"
-}
-array=$(jobid "$(sbatch --parsable --job-name=btfpt-render --array="0-$((parts - 1))" \
-    --chdir="$work" --open-mode=append --output="$work/logs/render-%A_%a.out" \
-    ${extra[@]+"${extra[@]}"} "$work/render-task.sh")")
-merge=$(jobid "$(sbatch --parsable --job-name=btfpt-merge --dependency="afterok:$array" \
-    --kill-on-invalid-dep=yes --chdir="$work" --output="$work/logs/merge-%j.out" \
-    ${extra[@]+"${extra[@]}"} "$work/merge.sh")")
+submit_array_and_join render "$parts" "$work" "$work/render-task.sh" "$work/merge.sh" "$sbatch_extra"
 echo "render array job $array: $parts tasks, $what, parts and logs in $work"
-echo "merge job $merge: runs after every task succeeded, writes $out"
+echo "merge job $join: runs after every task succeeded, writes $out"

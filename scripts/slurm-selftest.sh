@@ -3,8 +3,9 @@
 # from Debian's packages), starts a one-node cluster on localhost from a config in a temporary
 # folder (its own munge key and socket, slurmctld, slurmd, free ports, run as the current user),
 # runs scripts/slurm-render.sh (bands of rows, sample ranges, a task requeued mid-render the way
-# preemption does it) through sbatch on a small scene with a small synthetic material, and checks
-# every result byte-identical to a one-process run. It stops only the daemons
+# preemption does it) and scripts/slurm-fit.sh (3 view ranges, then the assembly) through sbatch on
+# a small scene and a small synthetic material, and checks every result byte-identical to a
+# one-process run. It stops only the daemons
 # it started (by their process ids) and removes the folder (KEEP=1 keeps it for a look).
 #
 # usage: scripts/slurm-selftest.sh        (env: BTFPT=path/to/btfpt, default target/release/btfpt)
@@ -218,5 +219,16 @@ task_log=$(ls "$dir"/requeued.exr.farm/logs/render-"${array_job}"_0.out)
 grep -q "interrupted at" "$task_log" || fail "the requeued task did not checkpoint on SIGTERM: $(cat "$task_log")"
 grep -q "resuming from" "$task_log" || fail "the requeued task did not resume: $(cat "$task_log")"
 same "$dir/ref-long.exr" "$dir/requeued.exr" "render with a task requeued mid-render (resumed from its checkpoint)"
+
+# --- Fit -------------------------------------------------------------------------------------------
+"$bin" synth wool --size 8 --strata 1 --format exr -o "$dir/wool8" >/dev/null
+fit_opts=(--clusters 8 --features 5)
+"$bin" fit "$dir/wool8" -o "$dir/ref.plmc" "${fit_opts[@]}" >/dev/null 2>&1
+submit "$root/scripts/slurm-fit.sh" "$dir/wool8" -o "$dir/farm.plmc" --parts 3 --btfpt "$bin" \
+    --sbatch "--cpus-per-task=1" "${fit_opts[@]}"
+wait_job "$(cat "$dir/last-job")" 300
+grep -q "81 views resumed" "$dir"/farm.plmc.farm/logs/fit-join-*.out ||
+    fail "the assembly job refitted views: $(cat "$dir"/farm.plmc.farm/logs/fit-join-*.out)"
+same "$dir/ref.plmc" "$dir/farm.plmc" "fit split into 3 view ranges, assembled without refitting"
 
 log "all checks passed"
