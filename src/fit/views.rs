@@ -14,7 +14,9 @@ impl ViewSelection {
     /// Every view of a BTF with `count` views.
     pub fn all(count: usize) -> Self {
         ViewSelection {
-            ranges: if count == 0 { vec![] } else { vec![0..count] },
+            ranges: std::iter::once(0..count)
+                .filter(|r| !r.is_empty())
+                .collect(),
         }
     }
 
@@ -41,7 +43,7 @@ impl ViewSelection {
             }
             let at = |k: usize| count * k / n;
             return Ok(ViewSelection {
-                ranges: vec![at(i)..at(i + 1)],
+                ranges: std::iter::once(at(i)..at(i + 1)).collect(),
             });
         }
         let mut ranges = Vec::new();
