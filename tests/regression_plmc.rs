@@ -37,11 +37,11 @@
 mod reference;
 
 use btfpt::bsdf::Bsdf;
-use btfpt::btf::format;
 use btfpt::btf::{BtfSource, RawBtf};
-use btfpt::fit::model::{ModelKind, PlmcModel, ViewParams};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
 use btfpt::metrics::{Comparison, Criteria};
+use btfpt::model::codec;
+use btfpt::model::{ModelKind, PlmcModel, ViewParams};
 use btfpt::scene::btf_bsdf::{SynthSpec, with_model_override};
 use btfpt::scene::{self, Scene};
 use reference::{reference, render, root, score};
@@ -223,7 +223,7 @@ fn faulty(model: &PlmcModel, fault: Fault) -> PlmcModel {
         }
         Fault::DropPolynomials => {
             for a in m.polys.iter_mut() {
-                *a = btfpt::fit::polynomial::IDENTITY;
+                *a = btfpt::model::polynomial::IDENTITY;
             }
         }
         Fault::WrongModel => m = fit(OTHER_SOURCE, ModelKind::PlmC),
@@ -313,7 +313,7 @@ fn regression(name: &str) {
     let raw_img = render(raw_scene, SPP, SEED);
     let run = |m: &PlmcModel, tag: &str| -> (Comparison, f64) {
         let path = dir.path().join(format!("{tag}.plmc"));
-        format::write(&path, m).unwrap();
+        codec::write(&path, m).unwrap();
         let img = render(load_scene_with_model(name, &path), SPP, SEED);
         let crn = btfpt::metrics::relmse(&img, &raw_img).unwrap();
         (score(&img, SPP, &r), crn)

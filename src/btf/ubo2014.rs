@@ -15,10 +15,14 @@
 //! the cosine), and clamped at 0 (factorisation ringing can go slightly negative).
 
 use super::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
+use crate::io::bytes::Reader;
 use crate::{Error, Result};
 use half::f16;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+
+/// How the byte reader names this data in errors.
+const KIND: &str = "UBO2014 .btf";
 
 /// Offset the Bonn tools add before taking logarithms (btflib's default `drr_eps`).
 const DRR_EPS: f32 = 1e-5;
@@ -115,65 +119,6 @@ impl ColorModel {
     }
 }
 
-/// A bounds-checked little-endian reader over the file bytes; errors name the file and offset.
-struct Reader<'a> {
-    path: &'a Path,
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn err(&self, msg: impl std::fmt::Display) -> Error {
-        Error::format(self.path, format!("at byte {}: {msg}", self.pos))
-    }
-    fn remaining(&self) -> usize {
-        self.bytes.len() - self.pos
-    }
-    /// Takes `count · size` bytes, refusing (without allocating) anything the file cannot hold.
-    fn take(&mut self, count: u64, size: u64, what: &str) -> Result<&'a [u8]> {
-        let n = count
-            .checked_mul(size)
-            .filter(|&n| n <= self.remaining() as u64);
-        let Some(n) = n else {
-            return Err(self.err(format!(
-                "file truncated or corrupt: {what} needs {count} × {size} bytes, {} left",
-                self.remaining()
-            )));
-        };
-        let s = &self.bytes[self.pos..self.pos + n as usize];
-        self.pos += n as usize;
-        Ok(s)
-    }
-    fn u8(&mut self, what: &str) -> Result<u8> {
-        Ok(self.take(1, 1, what)?[0])
-    }
-    fn u32(&mut self, what: &str) -> Result<u32> {
-        let b = self.take(1, 4, what)?;
-        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-    }
-    fn f32(&mut self, what: &str) -> Result<f32> {
-        Ok(f32::from_bits(self.u32(what)?))
-    }
-    /// Reads `count` scalars of `size` bytes (2 = f16, 4 = f32, 8 = f64) as f32.
-    fn scalars(&mut self, count: u64, size: u8, what: &str) -> Result<Vec<f32>> {
-        let b = self.take(count, size as u64, what)?;
-        Ok(match size {
-            2 => b
-                .chunks_exact(2)
-                .map(|c| f16::from_le_bytes([c[0], c[1]]).to_f32())
-                .collect(),
-            4 => b
-                .chunks_exact(4)
-                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-                .collect(),
-            _ => b
-                .chunks_exact(8)
-                .map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8])) as f32)
-                .collect(),
-        })
-    }
-}
-
 /// The header fields shared by all UBO2014 formats.
 #[derive(Clone, Debug)]
 pub struct Ubo2014Header {
@@ -212,10 +157,10 @@ fn parse_common(
     kind: PayloadKind,
     rotations: bool,
 ) -> Result<Ubo2014Header> {
-    let start = r.pos;
+    let start = r.pos();
     let size = r.u32("header size")?;
     let version = r.u32("header version")?;
-    r.take(3, 80, "header text fields")?;
+    r.take_n(3, 80, "header text fields")?;
     let _ppmm = r.f32("ppmm")?;
     let rgb_scale = [
         r.f32("rgb scale")?,
@@ -229,7 +174,7 @@ fn parse_common(
     };
     if version > 2 {
         let len = r.u32("XML length")?;
-        r.take(len as u64, 1, "XML block")?;
+        r.take_n(len as u64, 1, "XML block")?;
     }
     let mut channels = vec!["R".to_string(), "G".to_string(), "B".to_string()];
     if version > 3 {
@@ -240,14 +185,14 @@ fn parse_common(
         channels.clear();
         for _ in 0..n {
             let len = r.u32("channel name length")?;
-            let name = r.take(len as u64, 1, "channel name")?;
+            let name = r.take_n(len as u64, 1, "channel name")?;
             channels.push(String::from_utf8_lossy(name).into_owned());
         }
     }
-    if r.pos - start != size as usize {
+    if r.pos() - start != size as usize {
         return Err(r.err(format!(
             "header size field says {size} bytes, but the header fields took {}",
-            r.pos - start
+            r.pos() - start
         )));
     }
     let nv = r.u32("view count")?;
@@ -260,7 +205,7 @@ fn parse_common(
         let (t, p) = (r.f32("view θ")?, r.f32("view φ")?);
         views.push(angles_deg(t, p));
         let nl = r.u32("light count")?;
-        let raw = r.take(nl as u64, 8, "light directions")?;
+        let raw = r.take_n(nl as u64, 8, "light directions")?;
         let ls: Vec<(f32, f32)> = raw
             .chunks_exact(8)
             .map(|c| {
@@ -295,7 +240,7 @@ fn parse_common(
     }
     if rotations {
         let n = r.u32("rotation count")?;
-        r.take(n as u64, 36, "rotations")?;
+        r.take_n(n as u64, 36, "rotations")?;
     }
     Ok(Ubo2014Header {
         signature,
@@ -343,14 +288,11 @@ fn parse_header(path: &Path, bytes: &[u8]) -> Result<(Ubo2014Header, usize)> {
     };
     let mut last_err = None;
     for &rot in attempts {
-        let mut r = Reader {
-            path,
-            bytes,
-            pos: after + rot as usize,
-        };
-        let signature = String::from_utf8_lossy(&bytes[..r.pos]).into_owned();
+        let mut r = Reader::new(bytes, path, KIND);
+        r.seek(after + rot as usize)?;
+        let signature = String::from_utf8_lossy(&bytes[..r.pos()]).into_owned();
         match parse_common(&mut r, signature, kind, rot) {
-            Ok(h) => return Ok((h, r.pos)),
+            Ok(h) => return Ok((h, r.pos())),
             Err(e) => {
                 last_err.get_or_insert(e);
             }
@@ -424,7 +366,8 @@ impl Ubo2014Btf {
 
     fn parse(path: &Path, bytes: &[u8]) -> Result<Self> {
         let (header, pos) = parse_header(path, bytes)?;
-        let mut r = Reader { path, bytes, pos };
+        let mut r = Reader::new(bytes, path, KIND);
+        r.seek(pos)?;
         let nc = header.channels.len();
         if nc != 3 {
             return Err(r.err(format!(
@@ -451,7 +394,7 @@ impl Ubo2014Btf {
                     }
                     if hv >= 2 {
                         let (w, h) = (r.u32("height map width")?, r.u32("height map height")?);
-                        r.take(w as u64 * h as u64, 2, "height map")?;
+                        r.take_n(w as u64 * h as u64, 2, "height map")?;
                     }
                     if hv >= 3 {
                         return Err(r.err(format!("unsupported FMF header version {hv}")));

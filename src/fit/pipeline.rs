@@ -12,13 +12,16 @@
 //! minimises the absolute error (see [`fit_polys`]).
 
 use super::kmeans;
-use super::lafortune::{self, Lobe, LobeFitter};
-use super::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
-use super::polynomial::{self, Poly};
+use super::lafortune::{self, LobeFitter};
+use super::mapping;
+use super::parts;
 use super::refine;
 use super::select;
-use crate::btf::{BtfSource, DirectionSet, StoredEncoding, format};
+use crate::btf::{BtfSource, DirectionSet, StoredEncoding};
 use crate::math::color::linear_to_srgb;
+use crate::model::lobe::{self, Lobe};
+use crate::model::polynomial::{self, Poly};
+use crate::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -198,7 +201,7 @@ pub fn fit_view(
         return out;
     }
     out.plm_polys = fit_polys(lights, data, &sorted, texels, &mut out.stats, |t, c, u| {
-        lafortune::eval(&lm_lobes[3 * t + c], u)
+        lobe::eval(&lm_lobes[3 * t + c], u)
     });
     stage(Stage::Plm);
     if opts.kind == ModelKind::Plm {
@@ -236,7 +239,7 @@ pub fn fit_view(
                 ClusterOn::LmModel => {
                     let u = lights.dirs[l];
                     for t in 0..texels {
-                        let v = lafortune::eval(&lm_lobes[3 * t + c], u);
+                        let v = lobe::eval(&lm_lobes[3 * t + c], u);
                         feat[t * d + j] = if stored_from_linear {
                             linear_to_srgb(v.clamp(0.0, 1.0))
                         } else {
@@ -351,21 +354,17 @@ pub fn fit_view(
     // Tables of the three channels share one K: pad shorter channels (constant data) with a copy
     // of their last lobe, never referenced.
     let k = tables.iter().map(|t| t.len()).max().unwrap_or(1).max(1);
-    let mut table = vec![PackedLobe::pack(&lafortune::ZERO_LOBE); 3 * k];
+    let mut table = vec![PackedLobe::pack(&lobe::ZERO_LOBE); 3 * k];
     for (c, tc) in tables.iter().enumerate() {
         for j in 0..k {
-            let l = tc
-                .get(j)
-                .or(tc.last())
-                .copied()
-                .unwrap_or(lafortune::ZERO_LOBE);
+            let l = tc.get(j).or(tc.last()).copied().unwrap_or(lobe::ZERO_LOBE);
             table[3 * j + c] = PackedLobe::pack(&l);
         }
     }
     let unpacked: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
     let mut stats = out.stats;
     let mut polys = fit_polys(lights, data, &sorted, texels, &mut stats, |t, c, u| {
-        lafortune::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
+        lobe::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
     });
     if opts.refine_iters > 0 {
         // A second, short refinement through the PLM-C mappings themselves (the first used PLM's),
@@ -379,7 +378,7 @@ pub fn fit_view(
                     let vals: Vec<f32> = (0..3 * k)
                         .map(|i| {
                             let c = i % 3;
-                            let v = lafortune::eval(&lobes[i], u);
+                            let v = lobe::eval(&lobes[i], u);
                             polynomial::eval(&polys[3 * l + c], v).max(0.0)
                         })
                         .collect();
@@ -424,7 +423,7 @@ pub fn fit_view(
         let unpacked2: Vec<Lobe> = table2.iter().map(|p| p.unpack()).collect();
         let mut stats2 = out.stats;
         let polys2 = fit_polys(lights, data, &sorted, texels, &mut stats2, |t, c, u| {
-            lafortune::eval(&unpacked2[3 * index2[3 * t + c] as usize + c], u)
+            lobe::eval(&unpacked2[3 * index2[3 * t + c] as usize + c], u)
         });
         if view_err(&table2, &index2, &polys2) < view_err(&table, &index, &polys) {
             (table, index, polys, stats) = (table2, index2, polys2, stats2);
@@ -518,7 +517,7 @@ fn fit_polys(
         .map_init(
             || {
                 (
-                    polynomial::Scratch::default(),
+                    mapping::Scratch::default(),
                     Vec::new(),
                     Vec::new(),
                     Vec::new(),
@@ -528,12 +527,8 @@ fn fit_polys(
                 let (l, c) = (i / 3, i % 3);
                 let img = &images[i * texels..(i + 1) * texels];
                 let f = floor[c];
-                let matched = polynomial::fit_mapping_sorted(
-                    img,
-                    &sorted[i * texels..(i + 1) * texels],
-                    f,
-                    s,
-                );
+                let matched =
+                    mapping::fit_mapping_sorted(img, &sorted[i * texels..(i + 1) * texels], f, s);
                 pairs.clear();
                 pairs.extend(
                     img.iter()
@@ -545,7 +540,7 @@ fn fit_polys(
                 ys.clear();
                 xs.extend(pairs.iter().map(|p| p.0));
                 ys.extend(pairs.iter().map(|p| p.1));
-                let regressed = polynomial::fit_pairs_l1(xs, ys, f, L1_ROUNDS);
+                let regressed = mapping::fit_pairs_l1(xs, ys, f, L1_ROUNDS);
                 let mae = |a: &Poly| {
                     pairs
                         .iter()
@@ -725,7 +720,7 @@ pub fn fit_model_keyed(
             {
                 let bytes = std::fs::read(p).map_err(|e| Error::io(p, e))?;
                 // A corrupt part (e.g. from a crash of the machine) is simply refitted.
-                if let Ok(Some(mut m)) = format::part_from_bytes(&bytes, p, fp, v)
+                if let Ok(Some(mut m)) = parts::part_from_bytes(&bytes, p, fp, v)
                     && m.params.len() == 1
                     && m.width * m.height == texels
                 {
@@ -759,7 +754,7 @@ pub fn fit_model_keyed(
             )
             .ok_or_else(|| Error::Invalid(format!("view {v}: requested level was not fitted")))?;
             if let Some(p) = &part_path {
-                let bytes = format::part_to_bytes(fp, v, &m)?;
+                let bytes = parts::part_to_bytes(fp, v, &m)?;
                 crate::io::write_atomic(p, |w| w.write_all(&bytes).map_err(|e| Error::io(p, e)))?;
             }
             progress(v, Stage::Done);
@@ -803,6 +798,7 @@ mod tests {
     use crate::btf::RawBtf;
     use crate::fit::report::view_error;
     use crate::math::Pcg32;
+    use crate::model::codec;
 
     /// A synthetic BTF: texels drawn from 6 material types (one lobe per channel each), plus a
     /// monotone per-image tone curve y ↦ y^γ (what one lobe cannot model, PLM can), plus noise.
@@ -835,7 +831,7 @@ mod tests {
             for l in 0..81 {
                 for &ty in &texel_type {
                     for lobe in &types[ty] {
-                        let y = lafortune::eval(lobe, lights.dirs[l]);
+                        let y = lobe::eval(lobe, lights.dirs[l]);
                         data.push(
                             (y.powf(gamma[v * 81 + l]) + 0.01 * (rng.next_f32() - 0.5)).max(0.0),
                         );
@@ -868,7 +864,7 @@ mod tests {
         let mut data = Vec::new();
         for l in 0..81 {
             for lobe in &lobes {
-                let y = lafortune::eval(lobe, lights.dirs[l]) + noise * (rng.next_f32() - 0.5);
+                let y = lobe::eval(lobe, lights.dirs[l]) + noise * (rng.next_f32() - 0.5);
                 data.extend([y.max(0.0); 3]);
             }
         }
@@ -943,8 +939,8 @@ mod tests {
         let big = fit(ModelKind::PlmC, 1000);
         assert!(mae(&btf, &big) < 1.1 * e_plm);
         // Round trip through the file keeps the reconstruction.
-        let bytes = format::to_bytes(&plmc).unwrap();
-        let back = format::from_bytes(&bytes, Path::new("m.plmc")).unwrap();
+        let bytes = codec::to_bytes(&plmc).unwrap();
+        let back = codec::from_bytes(&bytes, Path::new("m.plmc")).unwrap();
         assert_eq!(back, plmc);
     }
 
@@ -1046,7 +1042,7 @@ mod tests {
         for l in 0..81 {
             for lobe in &lobes {
                 for _ in 0..3 {
-                    let y = lafortune::eval(lobe, lights.dirs[l]);
+                    let y = lobe::eval(lobe, lights.dirs[l]);
                     data.push(y + 0.02 + 0.004 * rng.next_f32());
                 }
             }

@@ -11,9 +11,9 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::distribution::Distribution1D;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
+use crate::math::distribution::Distribution1D;
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::path::Path;

@@ -5,15 +5,14 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod distribution;
 pub mod envmap;
 
 use crate::geometry::sphere::Sphere;
 use crate::geometry::{Mesh, SurfaceInteraction};
+use crate::math::distribution::Distribution1D;
 use crate::math::{INV_FOUR_PI, Mat4, Spectrum, Vec2, Vec3, warp};
 use crate::scene::{Emitter, Scene};
 use crate::{Error, Result};
-use distribution::Distribution1D;
 pub use envmap::EnvMapLight;
 
 /// One emitter, ready for sampling.

@@ -11,11 +11,12 @@
 //! values that `btfpt synth corduroy --size 32 --seed 1 --format exr -o DIR` writes, so Mitsuba
 //! renders the same material from `DIR`.
 
+use crate::bsdf::plmc;
 use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
-use crate::btf::plmc;
 use crate::btf::synth::{MaterialKind, SynthSettings, measure};
 use crate::btf::{DirectionSet, RawBtf};
 use crate::io::shared::{SharedCache, shared_by_path};
+use crate::model::{BtfModel, resolve_model_file};
 use crate::{Error, Result};
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -25,7 +26,7 @@ use std::sync::{Arc, Mutex};
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` as written
 /// in the scene (a path, resolved with `resolve`, or a `synth:` source, see the module doc),
 /// `uv_scale` (texture repeats per unit uv), `model_attr` ("raw", "lm", "plm" or "plmc"; see
-/// [`plmc::resolve_model_file`] for which file each one reads; a [`with_model_override`] in force
+/// [`resolve_model_file`] for which file each one reads; a [`with_model_override`] in force
 /// replaces it). Synthetic sources exist only as raw data.
 pub fn build_btf(
     file: &Path,
@@ -58,15 +59,16 @@ pub fn build_btf(
     match model {
         "raw" => {
             // The message names the BTF source and the problem; the scene error adds where it is used.
-            let material = plmc::resolve_model_file(&path, "raw")
-                .and_then(|p| shared_raw_material(&p))
+            let material = resolve_model_file(&path, Some(BtfModel::Raw))
+                .and_then(|(p, _)| shared_raw_material(&p))
                 .map_err(|e| scene_error(format!("btf: {e}")))?;
             let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
             Ok(Bsdf::Btf(bsdf))
         }
         "lm" | "plm" | "plmc" => {
-            let bsdf = plmc::resolve_model_file(&path, model)
-                .and_then(|p| plmc::shared_material(&p))
+            let bsdf = BtfModel::parse(model)
+                .and_then(|m| resolve_model_file(&path, Some(m)))
+                .and_then(|(p, _)| plmc::shared_material(&p))
                 .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
                 .map_err(|e| scene_error(format!("btf: {e}")))?;
             Ok(Bsdf::Plmc(bsdf))

@@ -1,12 +1,20 @@
+use super::bsdf::floor_fast;
+use super::f4::{self, F4, Sse2};
+use super::kernel::{pow_f4, srgb_to_linear_f4};
 use super::*;
 use crate::btf::DirectionSet;
 use crate::btf::directions::DirectionInterp;
-use crate::fit::lafortune::Lobe;
-use crate::fit::model::PackedLobe;
-use crate::fit::polynomial::Poly;
+use crate::geometry::SurfaceInteraction;
 use crate::math::color::srgb_to_linear;
 use crate::math::{Pcg32, frame::from_spherical, warp};
+use crate::math::{Spectrum, Vec2, Vec3};
+use crate::model::{
+    BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec, lobe,
+    polynomial, resolve_model_file,
+};
+use std::path::Path;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::OnceLock;
 
 fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
@@ -81,8 +89,8 @@ fn model(kind: ModelKind, space: ValueSpace, w: usize, h: usize, k: usize, seed:
         params,
         polys,
     };
-    let bytes = crate::btf::format::to_bytes(&m).unwrap();
-    crate::btf::format::from_bytes(&bytes, Path::new("test.plmc")).unwrap()
+    let bytes = codec::to_bytes(&m).unwrap();
+    codec::from_bytes(&bytes, Path::new("test.plmc")).unwrap()
 }
 
 struct Fixture {
@@ -242,7 +250,7 @@ fn reference_b(
         let v = vi[a] as usize;
         for c in 0..3 {
             let lobe_of = |t: usize| m.params[v].packed(t, c).unpack();
-            let y = lafortune::eval(&lobe_of(texel), wo);
+            let y = lobe::eval(&lobe_of(texel), wo);
             if !m.kind.has_polys() {
                 out[c] += vw[a] * m.space.to_linear(y);
                 continue;
@@ -251,7 +259,7 @@ fn reference_b(
             // to the largest output at the 3 measured lights.
             let y_max = (0..texels)
                 .flat_map(|t| m.lights.dirs.iter().map(move |&u| (t, u)))
-                .map(|(t, u)| lafortune::eval(&lobe_of(t), u))
+                .map(|(t, u)| lobe::eval(&lobe_of(t), u))
                 .fold(0f32, f32::max);
             let out_max = li
                 .iter()
@@ -260,7 +268,7 @@ fn reference_b(
                     (0..texels).map(move |t| (t, l))
                 })
                 .map(|(t, l)| {
-                    let yl = lafortune::eval(&lobe_of(t), m.lights.dirs[l]);
+                    let yl = lobe::eval(&lobe_of(t), m.lights.dirs[l]);
                     polynomial::eval(&m.poly(v, l, c), yl).max(0.0)
                 })
                 .fold(0f32, f32::max);
@@ -503,10 +511,12 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     let d = dir.path();
     let plmc = model(ModelKind::PlmC, ValueSpace::Linear, 2, 2, 3, 1);
     let lm = model(ModelKind::Lm, ValueSpace::Linear, 2, 2, 0, 2);
-    crate::btf::format::write(&d.join("mat.plmc"), &plmc).unwrap();
-    crate::btf::format::write(&d.join("mat.lm.plmc"), &lm).unwrap();
+    codec::write(&d.join("mat.plmc"), &plmc).unwrap();
+    codec::write(&d.join("mat.lm.plmc"), &lm).unwrap();
     std::fs::write(d.join("mat.btfc"), b"x").unwrap();
-    let r = |f: &str, m: &str| resolve_model_file(&d.join(f), m);
+    let r = |f: &str, m: &str| {
+        BtfModel::parse(m).and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|(p, _)| p))
+    };
     assert_eq!(r("mat.plmc", "plmc").unwrap(), d.join("mat.plmc"));
     assert_eq!(r("mat.plmc", "lm").unwrap(), d.join("mat.lm.plmc"));
     assert_eq!(r("mat.lm.plmc", "plmc").unwrap(), d.join("mat.plmc"));
