@@ -180,7 +180,7 @@ impl GltfBuilder<'_> {
     fn visit(&mut self, node: &::gltf::Node, parent: Mat4) -> Result<()> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
-        if !super::transform::is_finite(&world) {
+        if !crate::math::transform::is_finite(&world) {
             return Err(self.err(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
@@ -292,7 +292,7 @@ impl GltfBuilder<'_> {
                         "spot light of node {node} has a degenerate transform"
                     )));
                 }
-                let to_world = super::transform::look_at(position, position + forward, up);
+                let to_world = crate::math::transform::look_at(position, position + forward, up);
                 let cutoff = outer_cone_angle.to_degrees();
                 self.emitters.push(Emitter::Spot {
                     to_world,

@@ -6,13 +6,13 @@
 
 use super::props::{Props, XmlDoc};
 use super::shapes::{self, MeshOptions};
-use super::transform::{is_finite, xf_point};
 use super::{Camera, Emitter, IntegratorSettings, Scene};
 use crate::bsdf::{
     Bsdf, Conductor, Dielectric, Diffuse, RoughConductor, Texture, ThinDielectric, TwoSided,
 };
 use crate::geometry::Mesh;
 use crate::geometry::sphere::Sphere;
+use crate::math::transform::{is_finite, xf_point};
 use crate::math::{Mat3, Mat4, Spectrum, Vec3};
 use crate::{Error, Result};
 use roxmltree::{Node, NodeId};
