@@ -4,6 +4,7 @@
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::{Vec2, Vec3};
+use btfpt::render::camera::PerspectiveCamera;
 use btfpt::scene::{self, Emitter};
 
 fn base64(data: &[u8]) -> String {
@@ -117,15 +118,17 @@ fn gltf_scene_maps_to_expected_values() {
     let expect = 2.0 * ((0.4f32).tan() * 2.0).atan();
     assert!((c.fov_x_deg.to_radians() - expect).abs() < 1e-5);
     assert!((c.near_clip - 0.05).abs() < 1e-7);
-    let (o, d, _, _) = c.generate_ray(100.0, 50.0);
+    // The renderer's camera, built from what the loader produced; rays start on the near plane.
+    let rc = PerspectiveCamera::new(c).unwrap();
+    let (o, d, _) = rc.ray(100.0, 50.0);
     assert!(
-        close(o, Vec3::new(0.0, 0.0, 5.0)) && close(d, -Vec3::Z),
+        close(o, Vec3::new(0.0, 0.0, 4.95)) && close(d, -Vec3::Z),
         "{o:?} {d:?}"
     );
     // glTF +x is to the right: the left image edge must see world −x
-    let (_, d, _, _) = c.generate_ray(0.0, 50.0);
+    let (_, d, _) = rc.ray(0.0, 50.0);
     assert!(d.x < -0.5, "{d:?}");
-    let (_, d, _, _) = c.generate_ray(100.0, 0.0);
+    let (_, d, _) = rc.ray(100.0, 0.0);
     assert!(d.y > 0.3, "{d:?}");
 
     assert_eq!(s.meshes.len(), 2);

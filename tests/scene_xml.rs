@@ -4,6 +4,7 @@
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
+use btfpt::render::camera::PerspectiveCamera;
 use btfpt::scene::{self, Emitter, Scene};
 use std::path::{Path, PathBuf};
 
@@ -341,15 +342,19 @@ fn camera_rays_follow_mitsuba_orientation() {
         <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
         <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="50"/>
         <rfilter type="box"/></film></sensor></scene>"#;
-    let c = load(&write(dir.path(), "c.xml", xml)).camera;
-    let (o, d, tmin, _) = c.generate_ray(50.0, 25.0);
-    assert!(close(o, Vec3::new(0.0, 0.0, 5.0)) && close(d, -Vec3::Z));
-    assert!((tmin - 0.01).abs() < 1e-6);
+    // The renderer's camera, built from what the loader produced.
+    let c = PerspectiveCamera::new(&load(&write(dir.path(), "c.xml", xml)).camera).unwrap();
+    let (o, d, _) = c.ray(50.0, 25.0);
+    // The ray starts on the near plane (Mitsuba's default near_clip = 0.01) in front of the origin.
+    assert!(
+        close(o, Vec3::new(0.0, 0.0, 4.99)) && close(d, -Vec3::Z),
+        "{o:?} {d:?}"
+    );
     // The left edge of the image sees world −x (the viewer's left when looking down −z with +y up).
-    let (_, d, _, _) = c.generate_ray(0.0, 25.0);
+    let (_, d, _) = c.ray(0.0, 25.0);
     assert!(close(d, Vec3::new(-1.0, 0.0, -1.0).normalize()), "{d:?}");
     // The top edge sees +y; vertical extent is tan(45°)/aspect.
-    let (_, d, _, _) = c.generate_ray(50.0, 0.0);
+    let (_, d, _) = c.ray(50.0, 0.0);
     assert!(close(d, Vec3::new(0.0, 0.5, -1.0).normalize()), "{d:?}");
 }
 

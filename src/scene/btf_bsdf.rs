@@ -220,20 +220,6 @@ impl SynthSpec {
         Ok(spec)
     }
 
-    /// The `btfpt synth` command line that writes the same values to a folder (for Mitsuba).
-    pub fn cli_equivalent(&self) -> String {
-        format!(
-            "btfpt synth {} --size {}x{} --seed {} --strata {} --subdiv {} --directions {} --format exr",
-            self.material.name(),
-            self.width,
-            self.height,
-            self.seed,
-            self.strata,
-            self.subdiv,
-            self.directions
-        )
-    }
-
     /// A canonical form of the source (all keys, fixed order): the cache key.
     pub fn canonical(&self) -> String {
         format!(
