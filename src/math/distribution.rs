@@ -1,4 +1,5 @@
-//! Discrete and piecewise-constant distributions for importance sampling lights.
+//! Discrete distributions for importance sampling: area-light triangles, environment-map cells
+//! (and any other table of non-negative weights).
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]

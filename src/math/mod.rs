@@ -1,6 +1,7 @@
 //! Small numeric building blocks shared by every subsystem.
 
 pub mod color;
+pub mod distribution;
 pub mod frame;
 pub mod rng;
 pub mod transform;
