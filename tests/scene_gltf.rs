@@ -5,7 +5,7 @@ use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::{Vec2, Vec3};
 use btfpt::render::camera::PerspectiveCamera;
-use btfpt::scene::{self, Emitter};
+use btfpt::scene::{self, Emitter, LoadOptions};
 
 fn base64(data: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -104,7 +104,7 @@ fn gltf_scene_maps_to_expected_values() {
     std::fs::write(&p, gltf_json(&buffer())).unwrap();
     let s = scene::load(
         &p,
-        &[("width".into(), "200".into()), ("spp".into(), "8".into())],
+        &LoadOptions::with_defines(&[("width".into(), "200".into()), ("spp".into(), "8".into())]),
     )
     .unwrap();
 
@@ -202,7 +202,9 @@ fn gltf_errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("bad.gltf");
     std::fs::write(&p, "{ not json").unwrap();
-    let e = scene::load(&p, &[]).unwrap_err().to_string();
+    let e = scene::load(&p, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("bad.gltf"), "{e}");
     let p = dir.path().join("nocam.gltf");
     std::fs::write(
@@ -210,13 +212,18 @@ fn gltf_errors_name_the_file() {
         r#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]}"#,
     )
     .unwrap();
-    let e = scene::load(&p, &[]).unwrap_err().to_string();
-    assert!(e.contains("nocam.gltf") && e.contains("camera"), "{e}");
-    let e = scene::load(&p, &[("bogus".into(), "1".into())])
+    let e = scene::load(&p, &LoadOptions::default())
         .unwrap_err()
         .to_string();
+    assert!(e.contains("nocam.gltf") && e.contains("camera"), "{e}");
+    let e = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("bogus".into(), "1".into())]),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("bogus"), "{e}");
-    let e = scene::load(&dir.path().join("missing.glb"), &[])
+    let e = scene::load(&dir.path().join("missing.glb"), &LoadOptions::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("missing.glb"), "{e}");

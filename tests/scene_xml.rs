@@ -5,7 +5,7 @@ use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
 use btfpt::render::camera::PerspectiveCamera;
-use btfpt::scene::{self, Emitter, Scene};
+use btfpt::scene::{self, Emitter, LoadOptions, Scene};
 use std::path::{Path, PathBuf};
 
 const SENSOR: &str = r#"
@@ -29,7 +29,7 @@ fn scene_with(dir: &Path, body: &str) -> PathBuf {
 }
 
 fn load(p: &Path) -> Scene {
-    match scene::load(p, &[]) {
+    match scene::load(p, &LoadOptions::default()) {
         Ok(s) => s,
         Err(e) => panic!("{e}"),
     }
@@ -37,7 +37,7 @@ fn load(p: &Path) -> Scene {
 
 /// Asserts that loading fails with a message naming the file, the line and containing `needle`.
 fn expect_err(p: &Path, defines: &[(String, String)], line: u32, needle: &str) {
-    let e = match scene::load(p, defines) {
+    let e = match scene::load(p, &LoadOptions::with_defines(defines)) {
         Ok(_) => panic!("expected an error containing {needle:?}"),
         Err(e) => e.to_string(),
     };
@@ -143,7 +143,11 @@ fn full_scene_parses_into_expected_values() {
 </scene>
 "#;
     let p = write(d, "full.xml", xml);
-    let s = scene::load(&p, &[("res".into(), "48".into())]).unwrap();
+    let s = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("res".into(), "48".into())]),
+    )
+    .unwrap();
     assert_eq!(s.spp, 16);
     assert_eq!(s.integrator.max_depth, 3);
     assert_eq!(s.integrator.rr_depth, 5);
@@ -386,6 +390,18 @@ fn btf_bsdf_routes_to_build_btf() {
     </shape>"#;
     // The default model "raw" loads the file: missing here, so the error names it and the line.
     expect_err(&scene_with(dir.path(), body), &[], 8, "m.plmc");
+    // LoadOptions::btf_model reaches the BTF builder and replaces the model property.
+    let options = LoadOptions {
+        btf_model: Some("bogus".into()),
+        ..LoadOptions::default()
+    };
+    let e = scene::load(&scene_with(dir.path(), body), &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(":8:") && e.contains("btf model \"bogus\""),
+        "{e}"
+    );
 }
 
 #[test]
@@ -537,9 +553,12 @@ fn ids_refs_and_parameters() {
         "undefined parameter",
     );
     let p = scene_with(dir.path(), "<shape type=\"cube\"/>");
-    let e = scene::load(&p, &[("unused".into(), "1".into())])
-        .unwrap_err()
-        .to_string();
+    let e = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("unused".into(), "1".into())]),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         e.contains("s.xml") && e.contains("unused parameter \"unused\""),
         "{e}"
@@ -549,12 +568,12 @@ fn ids_refs_and_parameters() {
         dir.path(),
         "<default name=\"r\" value=\"1\"/><shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
     );
-    assert!(scene::load(&p, &[]).is_ok());
+    assert!(scene::load(&p, &LoadOptions::default()).is_ok());
     let p = scene_with(
         dir.path(),
         "<bsdf type=\"twosided\" id=\"t\"><ref id=\"t2\"/></bsdf><bsdf type=\"twosided\" id=\"t2\"><ref id=\"t\"/></bsdf>",
     );
-    assert!(scene::load(&p, &[]).is_err());
+    assert!(scene::load(&p, &LoadOptions::default()).is_err());
 }
 
 #[test]

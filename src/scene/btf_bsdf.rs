@@ -17,31 +17,28 @@ use crate::btf::synth::{MaterialKind, SynthSettings, measure};
 use crate::btf::{DirectionSet, RawBtf};
 use crate::io::shared::{SharedCache, shared_by_path};
 use crate::{Error, Result};
-use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` as written
 /// in the scene (a path, resolved with `resolve`, or a `synth:` source, see the module doc),
-/// `uv_scale` (texture repeats per unit uv), `model_attr` ("raw", "lm", "plm" or "plmc"; see
-/// [`plmc::resolve_model_file`] for which file each one reads; a [`with_model_override`] in force
-/// replaces it). Synthetic sources exist only as raw data.
+/// `uv_scale` (texture repeats per unit uv), `model` ("raw", "lm", "plm" or "plmc"; see
+/// [`plmc::resolve_model_file`] for which file each one reads; the loaders pass
+/// [`super::LoadOptions::btf_model`] here when set). Synthetic sources exist only as raw data.
 pub fn build_btf(
     file: &Path,
     line: u32,
     filename: &str,
     resolve: &dyn Fn(&str) -> PathBuf,
     uv_scale: f32,
-    model_attr: &str,
+    model: &str,
 ) -> Result<Bsdf> {
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
         msg,
     };
-    let model = MODEL_OVERRIDE.with(|m| m.borrow().clone());
-    let model = model.as_deref().unwrap_or(model_attr);
     if let Some(spec) = SynthSpec::parse(filename) {
         if model != "raw" {
             return Err(scene_error(format!(
@@ -75,19 +72,6 @@ pub fn build_btf(
             "btf model \"{other}\" is not one of \"raw\", \"lm\", \"plm\", \"plmc\""
         ))),
     }
-}
-
-thread_local! {
-    static MODEL_OVERRIDE: RefCell<Option<String>> = const { RefCell::new(None) };
-}
-
-/// Runs `f` (a scene load on this thread) with every `<bsdf type="btf">` using `model` instead of
-/// its own `model` property (the CLI's `--btf-model`); `None` leaves the scene as written.
-pub fn with_model_override<R>(model: Option<&str>, f: impl FnOnce() -> R) -> R {
-    let prev = MODEL_OVERRIDE.with(|m| m.replace(model.map(str::to_string)));
-    let out = f();
-    MODEL_OVERRIDE.with(|m| *m.borrow_mut() = prev);
-    out
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several

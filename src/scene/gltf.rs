@@ -20,7 +20,7 @@
 //!   camera's aspectRatio if given), `spp` (64), `max_depth` (−1). Other defines are errors.
 
 use super::shapes::{self, LocalMesh, MeshOptions};
-use super::{Camera, Emitter, IntegratorSettings, Scene};
+use super::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, RoughConductor, Texture, TwoSided};
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
@@ -114,8 +114,8 @@ fn settings(path: &Path, defines: &[(String, String)]) -> Result<Settings> {
 }
 
 /// Loads a glTF 2.0 scene (see the module docs for the mapping).
-pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
-    let settings = settings(path, defines)?;
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    let settings = settings(path, &options.defines)?;
     if !path.exists() {
         return Err(Error::format(path, "file not found"));
     }

@@ -6,7 +6,7 @@
 
 use super::props::{Props, XmlDoc};
 use super::shapes::{self, MeshOptions};
-use super::{Camera, Emitter, IntegratorSettings, Scene};
+use super::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::bsdf::{
     Bsdf, Conductor, Dielectric, Diffuse, RoughConductor, Texture, ThinDielectric, TwoSided,
 };
@@ -24,8 +24,9 @@ use std::sync::Arc;
 const DEFAULT_WIDTH: i64 = 768;
 const DEFAULT_HEIGHT: i64 = 576;
 
-/// Loads a Mitsuba 3 XML scene; `defines` override `<default>` values (CLI `-D name=value`).
-pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
+/// Loads a Mitsuba 3 XML scene; `options.defines` override `<default>` values (CLI `-D
+/// name=value`), `options.btf_model` replaces every BTF's `model`.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
     let opts = roxmltree::ParsingOptions {
         allow_dtd: true,
@@ -36,9 +37,10 @@ pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
         line: e.pos().row,
         msg: format!("malformed XML: {e}"),
     })?;
-    let x = XmlDoc::new(path, &doc, defines)?;
+    let x = XmlDoc::new(path, &doc, &options.defines)?;
     let mut b = Builder {
         x: &x,
+        btf_model: options.btf_model.as_deref(),
         bsdfs: Vec::new(),
         bsdf_memo: HashMap::new(),
         tex_memo: HashMap::new(),
@@ -52,6 +54,8 @@ pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
 
 struct Builder<'a, 'x> {
     x: &'x XmlDoc<'a>,
+    /// [`LoadOptions::btf_model`]: replaces every BTF's `model` property.
+    btf_model: Option<&'x str>,
     bsdfs: Vec<Bsdf>,
     bsdf_memo: HashMap<NodeId, u32>,
     tex_memo: HashMap<NodeId, Texture>,
@@ -582,7 +586,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     &file,
                     &|f| x.resolve(f),
                     uv_scale,
-                    &model,
+                    self.btf_model.unwrap_or(&model),
                 );
             }
             _ => {

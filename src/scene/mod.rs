@@ -2,6 +2,7 @@
 
 pub mod btf_bsdf;
 pub mod gltf;
+pub mod load_options;
 pub mod mitsuba_xml;
 pub mod obj;
 pub mod ply;
@@ -13,6 +14,7 @@ use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
 use crate::math::{Mat4, Spectrum, Vec3};
+pub use load_options::LoadOptions;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -117,18 +119,17 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
 }
 
-/// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`). `defines` override
-/// XML `<default>` values (the CLI's `-D name=value`); for glTF they set `width`, `height`, `spp`,
-/// `max_depth` (see [`gltf`]).
-pub fn load(path: &std::path::Path, defines: &[(String, String)]) -> crate::Result<Scene> {
+/// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`), with the caller's
+/// defines and BTF model choice (see [`LoadOptions`]).
+pub fn load(path: &std::path::Path, options: &LoadOptions) -> crate::Result<Scene> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
     match ext.as_str() {
-        "xml" => mitsuba_xml::load(path, defines),
-        "gltf" | "glb" => gltf::load(path, defines),
+        "xml" => mitsuba_xml::load(path, options),
+        "gltf" | "glb" => gltf::load(path, options),
         _ => Err(crate::Error::format(
             path,
             "unknown scene format (expected .xml, .gltf or .glb)",

@@ -523,7 +523,7 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     assert!(r("mat.plmc", "pca").is_err());
 
     // Through the scene entry point: model property, override, sharing, errors with the place.
-    use crate::scene::btf_bsdf::{build_btf, with_model_override};
+    use crate::scene::btf_bsdf::build_btf;
     let scene = Path::new("scene.xml");
     let mat = d.join("mat.plmc");
     let mat = mat.to_string_lossy().into_owned();
@@ -535,13 +535,12 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     };
     assert!(Arc::ptr_eq(a.material(), b.material()));
     assert_eq!(a.material().kind(), ModelKind::PlmC);
-    let l =
-        with_model_override(Some("lm"), || build_btf(scene, 5, &mat, &id, 1.0, "plmc")).unwrap();
+    let l = build_btf(scene, 5, &mat, &id, 1.0, "lm").unwrap();
     let crate::bsdf::Bsdf::Plmc(l) = l else {
         panic!("not a model bsdf");
     };
     assert_eq!(l.material().kind(), ModelKind::Lm);
-    let e = with_model_override(Some("plm"), || build_btf(scene, 6, &mat, &id, 1.0, "plmc"))
+    let e = build_btf(scene, 6, &mat, &id, 1.0, "plm")
         .unwrap_err()
         .to_string();
     assert!(
