@@ -3,12 +3,10 @@
 pub mod btf_bsdf;
 pub mod gltf;
 pub mod load_options;
-pub mod mitsuba_xml;
+pub mod mitsuba;
 pub mod obj;
 pub mod ply;
-pub mod props;
 pub mod shapes;
-pub mod transform;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
@@ -128,7 +126,7 @@ pub fn load(path: &std::path::Path, options: &LoadOptions) -> crate::Result<Scen
         .unwrap_or("")
         .to_ascii_lowercase();
     match ext.as_str() {
-        "xml" => mitsuba_xml::load(path, options),
+        "xml" => mitsuba::load(path, options),
         "gltf" | "glb" => gltf::load(path, options),
         _ => Err(crate::Error::format(
             path,

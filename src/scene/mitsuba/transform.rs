@@ -3,7 +3,7 @@
 //! Operations compose in document order, each new one pre-multiplied (M = T_new · M), exactly as
 //! Mitsuba's XML parser does.
 
-use super::props::XmlDoc;
+use super::document::XmlDoc;
 use crate::Result;
 use crate::math::transform::{is_finite, look_at};
 use crate::math::{Mat3, Mat4, Vec3};
