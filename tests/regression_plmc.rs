@@ -41,9 +41,9 @@ use btfpt::btf::{BtfSource, RawBtf};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
 use btfpt::metrics::{Comparison, Criteria};
 use btfpt::model::codec;
-use btfpt::model::{ModelKind, PlmcModel, ViewParams};
-use btfpt::scene::btf_bsdf::{SynthSpec, with_model_override};
-use btfpt::scene::{self, Scene};
+use btfpt::model::{BtfModel, ModelKind, PlmcModel, ViewParams};
+use btfpt::scene::btf_bsdf::SynthSpec;
+use btfpt::scene::{self, LoadOptions, Scene};
 use reference::{reference, render, root, score};
 use std::path::Path;
 use std::sync::OnceLock;
@@ -78,7 +78,7 @@ fn fit_raw(raw: &RawBtf, kind: ModelKind) -> PlmcModel {
 
 fn load_scene(name: &str) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
-    scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"))
+    scene::load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The raw BTF of a scene loaded as written (the `synth:` source, generated once per process).
@@ -103,9 +103,11 @@ fn fitted(raw: &RawBtf) -> &'static PlmcModel {
 /// `btfpt render -D btf=MODEL --btf-model plmc`).
 fn load_scene_with_model(name: &str, model: &Path) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
-    let defines = [("btf".to_string(), model.to_string_lossy().to_string())];
-    with_model_override(Some("plmc"), || scene::load(&p, &defines))
-        .unwrap_or_else(|e| panic!("{e}"))
+    let options = LoadOptions {
+        defines: vec![("btf".to_string(), model.to_string_lossy().to_string())],
+        btf_model: Some(BtfModel::Fitted(ModelKind::PlmC)),
+    };
+    scene::load(&p, &options).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn summary(c: &Comparison) -> String {

@@ -533,43 +533,56 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     assert!(r("mat.plmc", "pca").is_err());
 
     // Through the scene entry point: model property, override, sharing, errors with the place.
-    use crate::scene::btf_bsdf::{build_btf, with_model_override};
+    use crate::scene::btf_bsdf::build_btf;
     let scene = Path::new("scene.xml");
     let mat = d.join("mat.plmc");
     let mat = mat.to_string_lossy().into_owned();
     let id = |f: &str| PathBuf::from(f);
-    let a = build_btf(scene, 3, &mat, &id, 1.0, "plmc").unwrap();
-    let b = build_btf(scene, 4, &mat, &id, 2.0, "plmc").unwrap();
+    let build = |line: u32, file: &str, uv: f32, m: Option<&str>| {
+        let m = m.map(|m| BtfModel::parse(m).unwrap());
+        build_btf(scene, line, file, &id, uv, m)
+    };
+    let (a, used) = build(3, &mat, 1.0, Some("plmc")).unwrap();
+    assert_eq!(used.model, BtfModel::Fitted(ModelKind::PlmC));
+    assert_eq!(used.file, d.join("mat.plmc"));
+    // No model: a .plmc file renders the model it holds.
+    let (b, used) = build(4, &mat, 2.0, None).unwrap();
+    assert_eq!(used.model, BtfModel::Fitted(ModelKind::PlmC));
     let (crate::bsdf::Bsdf::Plmc(a), crate::bsdf::Bsdf::Plmc(b)) = (a, b) else {
         panic!("not a model bsdf");
     };
     assert!(Arc::ptr_eq(a.material(), b.material()));
     assert_eq!(a.material().kind(), ModelKind::PlmC);
-    let l =
-        with_model_override(Some("lm"), || build_btf(scene, 5, &mat, &id, 1.0, "plmc")).unwrap();
+    let lm_file = d.join("mat.lm.plmc").to_string_lossy().into_owned();
+    let (l, used) = build(5, &lm_file, 1.0, None).unwrap();
+    assert_eq!(
+        (used.model, used.file),
+        (BtfModel::Fitted(ModelKind::Lm), d.join("mat.lm.plmc"))
+    );
     let crate::bsdf::Bsdf::Plmc(l) = l else {
         panic!("not a model bsdf");
     };
     assert_eq!(l.material().kind(), ModelKind::Lm);
-    let e = with_model_override(Some("plm"), || build_btf(scene, 6, &mat, &id, 1.0, "plmc"))
-        .unwrap_err()
-        .to_string();
+    let (l, _) = build(5, &mat, 1.0, Some("lm")).unwrap();
+    let crate::bsdf::Bsdf::Plmc(l) = l else {
+        panic!("not a model bsdf");
+    };
+    assert_eq!(l.material().kind(), ModelKind::Lm);
+    let e = build(6, &mat, 1.0, Some("plm")).unwrap_err().to_string();
     assert!(
         e.contains("scene.xml:6") && e.contains("mat.plm.plmc"),
         "{e}"
     );
     // The raw sibling exists but is not a BTF: the raw loader's error names it.
-    let e = build_btf(scene, 7, &mat, &id, 1.0, "raw")
-        .unwrap_err()
-        .to_string();
+    let e = build(7, &mat, 1.0, Some("raw")).unwrap_err().to_string();
     assert!(e.contains("scene.xml:7") && e.contains("mat.btfc"), "{e}");
-    // A corrupt model file.
+    // A corrupt model file, with and without a model asked for.
     std::fs::write(d.join("bad.plmc"), b"PLMC\x01\0\0\0junk").unwrap();
     let bad = d.join("bad.plmc").to_string_lossy().into_owned();
-    let e = build_btf(scene, 8, &bad, &id, 1.0, "plmc")
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
+    for m in [Some("plmc"), None] {
+        let e = build(8, &bad, 1.0, m).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
+    }
 }
 
 #[test]
