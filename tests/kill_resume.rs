@@ -2,14 +2,16 @@
 //! EXR bytes as an uninterrupted render (same seed); so does one stopped the way a scheduler stops a
 //! job (SIGTERM at a time limit or on preemption, SIGHUP), resuming where it stopped; a fit killed
 //! midway, or stopped by SIGTERM, and rerun writes the same `.plmc` bytes as an uninterrupted fit.
+mod common;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
+/// The binary with stdout discarded and stderr captured (the kill tests read only stderr).
 fn btfpt() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_btfpt"));
+    let mut c = common::btfpt();
     c.stdout(Stdio::null()).stderr(Stdio::piped());
     c
 }
@@ -286,7 +288,7 @@ fn fit_killed_midway_and_rerun_writes_the_same_model() {
         "the fit finished before the kill: make it slower"
     );
 
-    let child = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+    let child = common::btfpt()
         .args(fit_args(&data, &out))
         .env("RAYON_NUM_THREADS", "1")
         .stdout(Stdio::piped())
