@@ -393,13 +393,14 @@ fn btf_bsdf_routes_to_build_btf() {
     expect_err(&scene_with(dir.path(), body), &[], 8, "m.plmc");
     // LoadOptions::btf_model reaches the BTF builder and replaces the model property.
     let options = LoadOptions {
-        btf_model: Some(btfpt::model::BtfModel::Fitted(btfpt::model::ModelKind::Lm)),
+        btf_model: Some(btfpt::model::BtfModel::Raw),
         ..LoadOptions::default()
     };
     let e = scene::load(&scene_with(dir.path(), body), &options)
         .unwrap_err()
         .to_string();
-    assert!(e.contains(":8:") && e.contains("m.lm.plmc"), "{e}");
+    // Raw data of m.plmc are looked for beside it (m, m.btfc, m.btf).
+    assert!(e.contains(":8:") && e.contains("m.btfc"), "{e}");
 }
 
 #[test]
