@@ -3,6 +3,7 @@
 pub mod color;
 pub mod frame;
 pub mod rng;
+pub mod simd;
 pub mod warp;
 
 pub use frame::Frame;
