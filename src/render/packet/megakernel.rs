@@ -15,10 +15,11 @@
 
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
-use crate::bsdf::BsdfFlags;
+use crate::bsdf::{Bsdf, BsdfFlags, BsdfSample, Prepared};
+use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
-use crate::math::{Pcg32, Spectrum, Vec3};
+use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use crate::render::RenderScene;
 use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
 
@@ -234,6 +235,17 @@ fn pass_through_emitter(rs: &RenderScene, pool: &mut PathPool, i: usize, stats: 
     stats.rays += 1;
 }
 
+/// What the front half of a lane's shading (through next-event estimation) leaves for BSDF
+/// sampling: the hit, the BSDF's per-hit state, the two sampling inputs and the lane's stream.
+pub struct Front<'a> {
+    pub si: SurfaceInteraction,
+    pub bsdf: &'a Bsdf,
+    pub prep: Prepared,
+    pub u1: f32,
+    pub u2: Vec2,
+    pub rng: Pcg32,
+}
+
 /// One round of the scalar integrator's loop body for slot `i`, through the scalar BSDF and
 /// light code (the per-lane fallback every BSDF has until it gets a batched kernel).
 fn shade_lane(
@@ -243,11 +255,27 @@ fn shade_lane(
     i: usize,
     stats: &mut TraceStats,
 ) {
+    if let Some(f) = shade_front(rs, pt, pool, i, stats) {
+        let sampled = f.bsdf.sample_prepared(&f.si, &f.prep, f.u1, f.u2);
+        shade_back(pt, pool, i, &f.si, f.rng, sampled, stats);
+    }
+}
+
+/// The loop body up to BSDF sampling: escape, emission with MIS, the depth limit, next-event
+/// estimation (its shadow ray left pending), and the BSDF-sampling random numbers. None = the
+/// lane ends this round.
+pub fn shade_front<'a>(
+    rs: &'a RenderScene,
+    pt: &PathTracer,
+    pool: &mut PathPool,
+    i: usize,
+    stats: &mut TraceStats,
+) -> Option<Front<'a>> {
     let meshes = &rs.scene.meshes;
     let lights = &rs.lights;
     let (ray_o, ray_d) = (pool.ray_o.get(i), pool.ray_d.get(i));
     let depth = pool.depth[i];
-    let mut throughput = pool.throughput.get(i);
+    let throughput = pool.throughput.get(i);
     let mut result = pool.result.get(i);
     let (prev_pdf, prev_delta) = (pool.prev_pdf[i], pool.prev_delta[i]);
     let Some(h) = pool.hit[i] else {
@@ -261,7 +289,7 @@ fn shade_lane(
         }
         pool.result.set(i, result);
         pool.ending[i] = true;
-        return;
+        return None;
     };
     let si = surface_interaction(meshes, ray_o, ray_d, &h);
     if lights.is_emissive(h.mesh) {
@@ -278,12 +306,12 @@ fn shade_lane(
     pool.result.set(i, result);
     if depth.saturating_add(1) >= pt.max_depth {
         pool.ending[i] = true;
-        return;
+        return None;
     }
     let mesh = &meshes[h.mesh as usize];
     let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
         pool.ending[i] = true;
-        return;
+        return None;
     };
     let mut rng = pool.rng[i].clone();
     let prep = bsdf.prepare(&si);
@@ -330,10 +358,30 @@ fn shade_lane(
             }
         }
     }
-    // ------------------------------ BSDF sampling -------------------------------
     let u1 = rng.next_f32();
     let u2 = rng.next_2d();
-    let sampled = bsdf.sample_prepared(&si, &prep, u1, u2);
+    Some(Front {
+        si,
+        bsdf,
+        prep,
+        u1,
+        u2,
+        rng,
+    })
+}
+
+/// The loop body after BSDF sampling (`sampled`, from the scalar code or a batched kernel):
+/// throughput, Russian roulette on the lane's stream, the continuation ray.
+pub fn shade_back(
+    pt: &PathTracer,
+    pool: &mut PathPool,
+    i: usize,
+    si: &SurfaceInteraction,
+    mut rng: Pcg32,
+    sampled: Option<(BsdfSample, Spectrum)>,
+    stats: &mut TraceStats,
+) {
+    let mut throughput = pool.throughput.get(i);
     let Some((bs, weight)) = sampled else {
         pool.rng[i] = rng;
         pool.ending[i] = true;
@@ -342,7 +390,7 @@ fn shade_lane(
     let wo_world = si.to_world(bs.wo);
     throughput *= weight;
     let eta = pool.eta[i] * bs.eta;
-    let depth = depth + 1;
+    let depth = pool.depth[i] + 1;
     pool.eta[i] = eta;
     pool.prev_p.set(i, si.p);
     pool.prev_pdf[i] = bs.pdf;
