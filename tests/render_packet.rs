@@ -11,7 +11,7 @@ use btfpt::metrics::{Comparison, Criteria};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
-use btfpt::scene::Scene;
+use btfpt::scene::{LoadOptions, Scene};
 use common::render;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -22,7 +22,7 @@ fn load(scene: &str, defines: &[(&str, &str)]) -> Scene {
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(scene);
-    btfpt::scene::load(&path, &d).unwrap_or_else(|e| panic!("{e}"))
+    btfpt::scene::load(&path, &LoadOptions::with_defines(&d)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 const CORNELL: &str = "scenes/cornell-box/scene.xml";

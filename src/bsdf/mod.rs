@@ -6,6 +6,7 @@
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
 pub mod btf;
+pub mod btf_sampler;
 #[cfg(test)]
 pub(crate) mod chi2;
 pub mod conductor;
@@ -13,6 +14,7 @@ pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
+pub mod plmc;
 pub mod roughconductor;
 pub mod texture;
 pub mod thindielectric;
@@ -23,11 +25,11 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
-pub use crate::btf::plmc::{PlmcBsdf, PlmcHit};
 pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use plmc::{PlmcBsdf, PlmcHit};
 pub use roughconductor::RoughConductor;
 pub use texture::Texture;
 pub use thindielectric::ThinDielectric;

@@ -319,7 +319,7 @@ pub fn shade_front<'a>(
     if pt.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
         let u_sel = rng.next_f32();
         let u = rng.next_2d();
-        if let Some(ls) = lights.sample(meshes, si.p, u_sel, u) {
+        if let Some(ls) = lights.sample(si.p, u_sel, u) {
             let wo = si.to_local(ls.wi);
             let (f, bsdf_pdf) = if ls.delta {
                 (bsdf.eval_prepared(&si, &prep, wo), 0.0)
