@@ -50,11 +50,15 @@ fn render_with(rs: &mut RenderScene, kind: IntegratorKind, st: RenderSettings) -
     render(rs, st)
 }
 
+/// A change to the loaded scene, and one to the prepared render scene.
+type EditScene = Box<dyn Fn(&mut Scene)>;
+type EditRender = Box<dyn Fn(&mut RenderScene)>;
+
 #[test]
 fn packet_replays_the_scalar_integrator_sample_by_sample() {
     // Every BSDF of cornell-box-all (diffuse, textured, conductors, dielectrics, two-sided), area
     // and environment lights; a window across the torus, sheet and spheres.
-    let cases: Vec<(&str, Box<dyn Fn(&mut Scene)>, Box<dyn Fn(&mut RenderScene)>)> = vec![
+    let cases: Vec<(&str, EditScene, EditRender)> = vec![
         (ALL, Box::new(|_| {}), Box::new(|_| {})),
         (
             ALL,
