@@ -4,8 +4,9 @@
 
 use anyhow::{Context, bail};
 use btfpt::render::film::{RenderSettings, RenderState};
+use btfpt::render::packet::PacketOptions;
 use btfpt::render::partial::{PartialMeta, write_partial_exr};
-use btfpt::render::{RenderScene, checkpoint};
+use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -55,6 +56,17 @@ pub struct RenderArgs {
     /// model of the same material, found next to the scene's file: S, S.btfc, S.plmc, S.lm.plmc…).
     #[arg(long, value_name = "MODEL", value_parser = ["raw", "lm", "plm", "plmc"])]
     pub btf_model: Option<String>,
+    /// Integrator: `scalar` (one path per thread at a time; the test oracle) or `packet` (a
+    /// per-thread pool of paths run 16 lanes at a time with lane refill). Same image statistics.
+    #[arg(long, default_value = "scalar", value_parser = ["scalar", "packet"])]
+    pub integrator: String,
+    /// Packet integrator: paths in flight per thread (rounded up to a multiple of 16).
+    #[arg(long, default_value_t = 256, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub packet_pool: u32,
+    /// Packet integrator: refill finished lanes at once (`on`) or only when their whole 16-lane
+    /// packet has finished (`off`, for measuring what refill buys).
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub packet_refill: String,
 }
 
 fn parse_range(s: &str) -> anyhow::Result<(u32, u32)> {
@@ -250,12 +262,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if let Some(m) = &args.btf_model {
         fp_defines.push(("--btf-model".into(), m.clone()));
     }
+    // So does the integrator once its batched kernels round differently: packet checkpoints are
+    // their own (scalar fingerprints stay as they were).
+    if args.integrator != "scalar" {
+        fp_defines.push(("--integrator".into(), args.integrator.clone()));
+    }
     let fp = fingerprint(&args.scene, &fp_defines, &settings);
 
     for u in &scene.btf_uses {
         eprintln!("btf: {} ({})", u.file.display(), u.model);
     }
-    let rs = RenderScene::new(scene)?;
+    let mut rs = RenderScene::new(scene)?;
+    if args.integrator == "packet" {
+        rs.kind = IntegratorKind::Packet(PacketOptions {
+            pool: args.packet_pool as usize,
+            refill: args.packet_refill == "on",
+        });
+    }
     eprintln!("{}", rs.summary());
     let [cx, cy, cw, ch] = crop;
     eprintln!(
@@ -360,6 +383,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let _ = std::fs::remove_file(&ckpt);
     }
     let invalid = state.invalid_samples();
+    if let IntegratorKind::Packet(o) = rs.kind {
+        let l = rs.lanes.snapshot();
+        eprintln!(
+            "packet integrator (pool {}, refill {}): lane utilisation {:.1}% in traversal ({} of {} lanes), {:.1}% in shading batches, {} rounds",
+            o.pool,
+            if o.refill { "on" } else { "off" },
+            100.0 * l.utilisation(),
+            l.active,
+            l.issued,
+            100.0 * l.shade_utilisation(),
+            l.steps
+        );
+    }
     eprintln!(
         "done in {secs:.2} s{cpu}: {:.2} Mrays/s, {} rays{}; wrote {} and {}",
         state.rays() as f64 / secs.max(1e-9) * 1e-6,

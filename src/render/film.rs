@@ -175,6 +175,10 @@ impl RenderState {
         let s = self.settings;
         self.tiles.par_iter_mut().for_each(|tile| {
             let end = s.spp().min(tile.done.saturating_add(k));
+            if let super::IntegratorKind::Packet(opts) = rs.kind {
+                super::packet::render_tile(rs, opts, &s, tile, end, interrupt, progress);
+                return;
+            }
             while tile.done < end {
                 if interrupt.load(Ordering::Relaxed) {
                     return;

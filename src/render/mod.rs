@@ -5,6 +5,7 @@ pub mod camera;
 pub mod checkpoint;
 pub mod film;
 pub mod integrator;
+pub mod packet;
 pub mod partial;
 
 use crate::geometry::accel::Accel;
@@ -16,6 +17,17 @@ use integrator::PathTracer;
 
 pub use film::{RenderSettings, RenderState};
 
+/// Which integrator traces the samples; both give the same estimator (the scalar one is the
+/// test oracle of the packet one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// One path per thread at a time ([`PathTracer::li`]).
+    #[default]
+    Scalar,
+    /// A per-thread pool of paths run 16 lanes at a time with lane refill ([`packet`]).
+    Packet(packet::PacketOptions),
+}
+
 /// A scene prepared for rendering.
 pub struct RenderScene {
     pub scene: Scene,
@@ -23,6 +35,10 @@ pub struct RenderScene {
     pub lights: LightSet,
     pub camera: PerspectiveCamera,
     pub integrator: PathTracer,
+    /// The integrator that renders (scalar unless chosen otherwise).
+    pub kind: IntegratorKind,
+    /// Lane utilisation of the packet integrator, summed over the render.
+    pub lanes: packet::LaneCounters,
 }
 
 impl RenderScene {
@@ -63,6 +79,8 @@ impl RenderScene {
             lights,
             camera,
             integrator,
+            kind: IntegratorKind::Scalar,
+            lanes: packet::LaneCounters::default(),
         })
     }
 

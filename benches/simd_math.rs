@@ -1,0 +1,110 @@
+//! The 16-lane transcendental functions of `math::simd` against libm, per batch of 16 values
+//! (thread CPU time): `sin_cos/simd_<isa>` vs `sin_cos/libm`, same for exp2 and log2. The
+//! portable (SSE2) build of the same lane loop is measured too, to show what the ISA buys.
+
+use btfpt::math::simd::{self, F32x16, Isa, WIDTH};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use std::hint::black_box;
+
+#[path = "common/cpu_time.rs"]
+mod cpu_time;
+use cpu_time::ThreadCpuTime;
+
+/// 64 batches of 16 inputs in `lo..hi`.
+fn inputs(lo: f32, hi: f32) -> Vec<F32x16> {
+    (0..64)
+        .map(|b| std::array::from_fn(|i| lo + (hi - lo) * ((b * WIDTH + i) as f32 / 1024.0)))
+        .collect()
+}
+
+fn isas() -> Vec<Isa> {
+    let mut v = vec![Isa::Portable];
+    if matches!(simd::isa(), Isa::Avx512 | Isa::Avx2) {
+        v.push(Isa::Avx2);
+    }
+    if simd::isa() == Isa::Avx512 {
+        v.push(Isa::Avx512);
+    }
+    v
+}
+
+fn bench(c: &mut Criterion<ThreadCpuTime>) {
+    let angles = inputs(0.0, 2.0 * std::f32::consts::PI);
+    let exps = inputs(-20.0, 20.0);
+    let logs = inputs(1e-3, 100.0);
+    let mut g = c.benchmark_group("simd_math");
+    g.throughput(Throughput::Elements(1024));
+    g.bench_function("sin_cos/libm", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for x in &angles {
+                for &v in black_box(x) {
+                    let (s, c) = v.sin_cos();
+                    acc += s + c;
+                }
+            }
+            acc
+        })
+    });
+    g.bench_function("exp2/libm", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for x in &exps {
+                for &v in black_box(x) {
+                    acc += v.exp2();
+                }
+            }
+            acc
+        })
+    });
+    g.bench_function("log2/libm", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for x in &logs {
+                for &v in black_box(x) {
+                    acc += v.log2();
+                }
+            }
+            acc
+        })
+    });
+    for isa in isas() {
+        let name = format!("{isa:?}");
+        g.bench_with_input(BenchmarkId::new("sin_cos/simd", &name), &isa, |b, &isa| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for x in &angles {
+                    let (s, c) = simd::sin_cos(isa, black_box(x));
+                    acc += s[3] + c[11];
+                }
+                acc
+            })
+        });
+        g.bench_with_input(BenchmarkId::new("exp2/simd", &name), &isa, |b, &isa| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for x in &exps {
+                    acc += simd::exp2(isa, black_box(x))[5];
+                }
+                acc
+            })
+        });
+        g.bench_with_input(BenchmarkId::new("log2/simd", &name), &isa, |b, &isa| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for x in &logs {
+                    acc += simd::log2(isa, black_box(x))[7];
+                }
+                acc
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(ThreadCpuTime).sample_size(30);
+    targets = bench
+}
+criterion_main!(benches);

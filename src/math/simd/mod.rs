@@ -1,0 +1,131 @@
+//! 16-lane f32 transcendental functions for the packet kernels (sin/cos, exp2, log2) instead of
+//! libm on the hot path. Each is a branch-free polynomial written once for one lane
+//! ([`lane`]) and run over a `[f32; 16]` in a loop that LLVM vectorises inside a
+//! `#[target_feature]` function: AVX-512 (one zmm per array), AVX2 (two ymm), or the baseline
+//! SSE2 build, chosen once per process at runtime ([`isa`]). No fused multiply-adds are used, so
+//! the three paths return the same bits (the image does not depend on the CPU it ran on).
+//! `cargo bench --bench simd_math` compares them with libm.
+
+pub mod lane;
+
+use std::sync::OnceLock;
+
+/// Lanes of one call: an AVX-512 register of f32.
+pub const WIDTH: usize = 16;
+
+/// Sixteen f32 lanes.
+pub type F32x16 = [f32; WIDTH];
+
+/// The instruction set the 16-lane loops are compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Isa {
+    /// AVX-512F (+ AVX2, FMA available but unused): one instruction per 16 lanes.
+    Avx512,
+    /// AVX2: two 8-lane halves.
+    Avx2,
+    /// The baseline build (SSE2 on x86-64, or whatever the target has).
+    Portable,
+}
+
+/// The best instruction set of this CPU, detected once.
+pub fn isa() -> Isa {
+    static ISA: OnceLock<Isa> = OnceLock::new();
+    *ISA.get_or_init(detect)
+}
+
+fn detect() -> Isa {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx2") {
+            return Isa::Avx512;
+        }
+        if is_x86_feature_detected!("avx2") {
+            return Isa::Avx2;
+        }
+    }
+    Isa::Portable
+}
+
+/// Defines a public 16-lane function `$name(isa, x) -> ($out)` from a one-lane body, with an
+/// AVX-512, an AVX2 and a portable instantiation of the same loop.
+macro_rules! lanes16 {
+    ($kind:ident, $(#[$doc:meta])* $name:ident, $lane:path, $out:ty, $zero:expr) => {
+        $(#[$doc])*
+        #[inline]
+        pub fn $name(isa: Isa, x: &F32x16) -> $out {
+            #[inline(always)]
+            fn body(x: &F32x16) -> $out {
+                let mut out: $out = $zero;
+                run(x, &mut out);
+                out
+            }
+            #[inline(always)]
+            fn run(x: &F32x16, out: &mut $out) {
+                lanes16!(@$kind x, out, $lane);
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx2")]
+            fn avx512(x: &F32x16) -> $out {
+                body(x)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2(x: &F32x16) -> $out {
+                body(x)
+            }
+            match isa {
+                // SAFETY: `Isa::Avx512`/`Avx2` come only from `detect`, which checked the
+                // features on this CPU (callers pass `isa()`; tests pass what `isa()` allows).
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => unsafe { avx512(x) },
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => unsafe { avx2(x) },
+                _ => body(x),
+            }
+        }
+    };
+    (@pair $x:ident, $out:ident, $lane:path) => {
+        for i in 0..WIDTH {
+            let (s, c) = $lane($x[i]);
+            $out.0[i] = s;
+            $out.1[i] = c;
+        }
+    };
+    (@single $x:ident, $out:ident, $lane:path) => {
+        for i in 0..WIDTH {
+            $out[i] = $lane($x[i]);
+        }
+    };
+}
+
+lanes16!(
+    pair,
+    /// (sin x, cos x) per lane, |x| ≤ 8192 (error ≤ 2e-7 absolute; see [`lane::sin_cos`]).
+    sin_cos,
+    lane::sin_cos,
+    (F32x16, F32x16),
+    ([0.0; WIDTH], [0.0; WIDTH])
+);
+
+lanes16!(
+    single,
+    /// 2^x per lane (relative error < 3e-7 for normal results; 0 below −127, ∞ from 128, NaN
+    /// stays NaN).
+    exp2,
+    lane::exp2,
+    F32x16,
+    [0.0; WIDTH]
+);
+
+lanes16!(
+    single,
+    /// log2 x per lane (absolute error < 3e-7 near 1, relative < 2e-7 elsewhere; −∞ at 0,
+    /// NaN below 0, subnormals exact).
+    log2,
+    lane::log2,
+    F32x16,
+    [0.0; WIDTH]
+);
+
+#[cfg(test)]
+mod tests;
