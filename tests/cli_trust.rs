@@ -21,7 +21,9 @@ fn text(o: &Output) -> String {
 fn tiny_cache(dir: &Path) -> PathBuf {
     let d = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (30.0, 0.0), (60.0, 180.0)]);
     let n = 3 * 3 * 2 * 2;
-    let data: Vec<f32> = (0..n).flat_map(|i| [0.25, i as f32 / n as f32, 0.5]).collect();
+    let data: Vec<f32> = (0..n)
+        .flat_map(|i| [0.25, i as f32 / n as f32, 0.5])
+        .collect();
     let raw = RawBtf::from_f32(d.clone(), d, 2, 2, StoredEncoding::Linear, &data).unwrap();
     let cache = dir.join("t.btfc");
     btf::cache::write_raw(&raw, &cache).unwrap();
@@ -53,5 +55,160 @@ fn a_closed_pipe_ends_commands_quietly() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!err.contains("panicked"), "{args:?}: {err}");
         assert_ne!(o.status.code(), Some(101), "{args:?}: {err}");
+    }
+}
+
+fn fails_with(o: &Output, needles: &[&str]) {
+    let t = text(o);
+    assert_eq!(o.status.code(), Some(1), "{t}");
+    for n in needles {
+        assert!(t.contains(n), "expected {n:?} in: {t}");
+    }
+    assert!(!t.contains("panicked"), "{t}");
+}
+
+#[test]
+fn output_extensions_pick_the_format_or_are_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let synth = |dirs: &str, out: &Path| {
+        btfpt()
+            .args([
+                "synth",
+                "wool",
+                "--size",
+                "2",
+                "--strata",
+                "1",
+                "--directions",
+                dirs,
+                "-o",
+            ])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    // Refused before measuring, and nothing is created.
+    fails_with(&synth("ubo2003", &d.join("x.btf")), &["x.btf", ".btfc"]);
+    fails_with(&synth("ubo2003", &d.join("x.abc")), &["x.abc", ".abc"]);
+    fails_with(
+        &synth("ubo2014", &d.join("folder")),
+        &["folder", "151", "81", ".btfc"],
+    );
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 0);
+    // .btfc writes the cache (a file), with any direction set.
+    let cache = d.join("w.btfc");
+    let o = synth("ubo2014", &cache);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(cache.is_file());
+    let o = btfpt().arg("info").arg(&cache).output().unwrap();
+    assert!(
+        text(&o).contains("151 (θ up to 75.0°) views × 151"),
+        "{}",
+        text(&o)
+    );
+    // convert: the same rules; a 151-direction BTF cannot become a UBO2003 folder.
+    let o = btfpt()
+        .arg("convert")
+        .arg(&cache)
+        .arg(d.join("c.btf"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["c.btf", ".btfc"]);
+    let o = btfpt()
+        .arg("convert")
+        .arg(&cache)
+        .arg(d.join("c.dat"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["c.dat", ".dat"]);
+    let o = btfpt()
+        .arg("convert")
+        .arg(&cache)
+        .arg(d.join("c"))
+        .output()
+        .unwrap();
+    fails_with(&o, &["151 views", "81"]);
+    let names: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, vec![std::ffi::OsString::from("w.btfc")]);
+    // A UBO2003 folder: sRGB PNGs clip values above 1, and say how many.
+    let o = btfpt()
+        .args(["synth", "foil", "--size", "2", "--strata", "1", "-o"])
+        .arg(d.join("foil"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("exceed 1") && t.contains("clipped") && t.contains("%"),
+        "{t}"
+    );
+    assert!(d.join("foil").is_dir());
+}
+
+#[test]
+fn outputs_are_checked_before_the_work_and_no_folder_is_created() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cache = tiny_cache(d);
+    let missing = d.join("missing");
+    let m = |name: &str| missing.join(name);
+    let s = |p: PathBuf| p.display().to_string();
+    // Inputs that do not exist: the output is checked first, so its error is the one shown.
+    let runs: Vec<Vec<String>> = vec![
+        vec![
+            "render".into(),
+            "scenes/cornell-box/scene.xml".into(),
+            "-o".into(),
+            s(m("r.exr")),
+        ],
+        vec!["merge".into(), "a.exr".into(), "-o".into(), s(m("m.exr"))],
+        vec!["fit".into(), s(cache.clone()), "-o".into(), s(m("f.plmc"))],
+        vec![
+            "eval".into(),
+            "nope.plmc".into(),
+            "--against".into(),
+            s(cache.clone()),
+            "--plot".into(),
+            s(m("x.png")),
+        ],
+        vec![
+            "eval".into(),
+            "nope.plmc".into(),
+            "--against".into(),
+            s(cache.clone()),
+            "--json".into(),
+            s(m("x.json")),
+        ],
+        vec!["synth".into(), "wool".into(), "-o".into(), s(m("w"))],
+        vec!["convert".into(), s(cache.clone()), s(m("c.btfc"))],
+        vec![
+            "tile-preview".into(),
+            "nope.plmc".into(),
+            "-o".into(),
+            s(m("t.png")),
+        ],
+        vec![
+            "compare".into(),
+            "a.exr".into(),
+            "b.exr".into(),
+            "--diff".into(),
+            s(m("d.png")),
+        ],
+    ];
+    for args in runs {
+        let o = btfpt()
+            .args(&args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let t = text(&o);
+        fails_with(&o, &["missing", "does not exist"]);
+        assert!(!missing.exists(), "{args:?} created {}", missing.display());
+        // One OS error, printed once.
+        assert!(t.matches("os error").count() <= 1, "{t}");
     }
 }

@@ -88,6 +88,8 @@ fn same_size(a: &RgbImage, b: &RgbImage, pa: &Path, pb: &Path) -> anyhow::Result
 
 /// Runs `btfpt compare`.
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
+    super::output::check_optional_file(args.diff.as_ref())?;
+    super::output::check_optional_file(args.json.as_ref())?;
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha {}: must be in (0, 1)", args.alpha);
     }

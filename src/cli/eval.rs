@@ -136,6 +136,8 @@ fn seams(
 
 /// Runs `btfpt eval`.
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
+    super::output::check_optional_file(args.json.as_ref())?;
+    super::output::check_optional_file(args.plot.as_ref())?;
     let (model, section) = format::read_tiled(&args.model)?;
     let stitch = section
         .as_ref()

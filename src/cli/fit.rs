@@ -113,6 +113,7 @@ pub(crate) fn stage_bars(views: usize, labels: &[&str]) -> (MultiProgress, Vec<P
 
 /// Runs `btfpt fit`.
 pub fn run(args: FitArgs) -> anyhow::Result<()> {
+    super::output::check_file(&args.output)?;
     if args.tile.is_none() && (args.tiles != 1 || args.overlap.is_some()) {
         anyhow::bail!("--tiles and --overlap need --tile WxH");
     }

@@ -4,6 +4,7 @@ pub mod compare;
 pub mod convert;
 pub mod info;
 pub mod merge;
+pub mod output;
 pub mod render;
 pub mod synth;
 pub mod tile_preview;

@@ -96,26 +96,6 @@ fn parse_defines(d: &[String]) -> anyhow::Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// Fails early (before rendering) if `path` cannot be created.
-fn check_writable(path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "{}: output directory {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    let probe = btfpt::io::atomic::temp_path(path);
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("{}: output is not writable", path.display()))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
-}
-
 fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
     let mut s = path.as_os_str().to_os_string();
     s.push(suffix);
@@ -143,15 +123,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
     }
-    let scene = btfpt::scene::btf_bsdf::with_model_override(args.btf_model.as_deref(), || {
-        btfpt::scene::load(&args.scene, &defines)
-    })?;
-    if scene.meshes.is_empty() && scene.emitters.is_empty() {
-        bail!(
-            "{}: the scene is empty (no shapes and no emitters), the image would be black",
-            args.scene.display()
-        );
-    }
     let out = args
         .output
         .clone()
@@ -163,6 +134,19 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         != Some("exr".into())
     {
         bail!("{}: the output must be an .exr file", out.display());
+    }
+    let png = out.with_extension("png");
+    for path in [Some(&out), Some(&png), args.variance.as_ref()] {
+        super::output::check_optional_file(path)?;
+    }
+    let scene = btfpt::scene::btf_bsdf::with_model_override(args.btf_model.as_deref(), || {
+        btfpt::scene::load(&args.scene, &defines)
+    })?;
+    if scene.meshes.is_empty() && scene.emitters.is_empty() {
+        bail!(
+            "{}: the scene is empty (no shapes and no emitters), the image would be black",
+            args.scene.display()
+        );
     }
     let (spp_begin, spp_end) = match (range, args.spp) {
         (Some(r), _) => r,
@@ -196,14 +180,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");
     }
-    check_writable(&out)?;
-    let png = out.with_extension("png");
-    check_writable(&png)?;
-    if let Some(v) = &args.variance {
-        check_writable(v)?;
-        if settings.spp() < 2 {
-            bail!("--variance needs at least 2 samples per pixel");
-        }
+    if args.variance.is_some() && settings.spp() < 2 {
+        bail!("--variance needs at least 2 samples per pixel");
     }
     let ckpt = with_suffix(&out, ".ckpt");
     // The BTF model override changes the image: a checkpoint of another model must not resume.

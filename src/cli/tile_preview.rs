@@ -48,6 +48,7 @@ pub struct TilePreviewArgs {
 
 /// Runs `btfpt tile-preview`.
 pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
+    super::output::check_file(&a.output)?;
     let (cols, rows) = tiling::parse_size(&a.repeat).context("--repeat")?;
     if cols * rows > 1 << 16 {
         bail!("--repeat {cols}x{rows}: at most 65536 cells");
