@@ -212,3 +212,63 @@ fn outputs_are_checked_before_the_work_and_no_folder_is_created() {
         assert!(t.matches("os error").count() <= 1, "{t}");
     }
 }
+
+/// `btfpt render` of the Cornell box at 8×8 with `extra` arguments; panics with the output on
+/// failure.
+fn render_box(out: &Path, extra: &[&str]) {
+    let o = btfpt()
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "render",
+            "scenes/cornell-box/scene.xml",
+            "-D",
+            "width=8",
+            "-D",
+            "height=8",
+        ])
+        .args(["--checkpoint-interval", "1000", "-o"])
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn merge_refuses_parts_of_different_scenes_or_options() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n);
+    render_box(&p("left.exr"), &["--spp", "2", "--crop", "0,0,4,8"]);
+    render_box(&p("right.exr"), &["--spp", "2", "--crop", "4,0,4,8"]);
+    render_box(
+        &p("right_d2.exr"),
+        &["--spp", "2", "--crop", "4,0,4,8", "-D", "max_depth=2"],
+    );
+    render_box(&p("late.exr"), &["--spp-range", "2..4"]);
+    render_box(
+        &p("late_d2.exr"),
+        &["--spp-range", "2..4", "-D", "max_depth=2"],
+    );
+    let merge = |inputs: &[&str], out: &str| {
+        let mut c = btfpt();
+        c.arg("merge");
+        for i in inputs {
+            c.arg(p(i));
+        }
+        c.arg("-o").arg(p(out)).output().unwrap()
+    };
+    let o = merge(&["left.exr", "right.exr"], "m.exr");
+    assert!(o.status.success(), "{}", text(&o));
+    // Same film and seed, but another max_depth: refused, naming the odd file.
+    fails_with(
+        &merge(&["left.exr", "right_d2.exr"], "bad.exr"),
+        &["right_d2.exr", "another scene or with other options"],
+    );
+    fails_with(
+        &merge(&["m.exr", "late_d2.exr"], "bad.exr"),
+        &["late_d2.exr", "fingerprint"],
+    );
+    let o = merge(&["m.exr", "late.exr"], "all.exr");
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!p("bad.exr").exists() && !p("bad.png").exists());
+}

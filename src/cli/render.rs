@@ -3,7 +3,7 @@
 
 use anyhow::{Context, bail};
 use btfpt::render::film::{RenderSettings, RenderState};
-use btfpt::render::partial::{PartialMeta, write_partial_exr};
+use btfpt::render::partial::{PartialMeta, scene_fingerprint, write_partial_exr};
 use btfpt::render::{RenderScene, checkpoint};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -190,6 +190,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         fp_defines.push(("--btf-model".into(), m.clone()));
     }
     let fp = fingerprint(&args.scene, &fp_defines, &settings);
+    let scene_bytes = std::fs::read(&args.scene)
+        .with_context(|| format!("{}: cannot read the scene file", args.scene.display()))?;
+    let scene_fp = scene_fingerprint(&scene_bytes, &format!("{fp_defines:?}"));
 
     let rs = RenderScene::new(scene)?;
     eprintln!("{}", rs.summary());
@@ -293,6 +296,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         spp_begin,
         spp_end,
         seed: args.seed,
+        scene: scene_fp,
     };
     write_partial_exr(&out, &img, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;
