@@ -213,19 +213,18 @@ fn outputs_are_checked_before_the_work_and_no_folder_is_created() {
     }
 }
 
-/// `btfpt render` of the Cornell box at 8×8 with `extra` arguments; panics with the output on
-/// failure.
+/// `btfpt render` of the Cornell box at 8×8 with `extra` arguments.
 fn render_box(out: &Path, extra: &[&str]) {
+    render_box_sized(out, "8", "8", extra)
+}
+
+/// `btfpt render` of the Cornell box at `w`×`h` with `extra` arguments; panics with the output
+/// on failure.
+fn render_box_sized(out: &Path, w: &str, h: &str, extra: &[&str]) {
     let o = btfpt()
         .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args([
-            "render",
-            "scenes/cornell-box/scene.xml",
-            "-D",
-            "width=8",
-            "-D",
-            "height=8",
-        ])
+        .args(["render", "scenes/cornell-box/scene.xml"])
+        .args(["-D", &format!("width={w}"), "-D", &format!("height={h}")])
         .args(["--checkpoint-interval", "1000", "-o"])
         .arg(out)
         .args(extra)
@@ -271,4 +270,119 @@ fn merge_refuses_parts_of_different_scenes_or_options() {
     let o = merge(&["m.exr", "late.exr"], "all.exr");
     assert!(o.status.success(), "{}", text(&o));
     assert!(!p("bad.exr").exists() && !p("bad.png").exists());
+}
+
+/// `btfpt compare ARGS` (run from the crate root).
+fn compare(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+    let mut c = btfpt();
+    c.current_dir(env!("CARGO_MANIFEST_DIR")).arg("compare");
+    for a in args {
+        c.arg(a);
+    }
+    c.output().unwrap()
+}
+
+/// `img` × `k` written to `out`.
+fn scaled(img: &Path, k: f32, out: &Path) {
+    let mut i = btfpt::io::read_image(img).unwrap();
+    i.data.iter_mut().for_each(|v| *v *= k);
+    btfpt::io::write_exr(out, &i).unwrap();
+}
+
+#[test]
+fn compare_tests_btfpt_against_btfpt_and_mitsuba_and_says_when_nothing_was_tested() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n);
+    // Two independent 16-spp renders with their own variance of the mean.
+    for seed in ["1", "2"] {
+        let (img, var) = (p(&format!("a{seed}.exr")), p(&format!("a{seed}_var.exr")));
+        let v = var.display().to_string();
+        render_box_sized(
+            &img,
+            "96",
+            "72",
+            &["--spp", "16", "--seed", seed, "--variance", &v],
+        );
+    }
+    let (a1, a2, v1, v2) = (p("a1.exr"), p("a2.exr"), p("a1_var.exr"), p("a2_var.exr"));
+    // Only the reference's noise: the test's own noise makes hundreds of pixels fail.
+    let o = compare(&[&a1, &a2, &"--variance", &v2]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    // Both images' noise: a correct render passes against another btfpt render...
+    let diff = p("diff.png");
+    let o = compare(&[
+        &a1,
+        &a2,
+        &"--test-variance",
+        &v1,
+        &"--variance",
+        &v2,
+        &"--diff",
+        &diff,
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(t.contains("0 failing") && t.contains("\nPASS"), "{t}");
+    assert!(t.contains("the scale is drawn under the image"), "{t}");
+    let d = image::open(&diff).unwrap();
+    assert!(
+        d.width() >= 96 && d.height() == 72 + 18,
+        "{}×{}",
+        d.width(),
+        d.height()
+    );
+    // ...and 3 % too bright does not.
+    scaled(&a1, 1.03, &p("bright.exr"));
+    let o = compare(&[
+        &p("bright.exr"),
+        &a2,
+        &"--test-variance",
+        &v1,
+        &"--variance",
+        &v2,
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    // No variance: figures only, and no PASS.
+    let o = compare(&[&a1, &a2]);
+    assert!(o.status.success());
+    let t = text(&o);
+    assert!(
+        t.contains("no statistical test run") && !t.contains("PASS"),
+        "{t}"
+    );
+    let o = compare(&[&a1, &a2, &"--max-relmse", &"1"]);
+    assert!(text(&o).contains("PASS (relMSE bound only; no statistical test run)"));
+
+    // Against the committed Mitsuba reference (16384 spp) at 16 spp: its per-sample variance
+    // predicts the test's noise; rare light paths fail 23 single pixels (measured), no 4×4 block.
+    let m = p("m.exr");
+    render_box_sized(&m, "128", "128", &["--spp", "16", "--seed", "3"]);
+    let reference = Path::new("reference-images/cornell-box/cornell-box.exr");
+    let strict = [
+        "--spp",
+        "16",
+        "--max-failing-pixels",
+        "40",
+        "--max-failing-blocks",
+        "0",
+    ];
+    let args = |t: &Path| -> Vec<std::ffi::OsString> {
+        let mut a = vec![t.into(), reference.into()];
+        a.extend(strict.iter().map(Into::into));
+        a
+    };
+    let run = |t: &Path| {
+        let a = args(t);
+        compare(
+            &a.iter()
+                .map(|s| s as &dyn AsRef<std::ffi::OsStr>)
+                .collect::<Vec<_>>(),
+        )
+    };
+    let o = run(&m);
+    assert!(o.status.success(), "{}", text(&o));
+    scaled(&m, 1.03, &p("m_bright.exr"));
+    let o = run(&p("m_bright.exr"));
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("fail the z-test"), "{}", text(&o));
 }

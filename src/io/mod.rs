@@ -1,6 +1,7 @@
 //! File input/output shared by all subsystems: images (EXR, PNG, JPEG) and atomic writes.
 
 pub mod atomic;
+pub mod glyph;
 pub mod image;
 pub mod shared;
 
