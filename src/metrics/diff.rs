@@ -199,7 +199,7 @@ mod tests {
         let r = RgbImage {
             width: 200,
             height: 3,
-            data: vec![0.5; 600],
+            data: vec![0.5; 3 * 200 * 3],
         };
         let l = with_legend(&r, "10%");
         assert_eq!((l.width, l.height), (200, 3 + LEGEND_ROWS));
