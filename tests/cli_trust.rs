@@ -386,3 +386,108 @@ fn compare_tests_btfpt_against_btfpt_and_mitsuba_and_says_when_nothing_was_teste
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("fail the z-test"), "{}", text(&o));
 }
+
+/// 2 views × 81 lights of a 16×16 noise texture (linear), as a cache.
+fn small_sample(path: &Path) {
+    let (w, h) = (16usize, 16usize);
+    let mut rng = btfpt::math::Pcg32::new(5, 5);
+    let tex: Vec<f32> = (0..w * h).map(|_| 0.2 + 0.6 * rng.next_f32()).collect();
+    let lights = DirectionSet::ubo2003();
+    let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (45.0, 0.0)]);
+    let mut data = Vec::new();
+    for v in 0..2 {
+        for l in 0..81 {
+            let k = lights.dirs[l].z.max(0.05) * (1.0 - 0.2 * v as f32);
+            for &t in &tex {
+                data.extend_from_slice(&[t * k, 0.8 * t * k, 0.6 * t * k]);
+            }
+        }
+    }
+    let btf = RawBtf::from_f32(views, lights, w, h, StoredEncoding::Linear, &data).unwrap();
+    btf::cache::write_raw(&btf, path).unwrap();
+}
+
+/// The text after `key` up to the end of its line.
+fn line_after<'a>(text: &'a str, key: &str) -> &'a str {
+    let i = text
+        .find(key)
+        .unwrap_or_else(|| panic!("{key:?} not in {text}"))
+        + key.len();
+    text[i..].lines().next().unwrap_or("").trim()
+}
+
+#[test]
+fn fit_info_and_eval_report_the_same_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    let (data, model, json) = (
+        dir.path().join("s.btfc"),
+        dir.path().join("t.plmc"),
+        dir.path().join("e.json"),
+    );
+    small_sample(&data);
+    // An 8×8 tile (64 texels) with the default 256 clusters asked for.
+    let o = btfpt()
+        .arg("fit")
+        .arg(&data)
+        .arg("-o")
+        .arg(&model)
+        .args(["--tile", "8"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let fit = String::from_utf8_lossy(&o.stdout).into_owned();
+    let o = btfpt().arg("info").arg(&model).output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let info = String::from_utf8_lossy(&o.stdout).into_owned();
+    // Compression: one definition, against the tile's own texels, in both.
+    let ratio = line_after(&info, "bytes, ");
+    assert!(
+        ratio.starts_with("1:") && ratio.contains("of its 8×8 texels"),
+        "{info}"
+    );
+    assert!(fit.contains(ratio), "fit says:\n{fit}\ninfo says: {ratio}");
+    // Clusters: per view and colour channel, at most the 64 texels, the same in both; fit warns
+    // that 256 could not be made.
+    let clusters = line_after(&info, "clusters:    ");
+    assert!(
+        clusters.contains("per view and colour channel, for 64 texels"),
+        "{info}"
+    );
+    let k: usize = clusters
+        .split(|c: char| !c.is_ascii_digit())
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(k <= 64, "{info}");
+    assert!(fit.contains(&format!("clusters: {clusters}")), "{fit}");
+    assert!(fit.contains("256 requested"), "{fit}");
+    assert!(info.contains("value space: linear"), "{info}");
+    // eval: the table, the tile line and the JSON use the same ratio.
+    let o = btfpt()
+        .arg("eval")
+        .arg(&model)
+        .arg("--against")
+        .arg(&data)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains(ratio), "{}", text(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let want: f64 = ratio[2..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    for r in [&v["models"]["plmc"]["ratio"], &v["tile"]["ratio"]] {
+        let r = r.as_f64().unwrap();
+        assert!(
+            (r - want).abs() < 0.051,
+            "JSON ratio {r} vs printed 1:{want}"
+        );
+    }
+}

@@ -4,7 +4,6 @@ use anyhow::Context;
 use btfpt::btf::{self, format};
 use btfpt::fit::model::ModelKind;
 use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
-use btfpt::fit::report::raw_bytes;
 use btfpt::fit::tiling;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -205,14 +204,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     let bytes = std::fs::metadata(&args.output)
         .with_context(|| format!("reading size of {}", args.output.display()))?
         .len() as usize;
-    // Raw size of the whole measured sample (for tiles: what the tile replaces).
-    let raw = raw_bytes(views, source.lights().len(), data.width() * data.height());
     println!(
-        "{}: {} model, {} bytes (1:{:.1} vs 8-bit raw), fitted in {:.1} s{}",
+        "{}: {} model, {} bytes ({}), fitted in {:.1} s{}",
         args.output.display(),
         opts.kind.name(),
         bytes,
-        raw as f64 / bytes.max(1) as f64,
+        super::figures::compression(&outcome.model, bytes as u64),
         start.elapsed().as_secs_f64(),
         if outcome.resumed_views > 0 {
             format!(
@@ -226,9 +223,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     );
     if opts.kind == ModelKind::PlmC {
         let s = outcome.stats;
+        if let Some(c) = super::figures::clusters(&outcome.model, Some(opts.clusters)) {
+            println!("clusters: {c}");
+        }
         println!(
-            "clusters: {} (refit on members better for {}, averaged member parameters for {}), {} Lloyd iterations",
-            s.clusters, s.refit_wins, s.average_wins, s.kmeans_iterations
+            "cluster lobes: refit on members better for {}, averaged member parameters for {} (summed over views and channels), {} Lloyd iterations",
+            s.refit_wins, s.average_wins, s.kmeans_iterations
         );
         if opts.refine_iters > 0 && outcome.resumed_views == 0 {
             let drop = if s.refine_error_before > 0.0 {

@@ -2,6 +2,7 @@
 
 pub mod compare;
 pub mod convert;
+pub mod figures;
 pub mod info;
 pub mod merge;
 pub mod output;
