@@ -116,6 +116,7 @@ fn fingerprint(scene: &Path, defines: &[(String, String)], s: &RenderSettings) -
 
 /// Runs `btfpt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let run_start = Instant::now();
     // Argument errors first, before the (possibly slow) scene load.
     let defines = parse_defines(&args.defines)?;
     let range = args.spp_range.as_deref().map(parse_range).transpose()?;
@@ -194,11 +195,25 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .with_context(|| format!("{}: cannot read the scene file", args.scene.display()))?;
     let scene_fp = scene_fingerprint(&scene_bytes, &format!("{fp_defines:?}"));
 
+    let scene_spp = scene.spp;
     let rs = RenderScene::new(scene)?;
+    let load_secs = run_start.elapsed().as_secs_f64();
     eprintln!("{}", rs.summary());
+    for b in btfpt::scene::btf_bsdf::take_load_log() {
+        eprintln!(
+            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s",
+            b.source, b.model, b.texels.0, b.texels.1, b.seconds
+        );
+    }
     let [cx, cy, cw, ch] = crop;
     eprintln!(
-        "rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end}, seed {} → {}",
+        "loaded in {load_secs:.2} s; rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end} ({} spp{}), seed {} → {}",
+        spp_end - spp_begin,
+        if (spp_begin, spp_end) != (0, scene_spp) {
+            format!(", the scene asks for {scene_spp}")
+        } else {
+            String::new()
+        },
         args.seed,
         out.display()
     );
@@ -284,6 +299,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     let secs = start.elapsed().as_secs_f64();
+    let total_secs = run_start.elapsed().as_secs_f64();
     let cpu = match (cpu_start, process_cpu_seconds()) {
         (Some(a), Some(b)) => format!(" (cpu {:.2} s)", b - a),
         _ => String::new(),
@@ -309,7 +325,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let invalid = state.invalid_samples();
     eprintln!(
-        "done in {secs:.2} s{cpu}: {:.2} Mrays/s, {} rays{}; wrote {} and {}",
+        "done in {total_secs:.2} s (loading {load_secs:.2} s, rendering {secs:.2} s{cpu}): {} spp, {:.2} Mrays/s, {} rays{}; wrote {} and {}",
+        spp_end - spp_begin,
         state.rays() as f64 / secs.max(1e-9) * 1e-6,
         state.rays(),
         if invalid > 0 {

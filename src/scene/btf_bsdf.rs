@@ -35,6 +35,70 @@ pub fn build_btf(
     uv_scale: f32,
     model_attr: &str,
 ) -> Result<Bsdf> {
+    let t0 = std::time::Instant::now();
+    let bsdf = build_btf_untimed(file, line, filename, resolve, uv_scale, model_attr)?;
+    let (model, source, texels) = match &bsdf {
+        Bsdf::Btf(b) => {
+            let raw = b.material().btf();
+            let name = if filename.starts_with("synth:") {
+                filename.to_string()
+            } else {
+                resolve(filename).display().to_string()
+            };
+            use crate::btf::BtfSource;
+            ("raw", name, (raw.width(), raw.height()))
+        }
+        Bsdf::Plmc(b) => {
+            let m = b.material();
+            (
+                m.kind().name(),
+                resolve(filename).display().to_string(),
+                (m.width(), m.height()),
+            )
+        }
+        _ => return Ok(bsdf),
+    };
+    LOAD_LOG.with(|l| {
+        l.borrow_mut().push(BtfLoad {
+            source,
+            model,
+            texels,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    });
+    Ok(bsdf)
+}
+
+/// What loading one `<bsdf type="btf">` cost, for the render summary.
+#[derive(Clone, Debug)]
+pub struct BtfLoad {
+    /// File (resolved path) or `synth:` source.
+    pub source: String,
+    /// Model rendered: "raw", "lm", "plm" or "plmc".
+    pub model: &'static str,
+    /// Texels (width, height) of the data or model.
+    pub texels: (usize, usize),
+    /// Wall-clock seconds to load or generate it (0 when shared with an earlier element).
+    pub seconds: f64,
+}
+
+thread_local! {
+    static LOAD_LOG: RefCell<Vec<BtfLoad>> = const { RefCell::new(Vec::new()) };
+}
+
+/// The BTFs loaded on this thread since the last call, in scene order.
+pub fn take_load_log() -> Vec<BtfLoad> {
+    LOAD_LOG.with(|l| std::mem::take(&mut *l.borrow_mut()))
+}
+
+fn build_btf_untimed(
+    file: &Path,
+    line: u32,
+    filename: &str,
+    resolve: &dyn Fn(&str) -> PathBuf,
+    uv_scale: f32,
+    model_attr: &str,
+) -> Result<Bsdf> {
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
