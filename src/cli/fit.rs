@@ -181,6 +181,24 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         ModelKind::PlmC => &["LM", "PLM", "PLM-C", "done"],
     };
     let (_mp, bars) = stage_bars(views, labels);
+    // Views finished (saved in the parts folder); Ctrl-C says how many are kept.
+    let saved = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    {
+        let (saved, parts, output) = (saved.clone(), parts.clone(), args.output.clone());
+        let handler = move || {
+            eprintln!(
+                "\ninterrupted: {} of {views} views saved in {}; rerun the same command to resume \
+                 (no {} was written)",
+                saved.load(std::sync::atomic::Ordering::SeqCst),
+                parts.display(),
+                output.display()
+            );
+            std::process::exit(130);
+        };
+        if let Err(e) = ctrlc::set_handler(handler) {
+            eprintln!("warning: cannot install the Ctrl-C handler ({e})");
+        }
+    }
     let start = std::time::Instant::now();
     let key = stitch.as_ref().map_or(0, |s| s.key());
     let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), &|_, stage| {
@@ -188,7 +206,10 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             Stage::Lm => 0,
             Stage::Plm => 1,
             Stage::PlmC => 2,
-            Stage::Done => labels.len() - 1,
+            Stage::Done => {
+                saved.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                labels.len() - 1
+            }
         };
         if let Some(b) = bars.get(i) {
             b.inc(1);
