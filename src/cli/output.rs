@@ -29,7 +29,7 @@ fn check_dir_writable(dir: &Path, path: &Path) -> anyhow::Result<()> {
             Ok(())
         }
         Err(e) => bail!(
-            "{}: cannot write into the folder {}: {e}",
+            "{}: output is not writable (cannot create files in the folder {}: {e})",
             path.display(),
             dir.display()
         ),
