@@ -7,7 +7,7 @@ usage: bench_vs_mitsuba.py SCENE.xml SPP [--runs 3] [--threads 2] [--btfpt targe
 Runs are interleaved (btfpt, Mitsuba, btfpt, Mitsuba, ...) so both see the same machine load.
 btfpt: the release binary, `--threads T`, one process per run (seed = run); timed are the whole
 process wall time (scene load + BVH + render + EXR write), its CPU time (rusage of the child),
-and the render alone ("done in" line: its wall time and the process CPU time over the sample
+and the render alone ("rendering X s (cpu Y s)" in the "done in" line: its wall time and the process CPU time over the sample
 loop, getrusage, i.e. without scene load, BVH build and image writing: "render-only cpu").
 Mitsuba: one process, the scene loaded once, Dr.Jit limited to T threads; one untimed warm-up
 render traces and compiles the kernels (reported as "jit"), then each timed run is
@@ -99,10 +99,10 @@ def main(argv=None) -> int:
             rows["btfpt_cpu"].append(ru2.ru_utime + ru2.ru_stime - ru.ru_utime - ru.ru_stime)
             if p.returncode != 0:
                 sys.exit(f"btfpt failed ({' '.join(cmd)}):\n{p.stderr}")
-            m = re.search(r"done in ([0-9.]+) s", p.stderr)
+            m = re.search(r"rendering ([0-9.]+) s", p.stderr)
             rows["btfpt"].append(wall)
             rows["btfpt_render"].append(float(m.group(1)) if m else float("nan"))
-            m = re.search(r"done in [0-9.]+ s \(cpu ([0-9.]+) s\)", p.stderr)
+            m = re.search(r"rendering [0-9.]+ s \(cpu ([0-9.]+) s\)", p.stderr)
             rows["btfpt_render_cpu"].append(float(m.group(1)) if m else float("nan"))
             if ref is not None:
                 rows["rel_btfpt"].append(relmse(read_exr(out), ref))

@@ -11,7 +11,7 @@ For every committed reference scene (reference-images/<name>/<name>.exr, Mitsuba
   * btfpt renders it at the same spp (release binary, --threads, one process per render): the raw
     BTF, and for BTF scenes the fitted LM, PLM and PLM-C models of the same material
     (`--btf-model`), timed as process wall time, CPU time (rusage of the child) and the render alone
-    ("done in", no scene/material load);
+    ("rendering X s" in the "done in" line, no scene/material load);
   * every image is scored against the reference with `btfpt compare --spp N --diff --json`
     (relMSE, MAE, luminance ratio, failing 4x4 blocks of the block z-test);
   * BTF scenes: the models' own error, btfpt at --hi-spp with the same seed for every model
@@ -147,7 +147,7 @@ def btfpt_render(btfpt, xml, out: Path, spp, seed, threads, defines, model=None)
     if model:
         cmd += ["--btf-model", model]
     p, wall, cpu = run(cmd)
-    m = re.search(r"done in ([0-9.]+) s", p.stderr)
+    m = re.search(r"rendering ([0-9.]+) s", p.stderr)
     return {"wall_s": wall, "cpu_s": cpu, "render_s": float(m.group(1)) if m else None}
 
 
@@ -363,7 +363,7 @@ def markdown(res: dict, a) -> str:
           "values; failing blocks = 4×4-pixel block means outside the Šidák-corrected z-test at "
           "α = 0.01 (with the reference's per-sample variance; the raw regression tests allow 1, "
           "see NOTES.md for the calibrated ranges). Times: Mitsuba = `mi.render` after a warm-up "
-          "render (no load, no JIT); btfpt *render* = the render alone (its \"done in\"), *process* "
+          "render (no load, no JIT); btfpt *render* = the render alone (\"rendering X s\" of its \"done in\" line), *process* "
           "= the whole `btfpt render` process (scene and material load, BVH, EXR write); CPU = all "
           "threads, of the render alone for Mitsuba but of the whole process for btfpt (so the two "
           "CPU columns are not comparable: compare the render wall times, measured side by side). "

@@ -47,6 +47,7 @@ fn meta_of(st: &RenderState) -> PartialMeta {
         spp_begin: s.spp_begin,
         spp_end: s.spp_end,
         seed: s.seed,
+        scene: 7,
     }
 }
 

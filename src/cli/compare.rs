@@ -1,5 +1,6 @@
 //! `btfpt compare`: error metrics and the z-test of a render against a reference (e.g. the
-//! committed Mitsuba references); exit code 0 on pass.
+//! committed Mitsuba references, or another btfpt render); exit code 0 on pass or when no bound
+//! was checked (then it says "no statistical test run", never PASS).
 
 use anyhow::{Context, bail};
 use btfpt::io::{RgbImage, read_image};
@@ -24,6 +25,11 @@ pub struct CompareArgs {
     /// Samples per pixel of the test render.
     #[arg(long)]
     pub spp: Option<u32>,
+    /// The test image's own variance of its mean (`btfpt render --variance`); added to the
+    /// reference's. With `--variance REF_VAR.EXR` of the other render this tests btfpt against
+    /// btfpt; with a Mitsuba reference's `_var.exr`, btfpt against Mitsuba.
+    #[arg(long, value_name = "TEST_VAR.EXR", conflicts_with_all = ["sample_variance", "spp"])]
+    pub test_variance: Option<PathBuf>,
     /// Family-wise significance level of the z-tests (Šidák-corrected over pixels · 3).
     #[arg(long, default_value_t = 0.01)]
     pub alpha: f64,
@@ -42,8 +48,10 @@ pub struct CompareArgs {
     /// Fail when relMSE exceeds this.
     #[arg(long)]
     pub max_relmse: Option<f64>,
-    /// Write a false-colour difference PNG (signed z if a variance is known, else relative
-    /// luminance difference at ±10 %).
+    /// Write a false-colour difference PNG with its scale drawn underneath: signed z if a
+    /// variance is known (full blue/red at the failure threshold), else the relative luminance
+    /// difference (full colour at ±10 %); white = equal, blue = test darker, red = brighter,
+    /// cyan/magenta beyond the scale, yellow = non-finite.
     #[arg(long, value_name = "DIFF.PNG")]
     pub diff: Option<PathBuf>,
     /// Write all figures as JSON.
@@ -88,6 +96,8 @@ fn same_size(a: &RgbImage, b: &RgbImage, pa: &Path, pb: &Path) -> anyhow::Result
 
 /// Runs `btfpt compare`.
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
+    super::output::check_optional_file(args.diff.as_ref())?;
+    super::output::check_optional_file(args.json.as_ref())?;
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha {}: must be in (0, 1)", args.alpha);
     }
@@ -118,7 +128,9 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             let p = beside(&args.reference, "_sample_var");
             if !p.is_file() {
                 bail!(
-                    "--spp given but no --sample-variance, and {} does not exist",
+                    "--spp given but no --sample-variance, and {} does not exist (only the \
+                     Mitsuba pipeline writes it; for a btfpt render give its own variance with \
+                     --test-variance TEST_VAR.EXR from `btfpt render --variance` instead of --spp)",
                     p.display()
                 );
             }
@@ -154,15 +166,31 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let variance = if sample_var.is_some() || ref_var.is_some() {
-        Some(metrics::predicted_variance(
+    let test_var = match &args.test_variance {
+        Some(p) => {
+            let v = load(p, "test variance")?;
+            same_size(&v, &test, p, &args.test)?;
+            inputs.push(format!("variance of the test mean {}", p.display()));
+            Some(v)
+        }
+        None => None,
+    };
+    let mut terms = Vec::new();
+    if sample_var.is_some() || ref_var.is_some() {
+        terms.push(metrics::predicted_variance(
             sample_var.as_ref(),
             args.spp.unwrap_or(1),
             ref_var.as_ref(),
-        )?)
-    } else {
-        None
-    };
+        )?);
+    }
+    if let Some(t) = &test_var {
+        // Validated (finite, ≥ 0) like the other variance inputs.
+        terms.push(metrics::predicted_variance(None, 1, Some(t))?);
+    }
+    let variance = terms.into_iter().reduce(|mut a, b| {
+        a.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
+        a
+    });
     if args.block > test.width.min(test.height) {
         bail!(
             "--block {} is larger than the {}×{} image",
@@ -193,12 +221,45 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     println!("{}", cmp.report());
 
     if let Some(p) = &args.diff {
-        let img = match &cmp.pixel_test {
-            Some(z) => metrics::z_diff_image(z),
-            None => metrics::relative_diff_image(&test, &reference, 0.1)?,
+        let (img, label, scale) = match &cmp.pixel_test {
+            Some(z) => (
+                metrics::z_diff_image(z),
+                format!("{:.2}Z", z.threshold),
+                format!(
+                    "z, full colour at |z| = {:.2} (the failure threshold)",
+                    z.threshold
+                ),
+            ),
+            None => (
+                metrics::relative_diff_image(&test, &reference, 0.1)?,
+                "10%".to_string(),
+                "relative luminance difference (Y_t − Y_r)/(Y_r + 0.01), full colour at ±10 %"
+                    .to_string(),
+            ),
         };
-        btfpt::io::write_png_srgb(p, &img)?;
+        btfpt::io::write_png_srgb(p, &metrics::with_legend(&img, &label))?;
+        println!(
+            "{}: {scale}; white = equal, blue = test darker, red = brighter, cyan/magenta \
+             beyond the scale, yellow = non-finite; the scale is drawn under the image",
+            p.display()
+        );
     }
+    // A bound was checked at all (a z-test, or the relMSE bound)?
+    let tested = cmp.pixel_test.is_some()
+        || criteria.max_relmse.is_some()
+        || criteria.max_failing_blocks.is_some()
+        || criteria.max_abs_mean_z.is_some();
+    let verdict = if !failures.is_empty() {
+        "FAILED"
+    } else if cmp.pixel_test.is_some() {
+        "PASS"
+    } else if tested {
+        "PASS (relMSE bound only; no statistical test run)"
+    } else {
+        "no statistical test run (no variance given: nothing was tested, the figures above are \
+         for information; give --variance and --test-variance, or --spp with the reference's \
+         sample variance, for the z-test)"
+    };
     if let Some(p) = &args.json {
         let doc = serde_json::json!({
             "test": args.test,
@@ -206,8 +267,10 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             "sample_variance": sample_var_path,
             "variance": var_path,
             "spp": args.spp,
+            "test_variance": args.test_variance,
             "comparison": cmp,
-            "passed": failures.is_empty(),
+            "statistical_test": cmp.pixel_test.is_some(),
+            "passed": if tested { Some(failures.is_empty()) } else { None },
             "failures": failures,
         });
         let text = serde_json::to_string_pretty(&doc)?;
@@ -217,7 +280,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         })?;
     }
     if failures.is_empty() {
-        println!("PASS");
+        println!("{verdict}");
         Ok(())
     } else {
         bail!("comparison FAILED:\n  {}", failures.join("\n  "))

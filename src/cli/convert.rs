@@ -22,7 +22,8 @@ pub enum Images {
 pub struct ConvertArgs {
     /// Input BTF: UBO2003 folder, UBO2014 `.btf` or `.btfc`.
     pub input: PathBuf,
-    /// Output: a `.btfc` file, or otherwise a folder to write UBO2003 images into.
+    /// Output: `NAME.btfc` for the cache, or a folder name without extension for UBO2003 images
+    /// (any other extension is an error).
     pub output: PathBuf,
     /// Image encoding when the output is a UBO2003 folder.
     #[arg(long, value_enum, default_value = "exr")]
@@ -31,16 +32,25 @@ pub struct ConvertArgs {
 
 /// Converts one BTF.
 pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
+    let out = super::output::btf_output(&args.output)?;
     let t0 = Instant::now();
-    let is_cache = args
-        .output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("btfc"));
-    if is_cache {
+    if out == super::output::BtfOutput::Cache {
         let src = btf::open(&args.input)
             .with_context(|| format!("cannot open {}", args.input.display()))?;
         btf::cache::write_cache(src.as_ref(), &args.output)?;
     } else {
+        let src = btf::open(&args.input)
+            .with_context(|| format!("cannot open {}", args.input.display()))?;
+        let (nv, nl) = (src.views().len(), src.lights().len());
+        drop(src);
+        if (nv, nl) != (81, 81) {
+            anyhow::bail!(
+                "{}: a UBO2003 folder holds the 81 UBO2003 directions, {} has {nv} views × {nl} \
+                 lights; convert it to a .btfc cache instead",
+                args.output.display(),
+                args.input.display()
+            );
+        }
         let raw = btf::load_raw(&args.input)?;
         let kind = match args.images {
             Images::Png8 => ImageKind::Png8,

@@ -137,6 +137,8 @@ fn seams(
 
 /// Runs `btfpt eval`.
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
+    super::output::check_optional_file(args.json.as_ref())?;
+    super::output::check_optional_file(args.plot.as_ref())?;
     let (model, section) = codec::read_tiled(&args.model)?;
     let stitch = section
         .as_ref()
@@ -188,13 +190,14 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     );
     if let (Some(s), Some(r)) = (&stitch, seam.region_mae) {
         println!(
-            "tiles: {}×{} × {} of the {}×{} sample; file 1:{:.1} vs the sample's 8-bit raw data; \
-             MAE of tile 0 vs its original region {:.4}",
+            "tiles: {}×{} × {} of the {}×{} sample; file {}; the tiles stand in for the sample's \
+             8-bit raw data at 1:{:.1}; MAE of tile 0 vs its original region {:.4}",
             s.tile_w,
             s.tile_h,
             s.count,
             s.sample_w,
             s.sample_h,
+            super::figures::compression(&model, file_bytes as u64),
             sample_raw as f64 / file_bytes.max(1) as f64,
             r
         );
@@ -219,6 +222,7 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
                         "cut_error": s.cut_error,
                         "sample_raw_bytes": sample_raw,
                         "file_bytes": file_bytes,
+                        "ratio": super::figures::ratio(&model, file_bytes as u64),
                         "ratio_vs_sample": sample_raw as f64 / file_bytes.max(1) as f64,
                         "region_mae": seam.region_mae,
                     }),

@@ -121,6 +121,7 @@ pub(crate) fn stage_bars(views: usize, labels: &[&str]) -> (MultiProgress, Vec<P
 
 /// Runs `btfpt fit`.
 pub fn run(args: FitArgs) -> anyhow::Result<()> {
+    super::output::check_file(&args.output)?;
     if args.tile.is_none() && (args.tiles != 1 || args.overlap.is_some()) {
         anyhow::bail!("--tiles and --overlap need --tile WxH");
     }
@@ -202,7 +203,10 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             Stage::Lm => 0,
             Stage::Plm => 1,
             Stage::PlmC => 2,
-            Stage::Done => labels.len() - 1,
+            Stage::Done => {
+                saved.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                labels.len() - 1
+            }
         };
         if let Some(b) = bars.get(i) {
             b.inc(1);
@@ -248,14 +252,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     let bytes = std::fs::metadata(&args.output)
         .with_context(|| format!("reading size of {}", args.output.display()))?
         .len() as usize;
-    // Raw size of the whole measured sample (for tiles: what the tile replaces).
-    let raw = raw_bytes(views, source.lights().len(), data.width() * data.height());
     println!(
-        "{}: {} model, {} bytes (1:{:.1} vs 8-bit raw), fitted in {:.1} s{}",
+        "{}: {} model, {} bytes ({}), fitted in {:.1} s{}",
         args.output.display(),
         opts.kind.name(),
         bytes,
-        raw as f64 / bytes.max(1) as f64,
+        super::figures::compression(&outcome.model, bytes as u64),
         start.elapsed().as_secs_f64(),
         if outcome.resumed_views > 0 {
             format!(
@@ -269,9 +271,12 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     );
     if opts.kind == ModelKind::PlmC {
         let s = outcome.stats;
+        if let Some(c) = super::figures::clusters(&outcome.model, Some(opts.clusters)) {
+            println!("clusters: {c}");
+        }
         println!(
-            "clusters: {} (refit on members better for {}, averaged member parameters for {}), {} Lloyd iterations",
-            s.clusters, s.refit_wins, s.average_wins, s.kmeans_iterations
+            "cluster lobes: refit on members better for {}, averaged member parameters for {} (summed over views and channels), {} Lloyd iterations",
+            s.refit_wins, s.average_wins, s.kmeans_iterations
         );
         if opts.refine_iters > 0 && outcome.resumed_views == 0 {
             let drop = if s.refine_error_before > 0.0 {

@@ -9,7 +9,7 @@ use std::time::Instant;
 /// Arguments of `btfpt info`.
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A UBO2003 image folder, a UBO2014 `.btf`, a `.btfc` cache (or, later, a `.plmc` model).
+    /// A UBO2003 image folder, a UBO2014 `.btf`, a `.btfc` cache or a fitted `.plmc` model.
     pub path: PathBuf,
     /// Compute the value statistics over at most this many views, evenly spaced (0 = all).
     #[arg(long, default_value_t = 0)]
@@ -73,19 +73,20 @@ fn describe_model(path: &std::path::Path) -> anyhow::Result<()> {
     let bytes = std::fs::metadata(path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .len();
-    let raw = model.views.len() * model.lights.len() * model.width * model.height * 3;
     println!("model:       {}", model.kind.name());
     println!("views:       {}", describe_directions(&model.views));
     println!("lights:      {}", describe_directions(&model.lights));
     println!("size:        {} × {} texels", model.width, model.height);
-    println!("clusters:    {}", model.clusters);
-    println!("value space: {:?}", model.space);
+    if let Some(c) = super::figures::clusters(&model, None) {
+        println!("clusters:    {c}");
+    }
+    println!("value space: {}", super::figures::value_space(model.space));
     if let Some(t) = tile {
         println!("tile:        {} × {} texels", t.tile_w, t.tile_h);
     }
     println!(
-        "file:        {bytes} bytes, 1:{:.1} vs 8-bit raw data of these texels ({raw} bytes)",
-        raw as f64 / bytes.max(1) as f64
+        "file:        {bytes} bytes, {}",
+        super::figures::compression(&model, bytes)
     );
     println!("read in:     {:.2} s", t0.elapsed().as_secs_f64());
     Ok(())

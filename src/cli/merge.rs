@@ -18,6 +18,9 @@ pub struct MergeArgs {
 
 /// Runs `btfpt merge`.
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    let png = args.output.with_extension("png");
+    super::output::check_file(&args.output)?;
+    super::output::check_file(&png)?;
     let parts = args
         .inputs
         .iter()
@@ -30,7 +33,6 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
         .collect();
     let (img, meta) = merge(&parts, &names)?;
     write_partial_exr(&args.output, &img, &meta)?;
-    let png = args.output.with_extension("png");
     btfpt::io::write_png_srgb(&png, &img)?;
     let [x, y, w, h] = meta.crop;
     eprintln!(

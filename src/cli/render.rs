@@ -5,7 +5,7 @@
 use anyhow::{Context, bail};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
-use btfpt::render::partial::{PartialMeta, write_partial_exr};
+use btfpt::render::partial::{PartialMeta, scene_fingerprint, write_partial_exr};
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -131,26 +131,6 @@ fn parse_defines(d: &[String]) -> anyhow::Result<Vec<(String, String)>> {
         .collect()
 }
 
-/// Fails early (before rendering) if `path` cannot be created.
-fn check_writable(path: &Path) -> anyhow::Result<()> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        bail!(
-            "{}: output directory {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    let probe = btfpt::io::atomic::temp_path(path);
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("{}: output is not writable", path.display()))?;
-    let _ = std::fs::remove_file(&probe);
-    Ok(())
-}
-
 fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
     let mut s = path.as_os_str().to_os_string();
     s.push(suffix);
@@ -171,6 +151,7 @@ fn fingerprint(scene: &Path, defines: &[(String, String)], s: &RenderSettings) -
 
 /// Runs `btfpt render`.
 pub fn run(args: RenderArgs) -> anyhow::Result<()> {
+    let run_start = Instant::now();
     // Argument errors first, before the (possibly slow) scene load.
     let defines = parse_defines(&args.defines)?;
     let range = args.spp_range.as_deref().map(parse_range).transpose()?;
@@ -178,6 +159,22 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let band = args.band.as_deref().map(parse_band).transpose()?;
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
+    }
+    let out = args
+        .output
+        .clone()
+        .unwrap_or_else(|| args.scene.with_extension("exr"));
+    if out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        != Some("exr".into())
+    {
+        bail!("{}: the output must be an .exr file", out.display());
+    }
+    let png = out.with_extension("png");
+    for path in [Some(&out), Some(&png), args.variance.as_ref()] {
+        super::output::check_optional_file(path)?;
     }
     let load_options = btfpt::scene::LoadOptions {
         defines: defines.clone(),
@@ -193,18 +190,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             "{}: the scene is empty (no shapes and no emitters), the image would be black",
             args.scene.display()
         );
-    }
-    let out = args
-        .output
-        .clone()
-        .unwrap_or_else(|| args.scene.with_extension("exr"));
-    if out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        != Some("exr".into())
-    {
-        bail!("{}: the output must be an .exr file", out.display());
     }
     let (spp_begin, spp_end) = match (range, args.spp) {
         (Some(r), _) => r,
@@ -247,14 +232,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");
     }
-    check_writable(&out)?;
-    let png = out.with_extension("png");
-    check_writable(&png)?;
-    if let Some(v) = &args.variance {
-        check_writable(v)?;
-        if settings.spp() < 2 {
-            bail!("--variance needs at least 2 samples per pixel");
-        }
+    if args.variance.is_some() && settings.spp() < 2 {
+        bail!("--variance needs at least 2 samples per pixel");
     }
     let ckpt = with_suffix(&out, ".ckpt");
     // The BTF model override changes the image: a checkpoint of another model must not resume.
@@ -268,10 +247,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         fp_defines.push(("--integrator".into(), args.integrator.clone()));
     }
     let fp = fingerprint(&args.scene, &fp_defines, &settings);
+    let scene_bytes = std::fs::read(&args.scene)
+        .with_context(|| format!("{}: cannot read the scene file", args.scene.display()))?;
+    let scene_fp = scene_fingerprint(&scene_bytes, &format!("{fp_defines:?}"));
 
-    for u in &scene.btf_uses {
-        eprintln!("btf: {} ({})", u.file.display(), u.model);
-    }
+    let scene_spp = scene.spp;
+    let btf_uses = scene.btf_uses.clone();
     let mut rs = RenderScene::new(scene)?;
     if args.integrator == "packet" {
         rs.kind = IntegratorKind::Packet(PacketOptions {
@@ -279,10 +260,27 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             refill: args.packet_refill == "on",
         });
     }
+    let load_secs = run_start.elapsed().as_secs_f64();
     eprintln!("{}", rs.summary());
+    for b in &btf_uses {
+        eprintln!(
+            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s",
+            b.file.display(),
+            b.model,
+            b.texels.0,
+            b.texels.1,
+            b.seconds
+        );
+    }
     let [cx, cy, cw, ch] = crop;
     eprintln!(
-        "rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end}, seed {} → {}",
+        "loaded in {load_secs:.2} s; rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end} ({} spp{}), seed {} → {}",
+        spp_end - spp_begin,
+        if (spp_begin, spp_end) != (0, scene_spp) {
+            format!(", the scene asks for {scene_spp}")
+        } else {
+            String::new()
+        },
         args.seed,
         out.display()
     );
@@ -360,6 +358,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     let secs = start.elapsed().as_secs_f64();
+    let total_secs = run_start.elapsed().as_secs_f64();
     let cpu = match (cpu_start, process_cpu_seconds()) {
         (Some(a), Some(b)) => format!(" (cpu {:.2} s)", b - a),
         _ => String::new(),
@@ -372,6 +371,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         spp_begin,
         spp_end,
         seed: args.seed,
+        scene: scene_fp,
     };
     write_partial_exr(&out, &img, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;
@@ -397,7 +397,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         );
     }
     eprintln!(
-        "done in {secs:.2} s{cpu}: {:.2} Mrays/s, {} rays{}; wrote {} and {}",
+        "done in {total_secs:.2} s (loading {load_secs:.2} s, rendering {secs:.2} s{cpu}): {} spp, {:.2} Mrays/s, {} rays{}; wrote {} and {}",
+        spp_end - spp_begin,
         state.rays() as f64 / secs.max(1e-9) * 1e-6,
         state.rays(),
         if invalid > 0 {

@@ -1,8 +1,11 @@
 //! `btfpt synth`: measure a procedural material with the virtual gonioreflectometer and write it
-//! as a UBO2003 folder.
+//! as a UBO2003 folder or a `.btfc` cache (the output's extension decides).
 
+use super::output::BtfOutput;
 use anyhow::{Context, bail};
 use btfpt::btf::DirectionSet;
+use btfpt::btf::RawBtf;
+use btfpt::btf::cache::write_raw;
 use btfpt::btf::synth::{MaterialKind, SynthSettings, measure};
 use btfpt::btf::ubo2003::{ImageKind, write_folder};
 use clap::Args;
@@ -19,16 +22,18 @@ pub struct SynthArgs {
     /// Tile size in texels: N (square) or WxH.
     #[arg(long, default_value = "64")]
     pub size: String,
-    /// Direction set for views and lights: ubo2003 (81) or ubo2014 (151).
+    /// Direction set for views and lights: ubo2003 (81) or ubo2014 (151; needs a .btfc output,
+    /// a UBO2003 folder holds only the 81 UBO2003 directions).
     #[arg(long, default_value = "ubo2003")]
     pub directions: String,
-    /// Output folder.
+    /// Output: a folder name without extension for UBO2003 images, or NAME.btfc for the cache.
     #[arg(short = 'o', long)]
     pub output: Option<PathBuf>,
     /// Random seed (noise of the material and sampling).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Image format: png8, png16 or exr.
+    /// Image format of a UBO2003 folder: png8, png16 (sRGB, values above 1 are clipped, with a
+    /// warning saying how many) or exr (linear floats, nothing clipped).
     #[arg(long, default_value = "png8")]
     pub format: String,
     /// Stratified samples per texel axis (samples per texel = strata²).
@@ -65,6 +70,21 @@ fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
     }
 }
 
+/// Says how many values an sRGB PNG folder clips at 1 (the same values in EXR are kept).
+fn warn_clipped(btf: &RawBtf, format: &str) {
+    let values = btf.data();
+    let clipped = values.iter().filter(|v| v.to_f32() > 1.0).count();
+    if clipped > 0 {
+        let max = values.iter().map(|v| v.to_f32()).fold(0.0f32, f32::max);
+        eprintln!(
+            "warning: {clipped} of {} values ({:.3}%) exceed 1 (up to {max:.2}) and are clipped to 1 \
+             by --format {format}; --format exr keeps them",
+            values.len(),
+            100.0 * clipped as f64 / values.len().max(1) as f64
+        );
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: SynthArgs) -> anyhow::Result<()> {
     if args.list {
@@ -90,8 +110,16 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
         other => bail!("--format: unknown '{other}' (expected png8, png16 or exr)"),
     };
     let Some(out) = args.output else {
-        bail!("synth: give an output folder with -o");
+        bail!("synth: give an output with -o (a folder, or NAME.btfc)");
     };
+    let target = super::output::btf_output(&out)?;
+    if target == BtfOutput::Folder && args.directions.eq_ignore_ascii_case("ubo2014") {
+        bail!(
+            "{}: --directions ubo2014 has 151 directions but a UBO2003 folder holds the 81 \
+             UBO2003 directions; write the .btfc cache instead (-o NAME.btfc)",
+            out.display()
+        );
+    }
     if !(1..=16).contains(&args.subdiv) {
         bail!("--subdiv: {} is out of range 1..=16", args.subdiv);
     }
@@ -116,8 +144,16 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
         args.strata * args.strata,
         rayon::current_num_threads()
     );
-    write_folder(&btf, &out, kind)
-        .with_context(|| format!("writing the UBO2003 folder {}", out.display()))?;
+    match target {
+        BtfOutput::Cache => write_raw(&btf, &out)?,
+        BtfOutput::Folder => {
+            if kind != ImageKind::Exr {
+                warn_clipped(&btf, &args.format);
+            }
+            write_folder(&btf, &out, kind)
+                .with_context(|| format!("writing the UBO2003 folder {}", out.display()))?
+        }
+    }
     eprintln!("wrote {}", out.display());
     Ok(())
 }

@@ -37,17 +37,20 @@ pub struct TilePreviewArgs {
     /// Always use this tile (index) instead of a random choice per cell.
     #[arg(long)]
     pub tile: Option<usize>,
-    /// Show the measured data instead of the model: the model's stitched tiles cut from this
-    /// sample (the one it was fitted to), or with --crop a plain crop of the same size.
+    /// Tiled models only (fitted with `fit --tile`): show the measured data instead of the
+    /// model, the model's stitched tiles cut from this sample (the one it was fitted to), or with
+    /// --crop a plain crop of the same size. A model without tiles is refused.
     #[arg(long)]
     pub data: Option<PathBuf>,
-    /// With --data: a plain crop at the template's origin instead of the stitched tiles.
+    /// With --data (tiled models only): a plain crop at the template's origin instead of the
+    /// stitched tiles.
     #[arg(long)]
     pub crop: bool,
 }
 
 /// Runs `btfpt tile-preview`.
 pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
+    super::output::check_file(&a.output)?;
     let (cols, rows) = tiling::parse_size(&a.repeat).context("--repeat")?;
     if cols * rows > 1 << 16 {
         bail!("--repeat {cols}x{rows}: at most 65536 cells");

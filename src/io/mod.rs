@@ -2,6 +2,7 @@
 
 pub mod atomic;
 pub mod bytes;
+pub mod glyph;
 pub mod image;
 pub mod shared;
 

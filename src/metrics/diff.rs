@@ -1,10 +1,12 @@
 //! False-colour difference images (for a PNG): a diverging blue–white–red map, blue where the
 //! test image is darker than the reference, red where it is brighter; cells beyond the failure
-//! threshold are drawn saturated cyan / magenta so failures stand out.
+//! threshold are drawn saturated cyan / magenta so failures stand out. [`with_legend`] adds the
+//! scale under the image.
 
 use super::{check_same_size, ztest::ZTest};
 use crate::Result;
 use crate::io::RgbImage;
+use crate::io::glyph::{draw_text, text_width};
 use crate::math::Vec3;
 use crate::math::color::{luminance, srgb_to_linear};
 
@@ -80,6 +82,52 @@ pub fn relative_diff_image(test: &RgbImage, reference: &RgbImage, scale: f64) ->
     Ok(img)
 }
 
+/// Rows the legend adds under the image.
+pub const LEGEND_ROWS: usize = 18;
+
+/// `img` with its colour scale drawn underneath on a dark strip: cyan (below the scale), the
+/// blue–white–red ramp from −`label` to +`label`, magenta (beyond), and the labels "-label",
+/// "0", "+label" under the ramp's ends and middle. The strip is at least wide enough for the
+/// labels (the image is then padded on the right with the strip's colour).
+pub fn with_legend(img: &RgbImage, label: &str) -> RgbImage {
+    let (lo, hi) = (format!("-{label}"), format!("+{label}"));
+    let end = 6; // width of the cyan / magenta end patches
+    let width = img
+        .width
+        .max(2 * end + text_width(&lo) + text_width(&hi) + 24);
+    let bg = [0.02f32; 3];
+    let mut out = RgbImage::new(width, img.height + LEGEND_ROWS);
+    out.data
+        .chunks_exact_mut(3)
+        .for_each(|p| p.copy_from_slice(&bg));
+    for y in 0..img.height {
+        for x in 0..img.width {
+            out.set(x, y, img.get(x, y));
+        }
+    }
+    let y0 = img.height + 2;
+    let ramp = width - 2 * end;
+    for x in 0..width {
+        let col = if x < end {
+            diverging(-2.0)
+        } else if x >= width - end {
+            diverging(2.0)
+        } else {
+            let t = (x - end) as f64 / (ramp - 1).max(1) as f64;
+            diverging(2.0 * t - 1.0)
+        };
+        for y in y0..y0 + 6 {
+            out.set(x, y, col);
+        }
+    }
+    let white = [1.0f32; 3];
+    let ty = y0 + 8;
+    draw_text(&mut out, end, ty, &lo, white);
+    draw_text(&mut out, width / 2 - 2, ty, "0", white);
+    draw_text(&mut out, width - end - text_width(&hi) + 1, ty, &hi, white);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,5 +192,33 @@ mod tests {
         assert_eq!(img.get(1, 0), [1.0, 0.0, 1.0]);
         let small = RgbImage::new(1, 1);
         assert!(relative_diff_image(&small, &r, 0.1).is_err());
+    }
+
+    #[test]
+    fn legend_shows_the_scale_under_the_image() {
+        let r = RgbImage {
+            width: 200,
+            height: 3,
+            data: vec![0.5; 3 * 200 * 3],
+        };
+        let l = with_legend(&r, "10%");
+        assert_eq!((l.width, l.height), (200, 3 + LEGEND_ROWS));
+        assert_eq!(l.get(10, 1), [0.5; 3]);
+        let bar = 3 + 4;
+        // Cyan left end, magenta right end, white in the middle, blue and red halfway.
+        assert_eq!(l.get(0, bar), [0.0, 1.0, 1.0]);
+        assert_eq!(l.get(199, bar), [1.0, 0.0, 1.0]);
+        let mid = l.get(100, bar);
+        assert!(mid.iter().all(|&c| c > 0.95), "{mid:?}");
+        assert!(l.get(50, bar)[2] > l.get(50, bar)[0]);
+        assert!(l.get(150, bar)[0] > l.get(150, bar)[2]);
+        // Labels: white pixels in the text row, at both ends and the middle.
+        let lit = |x0: usize, x1: usize| {
+            (x0..x1).any(|x| (3 + 10..3 + LEGEND_ROWS).any(|y| l.get(x, y) == [1.0; 3]))
+        };
+        assert!(lit(0, 30) && lit(95, 105) && lit(170, 200));
+        // A narrow image gets a strip wide enough for its labels.
+        let n = with_legend(&RgbImage::new(8, 8), "4.89Z");
+        assert!(n.width >= 2 * 6 + 2 * 36, "{}", n.width);
     }
 }

@@ -11,7 +11,7 @@ pub mod diff;
 pub mod normal;
 pub mod ztest;
 
-pub use diff::{relative_diff_image, z_diff_image};
+pub use diff::{relative_diff_image, with_legend, z_diff_image};
 pub use ztest::{Outlier, ZTest, block_mean, predicted_variance, z_test};
 
 use crate::io::RgbImage;

@@ -1,7 +1,8 @@
 //! Partial renders as EXR files (DESIGN §6): the image holds the per-pixel *mean* of the
 //! samples [spp_begin, spp_end) of the pixels in a window of the full film. The window is the
 //! EXR data window inside the display window (the full film), and one text attribute `btfpt`
-//! records film size, window, sample range and seed. Merging weights each input by its sample
+//! records film size, window, sample range, seed and a fingerprint of the scene and options (so
+//! parts of different renders are never merged). Merging weights each input by its sample
 //! count, so crop tiles and sample-range splits recombine into the single-machine image (bit
 //! for bit for crop tiles, to float rounding for sample ranges).
 
@@ -22,6 +23,23 @@ pub struct PartialMeta {
     pub spp_begin: u32,
     pub spp_end: u32,
     pub seed: u64,
+    /// [`scene_fingerprint`] of the scene file and the options that change the image.
+    pub scene: u64,
+}
+
+/// Identifies what a partial render is a part of: the scene file's bytes and the options that
+/// change the image other than window and sample range (`-D` defines, BTF model override).
+/// Stable across machines and builds (two CRC-32s with different salts).
+pub fn scene_fingerprint(scene_bytes: &[u8], options: &str) -> u64 {
+    let half = |salt: &[u8]| {
+        let mut h = crc32fast::Hasher::new();
+        h.update(salt);
+        h.update(&(scene_bytes.len() as u64).to_le_bytes());
+        h.update(scene_bytes);
+        h.update(options.as_bytes());
+        h.finalize() as u64
+    };
+    (half(b"btfpt scene") << 32) | half(b"options")
 }
 
 const ATTR: &str = "btfpt";
@@ -30,16 +48,24 @@ impl PartialMeta {
     fn to_text(self) -> String {
         let [x, y, w, h] = self.crop;
         format!(
-            "v1 film={}x{} window={x},{y},{w},{h} spp={}..{} seed={}",
-            self.width, self.height, self.spp_begin, self.spp_end, self.seed
+            "v2 film={}x{} window={x},{y},{w},{h} spp={}..{} seed={} scene={:016x}",
+            self.width, self.height, self.spp_begin, self.spp_end, self.seed, self.scene
         )
     }
 
     fn parse(s: &str, path: &Path) -> Result<PartialMeta> {
         let bad = || Error::format(path, format!("malformed '{ATTR}' attribute: {s:?}"));
         let mut it = s.split_whitespace();
-        if it.next() != Some("v1") {
-            return Err(bad());
+        match it.next() {
+            Some("v2") => {}
+            Some("v1") => {
+                return Err(Error::format(
+                    path,
+                    "written by an older btfpt without a fingerprint of its scene and options; \
+                     render it again to merge it safely",
+                ));
+            }
+            _ => return Err(bad()),
         }
         let mut field = |key: &str| -> Result<String> {
             let kv = it.next().ok_or_else(bad)?;
@@ -52,6 +78,7 @@ impl PartialMeta {
         let window = field("window")?;
         let spp = field("spp")?;
         let seed = field("seed")?;
+        let scene = field("scene")?;
         let (fw, fh) = film.split_once('x').ok_or_else(bad)?;
         let win: Vec<u32> = window
             .split(',')
@@ -68,6 +95,7 @@ impl PartialMeta {
             spp_begin: a.parse().map_err(|_| bad())?,
             spp_end: b.parse().map_err(|_| bad())?,
             seed: seed.parse().map_err(|_| bad())?,
+            scene: u64::from_str_radix(&scene, 16).map_err(|_| bad())?,
         };
         let [x, y, w, h] = m.crop;
         if m.spp_begin >= m.spp_end
@@ -193,6 +221,17 @@ pub fn merge(
             .unwrap_or_else(|| format!("input {i}"))
     };
     for (i, (_, m)) in parts.iter().enumerate() {
+        if m.scene != first.scene {
+            return Err(Error::Invalid(format!(
+                "{}: rendered from another scene or with other options than {} (scene \
+                 fingerprint {:016x} vs {:016x}: scene file, -D defines or --btf-model differ); \
+                 merging them would mix two images",
+                name(i),
+                name(0),
+                m.scene,
+                first.scene
+            )));
+        }
         if (m.width, m.height, m.seed) != (first.width, first.height, first.seed) {
             return Err(Error::Invalid(format!(
                 "{}: film {}×{} seed {} differs from {} (film {}×{} seed {})",
@@ -296,6 +335,7 @@ pub fn merge(
             spp_begin,
             spp_end,
             seed: first.seed,
+            scene: first.scene,
         },
     ))
 }

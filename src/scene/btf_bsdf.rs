@@ -36,6 +36,7 @@ pub fn build_btf(
     uv_scale: f32,
     model: Option<BtfModel>,
 ) -> Result<(Bsdf, BtfUse)> {
+    let t0 = std::time::Instant::now();
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
@@ -54,6 +55,8 @@ pub fn build_btf(
         let used = BtfUse {
             file: PathBuf::from(filename),
             model: BtfModel::Raw,
+            texels: (bsdf.material().btf().width(), bsdf.material().btf().height()),
+            seconds: t0.elapsed().as_secs_f64(),
         };
         return Ok((Bsdf::Btf(bsdf), used));
     }
@@ -70,23 +73,32 @@ pub fn build_btf(
             .map(Bsdf::Plmc),
     }
     .map_err(|e| scene_error(format!("btf: {e}")))?;
-    Ok((
-        bsdf,
-        BtfUse {
-            file: source,
-            model,
-        },
-    ))
+    let texels = match &bsdf {
+        Bsdf::Btf(b) => (b.material().btf().width(), b.material().btf().height()),
+        Bsdf::Plmc(b) => (b.material().width(), b.material().height()),
+        _ => (0, 0),
+    };
+    let used = BtfUse {
+        file: source,
+        model,
+        texels,
+        seconds: t0.elapsed().as_secs_f64(),
+    };
+    Ok((bsdf, used))
 }
 
 /// Which file and model a `<bsdf type="btf">` renders (after the model-file convention and
-/// `--btf-model` were applied).
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// `--btf-model` were applied), and what loading it cost: for the render summary.
+#[derive(Clone, Debug, PartialEq)]
 pub struct BtfUse {
     /// The file read (raw data or a `.plmc` model), or the `synth:` source as written.
     pub file: PathBuf,
     /// The representation rendered.
     pub model: BtfModel,
+    /// Texels (width, height) of the data or model planes.
+    pub texels: (usize, usize),
+    /// Wall-clock seconds to load or generate it (≈ 0 when shared with an earlier element).
+    pub seconds: f64,
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several
