@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod checkpoint;
 pub mod film;
+pub mod filter;
 pub mod integrator;
 pub mod partial;
 
