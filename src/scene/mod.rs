@@ -6,6 +6,7 @@ pub mod mitsuba_xml;
 pub mod obj;
 pub mod ply;
 pub mod props;
+pub mod serialized;
 pub mod shapes;
 pub mod transform;
 
