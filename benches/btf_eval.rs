@@ -18,11 +18,11 @@
 //! evaluation group measures thread CPU time (the machine is shared); the render group, whose
 //! work runs on a pool thread, process CPU time.
 
+use btfpt::bsdf::plmc::PlmcMaterial;
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
-use btfpt::btf::plmc::PlmcMaterial;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
-use btfpt::fit::model::ModelKind;
 use btfpt::math::{Pcg32, Spectrum};
+use btfpt::model::ModelKind;
 use btfpt::render::film::RenderState;
 #[path = "common/btf_scene.rs"]
 mod btf_scene;

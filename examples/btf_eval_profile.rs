@@ -9,10 +9,10 @@
 //! thread; prints the rays traced). `NO_AVX512=1` runs the generic kernel (valgrind does not
 //! emulate AVX-512, so under callgrind it always does).
 
+use btfpt::bsdf::plmc::PlmcMaterial;
 use btfpt::bsdf::{Bsdf, Diffuse, PlmcBsdf, Texture};
-use btfpt::btf::plmc::PlmcMaterial;
-use btfpt::fit::model::ModelKind;
 use btfpt::math::{Pcg32, Spectrum};
+use btfpt::model::ModelKind;
 use btfpt::render::film::RenderState;
 use std::hint::black_box;
 use std::sync::Arc;

@@ -10,9 +10,10 @@
 #![allow(clippy::needless_range_loop)] // small dense linear algebra reads best with indices
 use anyhow::{Context, bail};
 use btfpt::btf::{self, BtfSource, StoredEncoding};
-use btfpt::fit::lafortune::{self, LobeFitter};
-use btfpt::fit::polynomial;
+use btfpt::fit::lafortune::LobeFitter;
+use btfpt::fit::mapping;
 use btfpt::math::color::linear_to_srgb;
+use btfpt::model::{lobe, polynomial};
 
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -97,12 +98,12 @@ fn diagnose(src: &dyn BtfSource, v: usize, linear: bool, per_light: bool) -> any
             }
         }
     }
-    let mut scratch = polynomial::Scratch::default();
+    let mut scratch = mapping::Scratch::default();
     let mut e = vec![[0f64; 4]; nl]; // LM, PLM, oracle, mean
     for l in 0..nl {
         for c in 0..3 {
             let m: Vec<f32> = (0..texels)
-                .map(|t| lafortune::eval(&lobes[3 * t + c], dirs[l]))
+                .map(|t| lobe::eval(&lobes[3 * t + c], dirs[l]))
                 .collect();
             let o: Vec<f32> = (0..texels)
                 .map(|t| fit_data[(l * texels + t) * 3 + c])
@@ -110,7 +111,7 @@ fn diagnose(src: &dyn BtfSource, v: usize, linear: bool, per_light: bool) -> any
             let os: Vec<f32> = (0..texels)
                 .map(|t| sdata[(l * texels + t) * 3 + c])
                 .collect();
-            let a = polynomial::fit_mapping(&m, &o, &mut scratch);
+            let a = mapping::fit_mapping(&m, &o, &mut scratch);
             let mut rank: Vec<usize> = (0..texels).collect();
             rank.sort_by(|&i, &j| m[i].total_cmp(&m[j]));
             let mut sorted = o.clone();

@@ -16,6 +16,7 @@ pub mod io;
 pub mod light;
 pub mod math;
 pub mod metrics;
+pub mod model;
 pub mod render;
 pub mod scene;
 

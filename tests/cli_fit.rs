@@ -1,19 +1,8 @@
 //! `btfpt fit` / `btfpt eval` end to end on a tiny simulated material: fit, evaluate to JSON and
 //! PNG, resume from part files, and clear errors for corrupt or truncated model files.
+mod common;
+use common::btfpt_output as btfpt;
 use std::path::Path;
-use std::process::Command;
-
-fn btfpt(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_btfpt"))
-        .args(args)
-        .output()
-        .expect("run btfpt");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 temp path")

@@ -1,11 +1,8 @@
 //! `btfpt info` / `btfpt convert` end to end on a tiny BTF made here.
+mod common;
+use common::btfpt;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
-use std::process::Command;
-
-fn btfpt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_btfpt"))
-}
 
 #[test]
 fn info_reports_a_cache_and_fails_clearly_on_bad_input() {

@@ -1,17 +1,6 @@
 //! `btfpt synth` command line: listing and clear errors on bad arguments.
-use std::process::Command;
-
-fn btfpt(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_btfpt"))
-        .args(args)
-        .output()
-        .expect("run btfpt");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::btfpt_output as btfpt;
 
 #[test]
 fn list_names_all_five_materials() {

@@ -1,19 +1,8 @@
 //! `btfpt fit --tile`, `eval` (seam_ratio) and `tile-preview` on a small generated BTF.
+mod common;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding, cache};
 use btfpt::math::Pcg32;
-use std::process::Command;
-
-fn btfpt(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_btfpt"))
-        .args(args)
-        .output()
-        .expect("run btfpt");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+use common::btfpt_output as btfpt;
 
 /// 2 views × 81 lights of a 40 × 36 blurred-noise texture lit by a cosine-like factor.
 fn write_sample(path: &std::path::Path) {

@@ -1,14 +1,16 @@
 //! Kill tests: a render interrupted by SIGINT and then SIGKILL and resumed twice ends with the same
 //! EXR bytes as an uninterrupted render (same seed); a fit killed midway and rerun writes the same
 //! `.plmc` bytes as an uninterrupted fit.
+mod common;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
 
+/// The binary with stdout discarded and stderr captured (the kill tests read only stderr).
 fn btfpt() -> Command {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_btfpt"));
+    let mut c = common::btfpt();
     c.stdout(Stdio::null()).stderr(Stdio::piped());
     c
 }
@@ -219,7 +221,7 @@ fn fit_killed_midway_and_rerun_writes_the_same_model() {
         "the fit finished before the kill: make it slower"
     );
 
-    let child = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+    let child = common::btfpt()
         .args(fit_args(&data, &out))
         .env("RAYON_NUM_THREADS", "1")
         .stdout(Stdio::piped())

@@ -26,7 +26,7 @@ mod reference;
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
 use btfpt::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
 use btfpt::metrics::{Comparison, Criteria};
-use btfpt::scene::{self, Scene};
+use btfpt::scene::{self, LoadOptions, Scene};
 use half::f16;
 use reference::{reference, render, root, score};
 use std::sync::Arc;
@@ -38,7 +38,7 @@ const SEED: u64 = 7;
 
 fn load_scene(name: &str) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
-    scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"))
+    scene::load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn summary(c: &Comparison) -> String {

@@ -1,13 +1,11 @@
 //! `btfpt compare` end to end on small synthetic EXRs: pass, fail, and every kind of bad input
 //! gives a non-zero exit code with a message naming the problem.
+mod common;
+use common::btfpt;
 
 use btfpt::io::{RgbImage, write_exr};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn btfpt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_btfpt"))
-}
+use std::process::Output;
 
 fn image(w: usize, h: usize, f: impl Fn(usize) -> f32) -> RgbImage {
     RgbImage {

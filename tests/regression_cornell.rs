@@ -13,7 +13,7 @@ use btfpt::math::Spectrum;
 use btfpt::metrics::{Comparison, Criteria, predicted_variance};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
-use btfpt::scene::{Emitter, Scene};
+use btfpt::scene::{Emitter, LoadOptions, Scene};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
@@ -158,7 +158,7 @@ fn load(scene: &str, defines: &[(&str, &str)]) -> Scene {
         .map(|(k, v)| (k.to_string(), v.to_string()))
         .collect();
     let path = root().join(scene);
-    btfpt::scene::load(&path, &d).unwrap_or_else(|e| panic!("{e}"))
+    btfpt::scene::load(&path, &LoadOptions::with_defines(&d)).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Renders all `SPP` samples of the full film on the global rayon pool.

@@ -37,13 +37,13 @@
 mod reference;
 
 use btfpt::bsdf::Bsdf;
-use btfpt::btf::format;
 use btfpt::btf::{BtfSource, RawBtf};
-use btfpt::fit::model::{ModelKind, PlmcModel, ViewParams};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
 use btfpt::metrics::{Comparison, Criteria};
-use btfpt::scene::btf_bsdf::{SynthSpec, with_model_override};
-use btfpt::scene::{self, Scene};
+use btfpt::model::codec;
+use btfpt::model::{BtfModel, ModelKind, PlmcModel, ViewParams};
+use btfpt::scene::btf_bsdf::SynthSpec;
+use btfpt::scene::{self, LoadOptions, Scene};
 use reference::{reference, render, root, score};
 use std::path::Path;
 use std::sync::OnceLock;
@@ -78,7 +78,7 @@ fn fit_raw(raw: &RawBtf, kind: ModelKind) -> PlmcModel {
 
 fn load_scene(name: &str) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
-    scene::load(&p, &[]).unwrap_or_else(|e| panic!("{e}"))
+    scene::load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The raw BTF of a scene loaded as written (the `synth:` source, generated once per process).
@@ -103,9 +103,11 @@ fn fitted(raw: &RawBtf) -> &'static PlmcModel {
 /// `btfpt render -D btf=MODEL --btf-model plmc`).
 fn load_scene_with_model(name: &str, model: &Path) -> Scene {
     let p = root().join("scenes").join(name).join("scene.xml");
-    let defines = [("btf".to_string(), model.to_string_lossy().to_string())];
-    with_model_override(Some("plmc"), || scene::load(&p, &defines))
-        .unwrap_or_else(|e| panic!("{e}"))
+    let options = LoadOptions {
+        defines: vec![("btf".to_string(), model.to_string_lossy().to_string())],
+        btf_model: Some(BtfModel::Fitted(ModelKind::PlmC)),
+    };
+    scene::load(&p, &options).unwrap_or_else(|e| panic!("{e}"))
 }
 
 fn summary(c: &Comparison) -> String {
@@ -223,7 +225,7 @@ fn faulty(model: &PlmcModel, fault: Fault) -> PlmcModel {
         }
         Fault::DropPolynomials => {
             for a in m.polys.iter_mut() {
-                *a = btfpt::fit::polynomial::IDENTITY;
+                *a = btfpt::model::polynomial::IDENTITY;
             }
         }
         Fault::WrongModel => m = fit(OTHER_SOURCE, ModelKind::PlmC),
@@ -313,7 +315,7 @@ fn regression(name: &str) {
     let raw_img = render(raw_scene, SPP, SEED);
     let run = |m: &PlmcModel, tag: &str| -> (Comparison, f64) {
         let path = dir.path().join(format!("{tag}.plmc"));
-        format::write(&path, m).unwrap();
+        codec::write(&path, m).unwrap();
         let img = render(load_scene_with_model(name, &path), SPP, SEED);
         let crn = btfpt::metrics::relmse(&img, &raw_img).unwrap();
         (score(&img, SPP, &r), crn)

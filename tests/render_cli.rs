@@ -1,5 +1,4 @@
 //! The `btfpt merge` and `btfpt render` command lines: success path and clear errors.
-
 mod common;
 
 use btfpt::geometry::generate::sphere;
@@ -8,11 +7,6 @@ use btfpt::render::RenderScene;
 use btfpt::render::partial::{PartialMeta, read_partial_exr, write_partial_exr};
 use btfpt::scene::Emitter;
 use common::*;
-use std::process::Command;
-
-fn btfpt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_btfpt"))
-}
 
 #[test]
 fn merge_cli_combines_crops_and_reports_bad_input() {

@@ -4,7 +4,8 @@
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::{Vec2, Vec3};
-use btfpt::scene::{self, Emitter};
+use btfpt::render::camera::PerspectiveCamera;
+use btfpt::scene::{self, Emitter, LoadOptions};
 
 fn base64(data: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -103,7 +104,7 @@ fn gltf_scene_maps_to_expected_values() {
     std::fs::write(&p, gltf_json(&buffer())).unwrap();
     let s = scene::load(
         &p,
-        &[("width".into(), "200".into()), ("spp".into(), "8".into())],
+        &LoadOptions::with_defines(&[("width".into(), "200".into()), ("spp".into(), "8".into())]),
     )
     .unwrap();
 
@@ -117,15 +118,17 @@ fn gltf_scene_maps_to_expected_values() {
     let expect = 2.0 * ((0.4f32).tan() * 2.0).atan();
     assert!((c.fov_x_deg.to_radians() - expect).abs() < 1e-5);
     assert!((c.near_clip - 0.05).abs() < 1e-7);
-    let (o, d, _, _) = c.generate_ray(100.0, 50.0);
+    // The renderer's camera, built from what the loader produced; rays start on the near plane.
+    let rc = PerspectiveCamera::new(c).unwrap();
+    let (o, d, _) = rc.ray(100.0, 50.0);
     assert!(
-        close(o, Vec3::new(0.0, 0.0, 5.0)) && close(d, -Vec3::Z),
+        close(o, Vec3::new(0.0, 0.0, 4.95)) && close(d, -Vec3::Z),
         "{o:?} {d:?}"
     );
     // glTF +x is to the right: the left image edge must see world −x
-    let (_, d, _, _) = c.generate_ray(0.0, 50.0);
+    let (_, d, _) = rc.ray(0.0, 50.0);
     assert!(d.x < -0.5, "{d:?}");
-    let (_, d, _, _) = c.generate_ray(100.0, 0.0);
+    let (_, d, _) = rc.ray(100.0, 0.0);
     assert!(d.y > 0.3, "{d:?}");
 
     assert_eq!(s.meshes.len(), 2);
@@ -199,7 +202,9 @@ fn gltf_errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("bad.gltf");
     std::fs::write(&p, "{ not json").unwrap();
-    let e = scene::load(&p, &[]).unwrap_err().to_string();
+    let e = scene::load(&p, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("bad.gltf"), "{e}");
     let p = dir.path().join("nocam.gltf");
     std::fs::write(
@@ -207,13 +212,18 @@ fn gltf_errors_name_the_file() {
         r#"{"asset": {"version": "2.0"}, "scenes": [{"nodes": []}]}"#,
     )
     .unwrap();
-    let e = scene::load(&p, &[]).unwrap_err().to_string();
-    assert!(e.contains("nocam.gltf") && e.contains("camera"), "{e}");
-    let e = scene::load(&p, &[("bogus".into(), "1".into())])
+    let e = scene::load(&p, &LoadOptions::default())
         .unwrap_err()
         .to_string();
+    assert!(e.contains("nocam.gltf") && e.contains("camera"), "{e}");
+    let e = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("bogus".into(), "1".into())]),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("bogus"), "{e}");
-    let e = scene::load(&dir.path().join("missing.glb"), &[])
+    let e = scene::load(&dir.path().join("missing.glb"), &LoadOptions::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("missing.glb"), "{e}");

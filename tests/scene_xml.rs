@@ -4,7 +4,8 @@
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
-use btfpt::scene::{self, Emitter, Scene};
+use btfpt::render::camera::PerspectiveCamera;
+use btfpt::scene::{self, Emitter, LoadOptions, Scene};
 use std::path::{Path, PathBuf};
 
 const SENSOR: &str = r#"
@@ -28,7 +29,7 @@ fn scene_with(dir: &Path, body: &str) -> PathBuf {
 }
 
 fn load(p: &Path) -> Scene {
-    match scene::load(p, &[]) {
+    match scene::load(p, &LoadOptions::default()) {
         Ok(s) => s,
         Err(e) => panic!("{e}"),
     }
@@ -36,7 +37,7 @@ fn load(p: &Path) -> Scene {
 
 /// Asserts that loading fails with a message naming the file, the line and containing `needle`.
 fn expect_err(p: &Path, defines: &[(String, String)], line: u32, needle: &str) {
-    let e = match scene::load(p, defines) {
+    let e = match scene::load(p, &LoadOptions::with_defines(defines)) {
         Ok(_) => panic!("expected an error containing {needle:?}"),
         Err(e) => e.to_string(),
     };
@@ -142,7 +143,11 @@ fn full_scene_parses_into_expected_values() {
 </scene>
 "#;
     let p = write(d, "full.xml", xml);
-    let s = scene::load(&p, &[("res".into(), "48".into())]).unwrap();
+    let s = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("res".into(), "48".into())]),
+    )
+    .unwrap();
     assert_eq!(s.spp, 16);
     assert_eq!(s.integrator.max_depth, 3);
     assert_eq!(s.integrator.rr_depth, 5);
@@ -341,15 +346,19 @@ fn camera_rays_follow_mitsuba_orientation() {
         <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
         <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="50"/>
         <rfilter type="box"/></film></sensor></scene>"#;
-    let c = load(&write(dir.path(), "c.xml", xml)).camera;
-    let (o, d, tmin, _) = c.generate_ray(50.0, 25.0);
-    assert!(close(o, Vec3::new(0.0, 0.0, 5.0)) && close(d, -Vec3::Z));
-    assert!((tmin - 0.01).abs() < 1e-6);
+    // The renderer's camera, built from what the loader produced.
+    let c = PerspectiveCamera::new(&load(&write(dir.path(), "c.xml", xml)).camera).unwrap();
+    let (o, d, _) = c.ray(50.0, 25.0);
+    // The ray starts on the near plane (Mitsuba's default near_clip = 0.01) in front of the origin.
+    assert!(
+        close(o, Vec3::new(0.0, 0.0, 4.99)) && close(d, -Vec3::Z),
+        "{o:?} {d:?}"
+    );
     // The left edge of the image sees world −x (the viewer's left when looking down −z with +y up).
-    let (_, d, _, _) = c.generate_ray(0.0, 25.0);
+    let (_, d, _) = c.ray(0.0, 25.0);
     assert!(close(d, Vec3::new(-1.0, 0.0, -1.0).normalize()), "{d:?}");
     // The top edge sees +y; vertical extent is tan(45°)/aspect.
-    let (_, d, _, _) = c.generate_ray(50.0, 0.0);
+    let (_, d, _) = c.ray(50.0, 0.0);
     assert!(close(d, Vec3::new(0.0, 0.5, -1.0).normalize()), "{d:?}");
 }
 
@@ -379,8 +388,18 @@ fn btf_bsdf_routes_to_build_btf() {
     let body = r#"<shape type="rectangle">
         <bsdf type="btf"><string name="filename" value="m.plmc"/><float name="uv_scale" value="4"/></bsdf>
     </shape>"#;
-    // The default model "raw" loads the file: missing here, so the error names it and the line.
+    // Without a model the file's own representation is read: missing here, so the error names it
+    // and the line.
     expect_err(&scene_with(dir.path(), body), &[], 8, "m.plmc");
+    // LoadOptions::btf_model reaches the BTF builder and replaces the model property.
+    let options = LoadOptions {
+        btf_model: Some(btfpt::model::BtfModel::Fitted(btfpt::model::ModelKind::Lm)),
+        ..LoadOptions::default()
+    };
+    let e = scene::load(&scene_with(dir.path(), body), &options)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains(":8:") && e.contains("m.lm.plmc"), "{e}");
 }
 
 #[test]
@@ -532,9 +551,12 @@ fn ids_refs_and_parameters() {
         "undefined parameter",
     );
     let p = scene_with(dir.path(), "<shape type=\"cube\"/>");
-    let e = scene::load(&p, &[("unused".into(), "1".into())])
-        .unwrap_err()
-        .to_string();
+    let e = scene::load(
+        &p,
+        &LoadOptions::with_defines(&[("unused".into(), "1".into())]),
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         e.contains("s.xml") && e.contains("unused parameter \"unused\""),
         "{e}"
@@ -544,12 +566,12 @@ fn ids_refs_and_parameters() {
         dir.path(),
         "<default name=\"r\" value=\"1\"/><shape type=\"sphere\"><float name=\"radius\" value=\"$r\"/></shape>",
     );
-    assert!(scene::load(&p, &[]).is_ok());
+    assert!(scene::load(&p, &LoadOptions::default()).is_ok());
     let p = scene_with(
         dir.path(),
         "<bsdf type=\"twosided\" id=\"t\"><ref id=\"t2\"/></bsdf><bsdf type=\"twosided\" id=\"t2\"><ref id=\"t\"/></bsdf>",
     );
-    assert!(scene::load(&p, &[]).is_err());
+    assert!(scene::load(&p, &LoadOptions::default()).is_err());
 }
 
 #[test]

@@ -3,9 +3,9 @@
 
 use btfpt::bsdf::Bsdf;
 use btfpt::btf::DirectionSet;
-use btfpt::fit::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Frame, Pcg32, Vec3, warp};
+use btfpt::model::{ModelKind, PackedLobe, PlmcModel, ValueSpace, ViewParams};
 use btfpt::render::RenderScene;
 
 #[path = "box_scene.rs"]

@@ -9,13 +9,13 @@ use std::path::Path;
 
 fn check(data: &[u8]) {
     let p = Path::new("fuzz.plmc");
-    if let Ok(m) = btfpt::btf::format::from_bytes(data, p) {
+    if let Ok(m) = btfpt::model::codec::from_bytes(data, p) {
         let mut out = Vec::new();
         m.reconstruct_view(0, &mut out);
     }
     if data.len() >= 16 {
         let fp = u64::from_le_bytes(data[4..12].try_into().unwrap_or_default());
-        let _ = btfpt::btf::format::part_from_bytes(data, p, fp, 0);
+        let _ = btfpt::fit::parts::part_from_bytes(data, p, fp, 0);
     }
 }
 

@@ -5,5 +5,5 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let p = common::scratch("scene.xml", data);
-    let _ = btfpt::scene::load(&p, &[]);
+    let _ = btfpt::scene::load(&p, &btfpt::scene::LoadOptions::default());
 });

@@ -1,37 +1,30 @@
 //! The raw measured BTF as a material (DESIGN §2): barycentric interpolation over 3 measured views
 //! × 3 measured lights, nearest texel, eval = B/π (B is cosine-baked), one-sided.
 //!
-//! Sampling: at load, per measured view, a piecewise-constant density over the light triangulation
-//! on the unit disk, proportional to the texel-averaged luminance of B / cos θ_l (so a Lambertian
-//! table gives exactly cosine sampling); for a query the tables of the 3 views of wi are blended
-//! with their interpolation weights; the grazing band beyond the measured hull (where the DESIGN
-//! rule holds B at its outer-ring values) gets its own uniform component weighted by its estimated
-//! share of ∫ B dω; uniform hemisphere sampling is always mixed in (one-sample
-//! MIS mixture). The defensive part is uniform rather than cosine because the DESIGN extrapolation
-//! holds B constant beyond the outermost measured ring (B does not fall like cos θ there), so
-//! only a pdf that stays positive at the horizon bounds the weight: f·cos/pdf ≤ 2 B / DEFENSIVE_FRACTION.
+//! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]), built from the
+//! texel-averaged values of this material.
 //!
 //! Memory: the material reads the BTF only through `RawBtf::data()` (f16, `[view][light][row][col]
 //! [rgb]`) and its dimensions; a 256² × 81 × 81 material is 2.6 GB, so it must be kept once per
 //! file (the material holds an `Arc`) and can live in a memory-mapped cache file (`.btfc`) behind the
 //! same accessor. Building the tables reads at most 64 × 64 texels per image.
 
+use super::btf_sampler::BtfLightSampler;
+#[cfg(test)]
+use super::btf_sampler::DEFENSIVE_FRACTION;
 use super::{BsdfFlags, BsdfSample};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
-use crate::math::{INV_PI, INV_TWO_PI, Spectrum, Vec2, Vec3, warp};
+#[cfg(test)]
+use crate::math::warp;
+use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 
-/// Probability of the uniform-hemisphere component of the sampling mixture (the defensive part).
-pub const DEFENSIVE_FRACTION: f32 = 0.2;
-/// Lower bound on cos θ_l when turning B into a density over the disk (avoids blow-up at grazing
-/// measured lights of arbitrary direction sets).
-const MIN_COS: f32 = 0.05;
 /// Texels per axis averaged per image when building the sampling tables.
 const TABLE_TEXELS: usize = 64;
 
@@ -40,22 +33,8 @@ const TABLE_TEXELS: usize = 64;
 pub struct BtfMaterial {
     btf: Arc<RawBtf>,
     views: DirectionInterp,
-    lights: DirectionInterp,
-    /// Per view: cumulative distribution over light triangles, `[view][triangle]`, last = 1.
-    tri_cdf: Vec<f32>,
-    /// Per view: guide table over the CDF, `[view][GUIDE_CELLS]`: cell i holds the triangle
-    /// sampled at u = i / GUIDE_CELLS, so a sample starts its scan next to its answer instead of
-    /// a ~8-step binary search whose branches mispredict (equal results).
-    tri_guide: Vec<u32>,
-    /// Per view: density over disk area of each light triangle, `[view][triangle]` (∫ dA = 1).
-    tri_density: Vec<f32>,
-    /// Per view: false if the table is empty (black view); cosine sampling is used instead.
-    table_ok: Vec<bool>,
-    /// Per view: probability of the triangle table (vs the grazing band) in the tabulated part.
-    table_prob: Vec<f32>,
-    /// Grazing band beyond the measured hull: directions with cos θ < `band_cos`, sampled
-    /// uniformly in solid angle (B is held constant there by the extrapolation rule); 0 = none.
-    band_cos: f32,
+    /// Light-direction sampling tables (and the light interpolator they are built on).
+    sampler: BtfLightSampler,
 }
 
 impl BtfMaterial {
@@ -69,15 +48,10 @@ impl BtfMaterial {
             .lights()
             .interpolator()
             .map_err(|e| Error::Invalid(format!("BTF light directions: {e}")))?;
-        let (nv, nl, nt) = (
-            btf.views().len(),
-            btf.lights().len(),
-            lights.num_triangles(),
-        );
+        let (nv, nl) = (btf.views().len(), btf.lights().len());
         let (w, h) = (btf.width(), btf.height());
         let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
         let data = btf.data();
-        let light_cos: Vec<f32> = btf.lights().dirs.iter().map(|d| d.z).collect();
         // Texel-averaged luminance of B per (view, light).
         let lum: Vec<f32> = (0..nv * nl)
             .into_par_iter()
@@ -100,65 +74,11 @@ impl BtfMaterial {
                 if l.is_finite() { l.max(0.0) } else { 0.0 }
             })
             .collect();
-        // g = B / cos θ_l: the density over the disk that makes the solid-angle pdf ∝ B.
-        let g: Vec<f32> = (0..nv * nl)
-            .map(|vl| lum[vl] / light_cos[vl % nl].max(MIN_COS))
-            .collect();
-        let (band_cos, hull) = grazing_band(&lights);
-        let band_solid_angle = 2.0 * std::f64::consts::PI * band_cos as f64;
-        let mut tri_cdf = vec![0f32; nv * nt];
-        let mut tri_density = vec![0f32; nv * nt];
-        let mut table_ok = vec![false; nv];
-        let mut table_prob = vec![1f32; nv];
-        for v in 0..nv {
-            let gv = &g[v * nl..(v + 1) * nl];
-            let mut total = 0f64;
-            for t in 0..nt {
-                let tri = lights.triangle(t);
-                let mean = tri.iter().map(|&i| gv[i as usize] as f64).sum::<f64>() / 3.0;
-                tri_density[v * nt + t] = mean as f32;
-                total += mean * lights.triangle_area(t) as f64;
-                tri_cdf[v * nt + t] = total as f32;
-            }
-            // ∫ B dω over the band ≈ mean B of the hull directions × the band's solid angle.
-            let band = if hull.is_empty() {
-                0.0
-            } else {
-                let lv = &lum[v * nl..(v + 1) * nl];
-                hull.iter().map(|&i| lv[i as usize] as f64).sum::<f64>() / hull.len() as f64
-                    * band_solid_angle
-            };
-            if total + band > 0.0 && (total + band).is_finite() {
-                table_ok[v] = true;
-                table_prob[v] = (total / (total + band)) as f32;
-            }
-            if total > 0.0 && total.is_finite() {
-                for t in 0..nt {
-                    tri_cdf[v * nt + t] = (tri_cdf[v * nt + t] as f64 / total) as f32;
-                    tri_density[v * nt + t] = (tri_density[v * nt + t] as f64 / total) as f32;
-                }
-                tri_cdf[v * nt + nt - 1] = 1.0;
-            }
-        }
-        let gc = guide_cells(nt);
-        let mut tri_guide = vec![0u32; nv * gc];
-        for v in 0..nv {
-            let cdf = &tri_cdf[v * nt..(v + 1) * nt];
-            for i in 0..gc {
-                let u = i as f32 / gc as f32;
-                tri_guide[v * gc + i] = cdf.partition_point(|&c| c <= u).min(nt - 1) as u32;
-            }
-        }
+        let sampler = BtfLightSampler::new(lights, &btf.lights().dirs, &lum);
         Ok(BtfMaterial {
             btf,
             views,
-            lights,
-            tri_cdf,
-            tri_guide,
-            tri_density,
-            table_ok,
-            table_prob,
-            band_cos,
+            sampler,
         })
     }
 
@@ -189,7 +109,7 @@ impl BtfMaterial {
         x: usize,
         y: usize,
     ) -> Spectrum {
-        let (li, lw) = self.lights.lookup(wo);
+        let (li, lw) = self.sampler.light_interp().lookup(wo);
         let (w, h, nl) = (self.btf.width(), self.btf.height(), self.btf.lights().len());
         let data = self.btf.data();
         let texel = y * w + x;
@@ -214,195 +134,15 @@ impl BtfMaterial {
         Spectrum::from(acc)
     }
 
-    /// Samples a light direction from the mixture (uniform defensive part + the blended tabulated
-    /// part of the views `vi` with weights `vw`); its density is [`BtfMaterial::light_pdf`].
-    /// Shared by the raw material and the fitted models (whose tables are built the same way).
-    #[inline]
-    pub fn sample_light(&self, vi: [u32; 3], vw: [f32; 3], sample1: f32, sample2: Vec2) -> Vec3 {
-        self.sample_light_located(vi, vw, sample1, sample2).0
+    /// The light-direction sampler (shared code with the fitted models).
+    pub fn sampler(&self) -> &BtfLightSampler {
+        &self.sampler
     }
 
-    /// [`BtfMaterial::sample_light`] and, when the direction was drawn inside a light triangle,
-    /// that triangle (so the caller's eval and pdf need not search for it again).
-    #[inline]
-    pub fn sample_light_located(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        sample1: f32,
-        sample2: Vec2,
-    ) -> (Vec3, Option<usize>) {
-        let m = self;
-        if sample1 < DEFENSIVE_FRACTION {
-            (warp::square_to_uniform_hemisphere(sample2), None)
-        } else {
-            // Choose one of the 3 views by its weight, then a triangle of its table.
-            let mut u = (sample1 - DEFENSIVE_FRACTION) / (1.0 - DEFENSIVE_FRACTION);
-            let last = (0..3).rev().find(|&k| vw[k] > 0.0).unwrap_or(0);
-            let mut k = 0;
-            while k < last && (vw[k] == 0.0 || u >= vw[k]) {
-                u -= vw[k];
-                k += 1;
-            }
-            let u = (u / vw[k].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-            let v = vi[k] as usize;
-            if !m.table_ok[v] {
-                (warp::square_to_cosine_hemisphere(sample2), None)
-            } else if u >= m.table_prob[v] {
-                // Grazing band, uniform in solid angle.
-                let z = m.band_cos * sample2.x;
-                let r = (1.0 - z * z).max(0.0).sqrt();
-                let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
-                (Vec3::new(r * cp, r * sp, z), None)
-            } else {
-                let u = u / m.table_prob[v];
-                let nt = m.lights.num_triangles();
-                let cdf = &m.tri_cdf[v * nt..(v + 1) * nt];
-                let t = guided_search(cdf, &m.tri_guide[v * guide_cells(nt)..], u);
-                let b = warp::square_to_uniform_triangle(sample2);
-                let p = m.lights.triangle_disk(t);
-                let (b0, b1, b2) = (1.0 - b.x - b.y, b.x, b.y);
-                let x = b0 * p[0][0] + b1 * p[1][0] + b2 * p[2][0];
-                let y = b0 * p[0][1] + b1 * p[1][1] + b2 * p[2][1];
-                (
-                    Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt()),
-                    Some(t),
-                )
-            }
-        }
-    }
-
-    /// Solid-angle density of [`BtfMaterial::sample_light`] at the upper-hemisphere `wo`.
-    #[inline]
-    pub fn light_pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        DEFENSIVE_FRACTION * INV_TWO_PI
-            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf(vi, vw, wo)
-    }
-
-    /// The view-direction interpolator (shared with a fitted model on the same direction sets).
+    /// The view-direction interpolator.
     pub fn view_interp(&self) -> &DirectionInterp {
         &self.views
     }
-
-    /// The light-direction interpolator (shared with a fitted model on the same direction sets).
-    pub fn light_interp(&self) -> &DirectionInterp {
-        &self.lights
-    }
-
-    /// [`BtfMaterial::light_pdf`] with `wo` already located in the light triangulation
-    /// (`located` = [`DirectionInterp::locate`] of (wo.x, wo.y)): shares that search with eval.
-    #[inline]
-    pub fn light_pdf_located(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        located: (usize, [f32; 3]),
-    ) -> f32 {
-        DEFENSIVE_FRACTION * INV_TWO_PI
-            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf_located(vi, vw, wo, located)
-    }
-
-    /// Solid-angle density of the tabulated part of the mixture (blended over the 3 views) at
-    /// the upper-hemisphere direction `wo`.
-    #[inline]
-    fn tabulated_pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.tabulated_pdf_located(vi, vw, wo, self.lights.locate([wo.x, wo.y]))
-    }
-
-    #[inline]
-    fn tabulated_pdf_located(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        (t, bw): (usize, [f32; 3]),
-    ) -> f32 {
-        let inside = bw[0].min(bw[1]).min(bw[2]) >= -1e-6;
-        let in_band = wo.z < self.band_cos;
-        let band_pdf = 1.0 / (2.0 * std::f32::consts::PI * self.band_cos.max(f32::MIN_POSITIVE));
-        let nt = self.lights.num_triangles();
-        let mut d = 0.0;
-        for k in 0..3 {
-            if vw[k] == 0.0 {
-                continue;
-            }
-            let v = vi[k] as usize;
-            d += vw[k]
-                * if !self.table_ok[v] {
-                    wo.z * INV_PI // black view: its share is cosine sampled
-                } else {
-                    let p = self.table_prob[v];
-                    let tri = if inside {
-                        wo.z * self.tri_density[v * nt + t]
-                    } else {
-                        0.0
-                    };
-                    let band = if in_band { band_pdf } else { 0.0 };
-                    p * tri + (1.0 - p) * band
-                };
-        }
-        d
-    }
-}
-
-/// Cells of a guide table over a CDF of `n` entries: one per entry (on average one step of
-/// scan per sample).
-fn guide_cells(n: usize) -> usize {
-    n.max(1)
-}
-
-/// `cdf.partition_point(|c| c <= u).min(n − 1)` for the non-decreasing `cdf` (n ≥ 1), started
-/// from its guide table entry: a scan of about one step in either direction (backward only if
-/// the rounding of `u · cells` put `u` in the cell after its own).
-#[inline]
-fn guided_search(cdf: &[f32], guide: &[u32], u: f32) -> usize {
-    let n = cdf.len();
-    let cells = guide_cells(n);
-    let cell = ((u.max(0.0) * cells as f32) as usize).min(cells - 1);
-    let mut t = guide[cell] as usize;
-    while t > 0 && cdf[t - 1] > u {
-        t -= 1;
-    }
-    while t + 1 < n && cdf[t] <= u {
-        t += 1;
-    }
-    t
-}
-
-/// The grazing band not covered by the light triangulation: (cos θ of the largest circle around
-/// the normal inside the hull, indices of the hull directions). (0, []) when the hull does not
-/// contain the normal with some margin (then only the defensive part covers the rim).
-fn grazing_band(lights: &DirectionInterp) -> (f32, Vec<u32>) {
-    let mut edges = std::collections::HashSet::new();
-    for t in 0..lights.num_triangles() {
-        let v = lights.triangle(t);
-        for e in 0..3 {
-            edges.insert((v[e], v[(e + 1) % 3], t, e));
-        }
-    }
-    let directed: std::collections::HashSet<(u32, u32)> =
-        edges.iter().map(|&(a, b, _, _)| (a, b)).collect();
-    let mut hull = Vec::new();
-    let mut r_min = f32::INFINITY;
-    for &(a, b, t, e) in &edges {
-        if directed.contains(&(b, a)) {
-            continue;
-        }
-        hull.push(a);
-        let p = lights.triangle_disk(t);
-        let (pa, pb) = (p[e], p[(e + 1) % 3]);
-        // Signed distance of the origin to the edge line, > 0 inside (edges are counter-clockwise).
-        let d = [pb[0] - pa[0], pb[1] - pa[1]];
-        let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
-        let dist = (d[0] * (0.0 - pa[1]) - d[1] * (0.0 - pa[0])) / len;
-        r_min = r_min.min(dist);
-    }
-    if r_min.is_nan() || r_min <= 0.5 {
-        return (0.0, Vec::new());
-    }
-    hull.sort_unstable();
-    ((1.0 - r_min.min(1.0) * r_min.min(1.0)).sqrt(), hull)
 }
 
 /// A summary only: the measured data can be gigabytes.
@@ -413,8 +153,7 @@ impl std::fmt::Debug for BtfMaterial {
             .field("lights", &self.btf.lights().len())
             .field("width", &self.btf.width())
             .field("height", &self.btf.height())
-            .field("light_triangles", &self.lights.num_triangles())
-            .field("band_cos", &self.band_cos)
+            .field("sampler", &self.sampler)
             .finish_non_exhaustive()
     }
 }
@@ -500,7 +239,7 @@ impl BtfBsdf {
 
     #[inline]
     fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.material.light_pdf(vi, vw, wo)
+        self.material.sampler.pdf(vi, vw, wo)
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -515,7 +254,7 @@ impl BtfBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.views.lookup(si.wi);
-        let wo = m.sample_light(vi, vw, sample1, sample2);
+        let (wo, _) = m.sampler.sample(vi, vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
@@ -542,58 +281,6 @@ mod tests {
     use crate::math::{Pcg32, frame::from_spherical};
     use std::sync::OnceLock;
 
-    #[test]
-    fn guided_search_is_the_binary_search() {
-        let mut rng = Pcg32::new(5, 9);
-        for n in [1usize, 2, 3, 7, 144] {
-            for _ in 0..50 {
-                // Non-decreasing, with flat runs (black triangles) and a jump to 1.
-                let mut acc = 0f32;
-                let mut cdf: Vec<f32> = (0..n)
-                    .map(|_| {
-                        if rng.next_f32() < 0.6 {
-                            acc += rng.next_f32();
-                        }
-                        acc
-                    })
-                    .collect();
-                let total = acc.max(1e-3);
-                cdf.iter_mut().for_each(|c| *c /= total);
-                cdf[n - 1] = 1.0;
-                let cells = guide_cells(n);
-                let guide: Vec<u32> = (0..cells)
-                    .map(|i| {
-                        let u = i as f32 / cells as f32;
-                        cdf.partition_point(|&c| c <= u).min(n - 1) as u32
-                    })
-                    .collect();
-                let mut us: Vec<f32> = (0..200).map(|_| rng.next_f32()).collect();
-                // Exactly the CDF values, the cell borders and their float neighbours.
-                us.extend(cdf.iter().copied());
-                us.extend((0..cells).map(|i| i as f32 / cells as f32));
-                let near: Vec<f32> = us
-                    .iter()
-                    .flat_map(|&u| {
-                        [
-                            f32::from_bits(u.to_bits() + 1),
-                            f32::from_bits(u.to_bits().max(1) - 1),
-                        ]
-                    })
-                    .collect();
-                us.extend(near);
-                for u in us.into_iter().filter(|u| (0.0..1.0).contains(u)) {
-                    let want = cdf.partition_point(|&c| c <= u).min(n - 1);
-                    assert_eq!(
-                        guided_search(&cdf, &guide, u),
-                        want,
-                        "n {n} u {u} cdf {cdf:?}"
-                    );
-                }
-            }
-        }
-    }
-
-    /// A BTF tabulated from `f(view, light, column, row)` on the UBO2003 directions.
     fn table(w: usize, h: usize, f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3]) -> RawBtf {
         let set = DirectionSet::ubo2003();
         let mut data = Vec::with_capacity(81 * 81 * w * h * 3);

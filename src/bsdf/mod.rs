@@ -6,6 +6,7 @@
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
 pub mod btf;
+pub mod btf_sampler;
 #[cfg(test)]
 pub(crate) mod chi2;
 pub mod conductor;
@@ -14,6 +15,7 @@ pub mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
 pub mod plastic;
+pub mod plmc;
 pub mod roughconductor;
 pub mod texture;
 pub mod thindielectric;
@@ -24,12 +26,12 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
-pub use crate::btf::plmc::{PlmcBsdf, PlmcHit};
 pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use plastic::Plastic;
+pub use plmc::{PlmcBsdf, PlmcHit};
 pub use roughconductor::RoughConductor;
 pub use texture::Texture;
 pub use thindielectric::ThinDielectric;

@@ -15,6 +15,7 @@
 //! The file length must match exactly. Files are written atomically ([`crate::io::write_atomic`]).
 
 use super::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
+use crate::io::bytes::{Reader, Writer};
 use crate::io::write_atomic;
 use crate::{Error, Result};
 use half::f16;
@@ -66,8 +67,8 @@ pub fn write_cache(src: &(dyn BtfSource + '_), path: &Path) -> Result<()> {
         ));
     }
     let offset = payload_offset(nv, nl);
-    let mut head = Vec::with_capacity(offset);
-    head.extend_from_slice(MAGIC);
+    let mut w8 = Writer::new();
+    w8.bytes(MAGIC);
     for v in [
         VERSION,
         encoding_code(src.encoding()),
@@ -77,17 +78,17 @@ pub fn write_cache(src: &(dyn BtfSource + '_), path: &Path) -> Result<()> {
         nl as u32,
         0,
     ] {
-        head.extend_from_slice(&v.to_le_bytes());
+        w8.u32(v);
     }
-    head.extend_from_slice(&(offset as u64).to_le_bytes());
+    w8.u64(offset as u64);
     for set in [src.views(), src.lights()] {
         for &(t, p) in &set.angles_deg {
-            head.extend_from_slice(&t.to_le_bytes());
-            head.extend_from_slice(&p.to_le_bytes());
+            w8.f32(t).f32(p);
         }
     }
-    let crc = crc32fast::hash(&head);
-    head.extend_from_slice(&crc.to_le_bytes());
+    let crc = crc32fast::hash(w8.as_bytes());
+    w8.u32(crc);
+    let mut head = w8.into_bytes();
     head.resize(offset, 0);
     write_atomic(path, |out| {
         out.write_all(&head).map_err(|e| Error::io(path, e))?;
@@ -108,9 +109,13 @@ pub fn write_cache(src: &(dyn BtfSource + '_), path: &Path) -> Result<()> {
             crcs.push(crc32fast::hash(&bytes));
             out.write_all(&bytes).map_err(|e| Error::io(path, e))?;
         }
-        let table: Vec<u8> = crcs.iter().flat_map(|c| c.to_le_bytes()).collect();
-        out.write_all(&table).map_err(|e| Error::io(path, e))?;
-        out.write_all(&crc32fast::hash(&table).to_le_bytes())
+        let mut table = Writer::new();
+        crcs.iter().for_each(|&c| {
+            table.u32(c);
+        });
+        let crc = crc32fast::hash(table.as_bytes());
+        table.u32(crc);
+        out.write_all(table.as_bytes())
             .map_err(|e| Error::io(path, e))
     })
 }
@@ -139,12 +144,9 @@ impl CacheHeader {
     }
 }
 
+/// The little-endian u32 at `at` of `b`, a range the caller checked against the file length.
 fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
-}
-
-fn f32_at(b: &[u8], at: usize) -> f32 {
-    f32::from_bits(u32_at(b, at))
 }
 
 /// Parses and checks the header and overall file length of a `.btfc` image in `bytes`.
@@ -153,22 +155,25 @@ pub fn parse_header(path: &Path, bytes: &[u8]) -> Result<CacheHeader> {
     if bytes.len() < FIXED_HEADER || &bytes[0..4] != MAGIC {
         return Err(bad("not a .btfc cache (bad signature or too short)".into()));
     }
-    let version = u32_at(bytes, 4);
+    let mut r = Reader::new(bytes, path, "corrupt .btfc cache");
+    r.set_part("header");
+    r.seek(4)?;
+    let version = r.u32("version")?;
     if version != VERSION {
         return Err(bad(format!(
             "unsupported .btfc version {version} (expected {VERSION})"
         )));
     }
-    let encoding = match u32_at(bytes, 8) {
+    let encoding = match r.u32("encoding")? {
         0 => StoredEncoding::Srgb8,
         1 => StoredEncoding::Linear,
         e => return Err(bad(format!("unknown encoding code {e}"))),
     };
     let (w, h, nv, nl) = (
-        u32_at(bytes, 12) as u64,
-        u32_at(bytes, 16) as u64,
-        u32_at(bytes, 20) as u64,
-        u32_at(bytes, 24) as u64,
+        r.u32("width")? as u64,
+        r.u32("height")? as u64,
+        r.u32("view count")? as u64,
+        r.u32("light count")? as u64,
     );
     if nv == 0 || nl == 0 || nv > MAX_DIRECTIONS || nl > MAX_DIRECTIONS || w == 0 || h == 0 {
         return Err(bad(format!(
@@ -186,7 +191,8 @@ pub fn parse_header(path: &Path, bytes: &[u8]) -> Result<CacheHeader> {
     if crc32fast::hash(&bytes[..hl - 4]) != stored_crc {
         return Err(bad("header checksum mismatch (corrupt file)".into()));
     }
-    let offset = u64::from_le_bytes(bytes[32..40].try_into().unwrap_or([0; 8]));
+    r.u32("reserved")?;
+    let offset = r.u64("payload offset")?;
     if offset != payload_offset(nv as usize, nl as usize) as u64 {
         return Err(bad(format!("unexpected payload offset {offset}")));
     }
@@ -206,19 +212,15 @@ pub fn parse_header(path: &Path, bytes: &[u8]) -> Result<CacheHeader> {
             bytes.len()
         )));
     }
-    let mut at = FIXED_HEADER;
-    let mut read_set = |n: u64| {
+    r.seek(FIXED_HEADER)?;
+    let mut read_set = |n: u64, field: &str| -> Result<DirectionSet> {
         let angles = (0..n)
-            .map(|_| {
-                let a = (f32_at(bytes, at), f32_at(bytes, at + 4));
-                at += 8;
-                a
-            })
-            .collect();
-        DirectionSet::from_angles_deg(angles)
+            .map(|_| Ok((r.f32(field)?, r.f32(field)?)))
+            .collect::<Result<Vec<_>>>()?;
+        Ok(DirectionSet::from_angles_deg(angles))
     };
-    let views = read_set(nv);
-    let lights = read_set(nl);
+    let views = read_set(nv, "view directions")?;
+    let lights = read_set(nl, "light directions")?;
     Ok(CacheHeader {
         views,
         lights,

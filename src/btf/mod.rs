@@ -4,10 +4,9 @@
 pub mod cache;
 pub mod delaunay;
 pub mod directions;
-pub mod format;
-pub mod plmc;
 pub mod raw;
 pub mod synth;
+pub mod tiling;
 pub mod ubo2003;
 pub mod ubo2014;
 

@@ -13,6 +13,18 @@ pub enum StoredEncoding {
     Linear,
 }
 
+impl StoredEncoding {
+    /// A linear value in this encoding, normalised to [0, 1] for 8-bit data (sRGB data are
+    /// clamped to [0, 1], what an 8-bit store can hold): the space of the paper's error measure.
+    #[inline]
+    pub fn encode(self, v: f32) -> f32 {
+        match self {
+            StoredEncoding::Srgb8 => crate::math::color::linear_to_srgb(v.clamp(0.0, 1.0)),
+            StoredEncoding::Linear => v,
+        }
+    }
+}
+
 /// Anything that can hand out a BTF one view at a time (a folder on disk, a cache, memory).
 /// Values are linear RGB, cosine-baked (DESIGN §2).
 pub trait BtfSource: Sync {

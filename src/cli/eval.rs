@@ -1,11 +1,12 @@
 //! `btfpt eval mat.plmc --against DATA`: the paper's Table 1–2 for LM, PLM, PLM-C and per-view PCA.
 
 use anyhow::Context;
-use btfpt::btf::{self, format};
+use btfpt::btf;
+use btfpt::btf::tiling;
 use btfpt::fit::evaluate::{self, EvalReport};
 use btfpt::fit::pipeline::FitOptions;
 use btfpt::fit::report::{raw_bytes, view_error};
-use btfpt::fit::tiling;
+use btfpt::model::codec;
 use std::path::PathBuf;
 
 /// Evaluate a .plmc model (and refits of the other models) against the measured data.
@@ -82,7 +83,7 @@ pub struct SeamReport {
 /// Seam statistics and the region error, one pass over the views.
 fn seams(
     data: &dyn btf::BtfSource,
-    model: &btfpt::fit::model::PlmcModel,
+    model: &btfpt::model::PlmcModel,
     stitch: Option<&tiling::Stitch>,
 ) -> anyhow::Result<SeamReport> {
     use rayon::prelude::*;
@@ -136,10 +137,10 @@ fn seams(
 
 /// Runs `btfpt eval`.
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
-    let (model, section) = format::read_tiled(&args.model)?;
+    let (model, section) = codec::read_tiled(&args.model)?;
     let stitch = section
         .as_ref()
-        .map(|t| tiling::Stitch::from_section(t, &args.model))
+        .map(|t| t.stitch(&args.model))
         .transpose()?;
     let file_bytes = std::fs::metadata(&args.model)
         .with_context(|| format!("reading size of {}", args.model.display()))?

@@ -1,11 +1,12 @@
 //! `btfpt fit DATA -o mat.plmc`: fits LM, PLM or PLM-C to a measured BTF, resumably.
 
 use anyhow::Context;
-use btfpt::btf::{self, format};
-use btfpt::fit::model::ModelKind;
+use btfpt::btf;
+use btfpt::btf::tiling;
 use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
 use btfpt::fit::report::raw_bytes;
-use btfpt::fit::tiling;
+use btfpt::model::ModelKind;
+use btfpt::model::codec;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
@@ -196,8 +197,11 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
     })
     .with_context(|| format!("fitting {}", args.data.display()))?;
     bars.iter().for_each(|b| b.finish());
-    let section = stitch.as_ref().map(|s| s.section()).transpose()?;
-    format::write_tiled(&args.output, &outcome.model, section.as_ref())?;
+    let section = stitch
+        .as_ref()
+        .map(codec::TileSection::from_stitch)
+        .transpose()?;
+    codec::write_tiled(&args.output, &outcome.model, section.as_ref())?;
     if !args.keep_parts {
         std::fs::remove_dir_all(&parts).with_context(|| format!("removing {}", parts.display()))?;
     }

@@ -69,7 +69,7 @@ fn describe_directions(set: &btf::DirectionSet) -> String {
 /// tiles, and the compression ratio against 8-bit raw data of the same texels.
 fn describe_model(path: &std::path::Path) -> anyhow::Result<()> {
     let t0 = Instant::now();
-    let (model, tile) = btfpt::btf::format::read_tiled(path)?;
+    let (model, tile) = btfpt::model::codec::read_tiled(path)?;
     let bytes = std::fs::metadata(path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .len();

@@ -143,9 +143,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
     }
-    let scene = btfpt::scene::btf_bsdf::with_model_override(args.btf_model.as_deref(), || {
-        btfpt::scene::load(&args.scene, &defines)
-    })?;
+    let load_options = btfpt::scene::LoadOptions {
+        defines: defines.clone(),
+        btf_model: args
+            .btf_model
+            .as_deref()
+            .map(btfpt::model::BtfModel::parse)
+            .transpose()?,
+    };
+    let scene = btfpt::scene::load(&args.scene, &load_options)?;
     if scene.meshes.is_empty() && scene.emitters.is_empty() {
         bail!(
             "{}: the scene is empty (no shapes and no emitters), the image would be black",
@@ -213,6 +219,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let fp = fingerprint(&args.scene, &fp_defines, &settings);
 
+    for u in &scene.btf_uses {
+        eprintln!("btf: {} ({})", u.file.display(), u.model);
+    }
     let rs = RenderScene::new(scene)?;
     eprintln!("{}", rs.summary());
     let [cx, cy, cw, ch] = crop;

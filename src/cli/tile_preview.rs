@@ -2,10 +2,10 @@
 //! view and light repeated over a grid (sRGB PNG), so seams can be looked at.
 
 use anyhow::{Context, bail};
-use btfpt::btf::format;
-use btfpt::fit::tiling;
+use btfpt::btf::tiling;
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::rng::mix64;
+use btfpt::model::codec;
 use std::path::PathBuf;
 
 /// Render a model's tile(s) repeated over a grid.
@@ -58,7 +58,7 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
     if !(a.exposure.is_finite() && a.exposure > 0.0) {
         bail!("--exposure must be a positive number");
     }
-    let (model, section) = format::read_tiled(&a.model)?;
+    let (model, section) = codec::read_tiled(&a.model)?;
     if a.view >= model.views.len() {
         bail!(
             "--view {} is out of range: {} has {} views",
@@ -98,7 +98,7 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
                     a.model.display()
                 )
             })?;
-            let stitch = tiling::Stitch::from_section(section, &a.model)?;
+            let stitch = section.stitch(&a.model)?;
             let source = btfpt::btf::open(d)?;
             if (source.width(), source.height()) != (stitch.sample_w, stitch.sample_h)
                 || source.views().len() != model.views.len()

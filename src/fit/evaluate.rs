@@ -3,11 +3,12 @@
 //! other kinds are refitted from the data with the same code and options (deterministic), and
 //! their sizes are the exact sizes their `.plmc` files would have.
 
-use super::model::{ModelKind, PlmcModel};
 use super::pipeline::{self, FitOptions, Stage};
 use super::report::{ModelReport, ViewError, raw_bytes, view_error};
 use super::{lafortune::LobeFitter, pca};
-use crate::btf::{BtfSource, format};
+use crate::btf::BtfSource;
+use crate::model::codec;
+use crate::model::{ModelKind, PlmcModel};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
@@ -64,7 +65,7 @@ pub fn evaluate(
     };
     let refit_opts = FitOptions {
         kind: refit_kind,
-        fit_stored: model.space == super::model::ValueSpace::Srgb,
+        fit_stored: model.space == crate::model::ValueSpace::Srgb,
         clusters: if model.kind == ModelKind::PlmC {
             model.clusters
         } else {
@@ -100,10 +101,10 @@ pub fn evaluate(
             for (i, &kind) in kinds.iter().enumerate() {
                 if kind == model.kind {
                     model.reconstruct_view(v, &mut recon);
-                    section[i] = format::view_section_size(v, &model.params[v], model.clusters)?;
+                    section[i] = codec::view_section_size(v, &model.params[v], model.clusters)?;
                     if kind.has_polys() {
                         let n = model.lights.len() * 3;
-                        poly[i] = format::poly_bytes(&model.polys[v * n..(v + 1) * n])?;
+                        poly[i] = codec::poly_bytes(&model.polys[v * n..(v + 1) * n])?;
                     }
                 } else {
                     let m = pipeline::view_model(
@@ -118,8 +119,8 @@ pub fn evaluate(
                         Error::Invalid(format!("view {v}: {} was not refitted", kind.name()))
                     })?;
                     m.reconstruct_view(0, &mut recon);
-                    section[i] = format::view_section_size(v, &m.params[0], m.clusters)?;
-                    poly[i] = format::poly_bytes(&m.polys)?;
+                    section[i] = codec::view_section_size(v, &m.params[0], m.clusters)?;
+                    poly[i] = codec::poly_bytes(&m.polys)?;
                 }
                 err[i] = view_error(&data, &recon, enc);
             }
@@ -150,11 +151,11 @@ pub fn evaluate(
             } else {
                 0
             };
-            format::file_size(
+            codec::file_size(
                 &skel,
                 per_view.iter().map(|p| p.section[i]).sum(),
                 per_view.iter().map(|p| p.poly[i]).sum(),
-            )
+            )?
         };
         let errs: Vec<ViewError> = per_view.iter().map(|p| p.err[i]).collect();
         models.insert(

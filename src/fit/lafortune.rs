@@ -6,6 +6,7 @@
 //! (which also makes averaging parameters of several texels meaningful).
 
 use crate::math::Vec3;
+use crate::model::lobe::{Lobe, ZERO_LOBE};
 
 /// Lower bound of the exponent n (below it b^n has an unbounded derivative at b → 0).
 pub const N_MIN: f64 = 0.1;
@@ -13,19 +14,6 @@ pub const N_MIN: f64 = 0.1;
 pub const N_MAX: f64 = 200.0;
 /// Maximum number of Levenberg–Marquardt iterations (accepted or rejected steps).
 const MAX_ITER: usize = 40;
-
-/// Lafortune parameters `[ρ, Dx, Dy, Dz, n]`.
-pub type Lobe = [f32; 5];
-
-/// A lobe with zero albedo (the fit of an all-zero signal).
-pub const ZERO_LOBE: Lobe = [0.0, 0.0, 0.0, 1.0, 1.0];
-
-/// Evaluates one lobe for the light direction `u` (base clamped at 0).
-#[inline]
-pub fn eval(p: &Lobe, u: Vec3) -> f32 {
-    let b = p[1] * u.x + p[2] * u.y + p[3] * u.z;
-    if b <= 0.0 { 0.0 } else { p[0] * b.powf(p[4]) }
-}
 
 /// Evaluates one lobe at the light directions of a [`LobeFitter`] (`out.len()` = lights).
 pub fn eval_all(p: &Lobe, fitter: &LobeFitter, out: &mut [f32]) {

@@ -7,12 +7,13 @@
 pub mod evaluate;
 pub mod kmeans;
 pub mod lafortune;
-pub mod model;
+pub mod mapping;
+pub mod options;
+pub mod parts;
 pub mod pca;
 pub mod pipeline;
 pub mod plot;
-pub mod polynomial;
 pub mod refine;
 pub mod report;
 pub mod select;
-pub mod tiling;
+pub mod view;

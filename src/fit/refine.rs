@@ -11,10 +11,11 @@
 //! lobe) when that lowers the members' L1 error. Both steps only accept changes that lower the
 //! error, so the total never rises.
 
-use super::lafortune::{self, Lobe, LobeFitter};
-use super::model::PackedLobe;
-use super::polynomial::{self, Poly};
+use super::lafortune::{self, LobeFitter};
 use crate::math::color::linear_to_srgb;
+use crate::model::PackedLobe;
+use crate::model::lobe::Lobe;
+use crate::model::polynomial::{self, Poly};
 use rayon::prelude::*;
 
 /// Settings of [`refine`].

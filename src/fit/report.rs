@@ -3,7 +3,6 @@
 //! averaged per view then over views, plus linear-space MAE and the stored-encoding RMSE.
 
 use crate::btf::StoredEncoding;
-use crate::math::color::linear_to_srgb;
 
 /// Error sums of one view (one model).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -16,21 +15,11 @@ pub struct ViewError {
     pub mse: f64,
 }
 
-/// Converts a linear value to the stored encoding normalised to [0, 1] (sRGB data are clamped to
-/// [0, 1], what an 8-bit store can hold).
-#[inline]
-pub fn stored(v: f32, enc: StoredEncoding) -> f32 {
-    match enc {
-        StoredEncoding::Srgb8 => linear_to_srgb(v.clamp(0.0, 1.0)),
-        StoredEncoding::Linear => v,
-    }
-}
-
 /// Errors of `recon` against `orig` (same layout, linear values).
 pub fn view_error(orig: &[f32], recon: &[f32], enc: StoredEncoding) -> ViewError {
     let (mut a, mut l, mut s) = (0.0f64, 0.0f64, 0.0f64);
     for (&o, &r) in orig.iter().zip(recon) {
-        let d = (stored(o, enc) - stored(r, enc)) as f64;
+        let d = (enc.encode(o) - enc.encode(r)) as f64;
         a += d.abs();
         s += d * d;
         l += (o - r).abs() as f64;
@@ -83,6 +72,7 @@ pub fn raw_bytes(views: usize, lights: usize, texels: usize) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::color::linear_to_srgb;
 
     #[test]
     fn errors_in_both_spaces() {

@@ -2,6 +2,7 @@
 //! atomic writes.
 
 pub mod atomic;
+pub mod bytes;
 pub mod image;
 pub mod pfm;
 pub mod shared;

@@ -11,9 +11,10 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::distribution::Distribution1D;
+use super::LightSample;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
+use crate::math::distribution::Distribution1D;
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::path::Path;
@@ -157,6 +158,20 @@ impl EnvMapLight {
             return None;
         }
         Some((d, self.eval(d), pdf))
+    }
+
+    /// [`EnvMapLight::sample`] as a light sample (pdf in solid angle, no selection).
+    #[inline]
+    pub fn sample_li(&self, u: Vec2) -> Option<LightSample> {
+        let (wi, val, pdf) = self.sample(u)?;
+        Some(LightSample {
+            wi,
+            dist: f32::INFINITY,
+            n_geo: Vec3::ZERO,
+            weight: val / pdf,
+            pdf,
+            delta: false,
+        })
     }
 
     /// Solid-angle pdf with which [`EnvMapLight::sample`] returns world direction `d`.

@@ -1,8 +1,10 @@
 //! Small numeric building blocks shared by every subsystem.
 
 pub mod color;
+pub mod distribution;
 pub mod frame;
 pub mod rng;
+pub mod transform;
 pub mod warp;
 
 pub use frame::Frame;

@@ -92,19 +92,7 @@ impl PerspectiveCamera {
 mod tests {
     use super::*;
     use crate::math::Mat4;
-
-    fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-        // Mitsuba: dir = normalize(target - origin); left = normalize(cross(up, dir)); new_up = cross(dir, left).
-        let dir = (target - origin).normalize();
-        let left = up.normalize().cross(dir).normalize();
-        let new_up = dir.cross(left);
-        Mat4::from_cols(
-            left.extend(0.0),
-            new_up.extend(0.0),
-            dir.extend(0.0),
-            origin.extend(1.0),
-        )
-    }
+    use crate::math::transform::look_at as lookat;
 
     #[test]
     fn image_left_is_world_left_and_top_is_up() {

@@ -9,6 +9,7 @@
 
 use super::film::{RenderSettings, RenderState, Tile};
 use super::filter::{Filter, FilterKind};
+use crate::io::bytes::{Reader, Writer};
 use crate::io::write_atomic;
 use crate::{Error, Result};
 use std::path::Path;
@@ -31,84 +32,39 @@ fn filter_code(f: &Filter) -> (u32, [f32; 3]) {
 /// Writes `state` to `path` atomically; `fingerprint` identifies the scene and options.
 pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
     let s = &state.settings;
-    let mut b = Vec::with_capacity(
-        64 + state
-            .tiles
-            .iter()
-            .map(|t| 40 + 48 * t.sum.len())
-            .sum::<usize>(),
-    );
+    let mut b = Writer::new();
     let filtered = !state.filter.is_box();
-    b.extend_from_slice(MAGIC);
     let version = if filtered { VERSION_FILTERED } else { VERSION };
-    b.extend_from_slice(&version.to_le_bytes());
-    b.extend_from_slice(&fingerprint.to_le_bytes());
+    b.bytes(MAGIC).u32(version).u64(fingerprint);
     for v in [
         s.width, s.height, s.crop[0], s.crop[1], s.crop[2], s.crop[3],
     ] {
-        b.extend_from_slice(&v.to_le_bytes());
+        b.u32(v);
     }
-    b.extend_from_slice(&s.spp_begin.to_le_bytes());
-    b.extend_from_slice(&s.spp_end.to_le_bytes());
-    b.extend_from_slice(&s.seed.to_le_bytes());
+    b.u32(s.spp_begin).u32(s.spp_end).u64(s.seed);
     if filtered {
         let (code, p) = filter_code(&state.filter);
-        b.extend_from_slice(&code.to_le_bytes());
-        for v in p {
-            b.extend_from_slice(&v.to_le_bytes());
-        }
+        b.u32(code).f32(p[0]).f32(p[1]).f32(p[2]);
     }
-    b.extend_from_slice(&(state.tiles.len() as u32).to_le_bytes());
+    b.len32(state.tiles.len(), "tile count")?;
     for t in &state.tiles {
         for v in [t.x0, t.y0, t.w, t.h, t.done] {
-            b.extend_from_slice(&v.to_le_bytes());
+            b.u32(v);
         }
-        b.extend_from_slice(&t.rays.to_le_bytes());
-        b.extend_from_slice(&t.invalid.to_le_bytes());
+        b.u64(t.rays).u64(t.invalid);
         for px in t.sum.iter().chain(&t.sum2).chain(&t.sum_w2) {
-            for v in px {
-                b.extend_from_slice(&v.to_le_bytes());
+            for &v in px {
+                b.f64(v);
             }
         }
-        for v in t.weight.iter().chain(&t.weight2) {
-            b.extend_from_slice(&v.to_le_bytes());
+        for &v in t.weight.iter().chain(&t.weight2) {
+            b.f64(v);
         }
     }
-    let crc = crc32fast::hash(&b);
-    b.extend_from_slice(&crc.to_le_bytes());
+    let crc = crc32fast::hash(b.as_bytes());
+    b.u32(crc);
+    let b = b.into_bytes();
     write_atomic(path, |w| w.write_all(&b).map_err(|e| Error::io(path, e)))
-}
-
-struct Reader<'a> {
-    b: &'a [u8],
-    pos: usize,
-    path: &'a Path,
-}
-
-impl Reader<'_> {
-    fn take<const N: usize>(&mut self) -> Result<[u8; N]> {
-        let end = self.pos + N;
-        let s = self
-            .b
-            .get(self.pos..end)
-            .ok_or_else(|| Error::format(self.path, "checkpoint is truncated"))?;
-        self.pos = end;
-        let mut a = [0u8; N];
-        a.copy_from_slice(s);
-        Ok(a)
-    }
-    fn u32(&mut self) -> Result<u32> {
-        Ok(u32::from_le_bytes(self.take()?))
-    }
-    fn u64(&mut self) -> Result<u64> {
-        Ok(u64::from_le_bytes(self.take()?))
-    }
-    fn f32(&mut self) -> Result<f32> {
-        Ok(f32::from_le_bytes(self.take()?))
-    }
-    fn f64(&mut self) -> Result<f64> {
-        Ok(f64::from_le_bytes(self.take()?))
-    }
 }
 
 /// Reads a box-filtered checkpoint and checks that it belongs to `expected` settings and
@@ -134,12 +90,9 @@ pub fn load_filtered(
     if crc32fast::hash(body) != crc {
         return Err(Error::format(path, "checkpoint is corrupt (CRC mismatch)"));
     }
-    let mut r = Reader {
-        b: body,
-        pos: 8,
-        path,
-    };
-    let version = r.u32()?;
+    let mut r = Reader::new(body, path, "corrupt checkpoint");
+    r.seek(8)?;
+    let version = r.u32("version")?;
     let want = if filter.is_box() {
         VERSION
     } else {
@@ -158,15 +111,20 @@ pub fn load_filtered(
             ),
         ));
     }
-    if r.u64()? != fingerprint {
+    if r.u64("fingerprint")? != fingerprint {
         return Err(Error::format(
             path,
             "checkpoint was written for a different scene or different options",
         ));
     }
-    let (width, height) = (r.u32()?, r.u32()?);
-    let crop = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
-    let (spp_begin, spp_end, seed) = (r.u32()?, r.u32()?, r.u64()?);
+    let (width, height) = (r.u32("width")?, r.u32("height")?);
+    let crop = [
+        r.u32("crop")?,
+        r.u32("crop")?,
+        r.u32("crop")?,
+        r.u32("crop")?,
+    ];
+    let (spp_begin, spp_end, seed) = (r.u32("spp begin")?, r.u32("spp end")?, r.u64("seed")?);
     let settings = RenderSettings {
         width,
         height,
@@ -182,36 +140,39 @@ pub fn load_filtered(
         ));
     }
     if !filter.is_box() {
-        let code = r.u32()?;
-        let p = [r.f32()?, r.f32()?, r.f32()?];
+        let code = r.u32("filter")?;
+        let p = [r.f32("filter")?, r.f32("filter")?, r.f32("filter")?];
         let (want_code, want_p) = filter_code(filter);
         if code != want_code || p.map(f32::to_bits) != want_p.map(f32::to_bits) {
             return Err(Error::format(
                 path,
-                format!(
-                    "checkpoint was written with another reconstruction filter than {filter:?}"
-                ),
+                format!("checkpoint was written with another reconstruction filter than {filter:?}"),
             ));
         }
     }
     let mut state = RenderState::with_filter(settings, *filter)?;
-    let n = r.u32()? as usize;
+    let n = r.len32("tile count")?;
     if n != state.tiles.len() {
         return Err(Error::format(path, "checkpoint tile layout differs"));
     }
     for t in &mut state.tiles {
-        let head = [r.u32()?, r.u32()?, r.u32()?, r.u32()?];
+        let head = [
+            r.u32("tile")?,
+            r.u32("tile")?,
+            r.u32("tile")?,
+            r.u32("tile")?,
+        ];
         if head != [t.x0, t.y0, t.w, t.h] {
             return Err(Error::format(path, "checkpoint tile layout differs"));
         }
-        let done = r.u32()?;
+        let done = r.u32("tile samples")?;
         if done > settings.spp() {
             return Err(Error::format(path, "checkpoint sample count out of range"));
         }
         let tile = Tile {
             done,
-            rays: r.u64()?,
-            invalid: r.u64()?,
+            rays: r.u64("ray count")?,
+            invalid: r.u64("invalid count")?,
             ..t.clone()
         };
         *t = tile;
@@ -222,15 +183,13 @@ pub fn load_filtered(
             .chain(t.sum_w2.iter_mut())
         {
             for v in px.iter_mut() {
-                *v = r.f64()?;
+                *v = r.f64("pixel sums")?;
             }
         }
         for v in t.weight.iter_mut().chain(t.weight2.iter_mut()) {
-            *v = r.f64()?;
+            *v = r.f64("filter weights")?;
         }
     }
-    if r.pos != body.len() {
-        return Err(Error::format(path, "checkpoint has trailing bytes"));
-    }
+    r.finish()?;
     Ok(state)
 }

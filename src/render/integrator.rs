@@ -140,7 +140,7 @@ impl PathTracer {
             if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
                 let u_sel = rng.next_f32();
                 let u = rng.next_2d();
-                if let Some(ls) = lights.sample(meshes, si.p, u_sel, u) {
+                if let Some(ls) = lights.sample(si.p, u_sel, u) {
                     let wo = si.to_local(ls.wi);
                     // One call for both: BSDFs with a per-hit lookup (BTF) share it.
                     let (f, bsdf_pdf) = if ls.delta {

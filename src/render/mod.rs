@@ -109,6 +109,7 @@ pub(crate) mod tests_support {
     /// A scene with no geometry, a default camera and the given emitters.
     pub fn empty_scene(emitters: Vec<Emitter>) -> Scene {
         Scene {
+            btf_uses: Vec::new(),
             source: "test.xml".into(),
             camera: Camera {
                 to_world: Mat4::IDENTITY,

@@ -11,83 +11,82 @@
 //! values that `btfpt synth corduroy --size 32 --seed 1 --format exr -o DIR` writes, so Mitsuba
 //! renders the same material from `DIR`.
 
+use crate::bsdf::plmc;
 use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
-use crate::btf::plmc;
 use crate::btf::synth::{MaterialKind, SynthSettings, measure};
 use crate::btf::{DirectionSet, RawBtf};
 use crate::io::shared::{SharedCache, shared_by_path};
+use crate::model::{BtfModel, resolve_model_file};
 use crate::{Error, Result};
-use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 /// Builds the BSDF of a `<bsdf type="btf">` element declared at `file:line`: `filename` as written
 /// in the scene (a path, resolved with `resolve`, or a `synth:` source, see the module doc),
-/// `uv_scale` (texture repeats per unit uv), `model_attr` ("raw", "lm", "plm" or "plmc"; see
-/// [`plmc::resolve_model_file`] for which file each one reads; a [`with_model_override`] in force
-/// replaces it). Synthetic sources exist only as raw data.
+/// `uv_scale` (texture repeats per unit uv), `model` (see [`resolve_model_file`] for which file
+/// each one reads; `None` renders what the file holds: a `.plmc` file its own model, raw data raw;
+/// the loaders pass [`super::LoadOptions::btf_model`] here when set). Synthetic sources exist only
+/// as raw data. Returns the BSDF and the file and model it renders (for the scene summary).
 pub fn build_btf(
     file: &Path,
     line: u32,
     filename: &str,
     resolve: &dyn Fn(&str) -> PathBuf,
     uv_scale: f32,
-    model_attr: &str,
-) -> Result<Bsdf> {
+    model: Option<BtfModel>,
+) -> Result<(Bsdf, BtfUse)> {
     let scene_error = |msg: String| Error::Scene {
         file: file.to_path_buf(),
         line,
         msg,
     };
-    let model = MODEL_OVERRIDE.with(|m| m.borrow().clone());
-    let model = model.as_deref().unwrap_or(model_attr);
     if let Some(spec) = SynthSpec::parse(filename) {
-        if model != "raw" {
+        if let Some(m @ BtfModel::Fitted(_)) = model {
             return Err(scene_error(format!(
-                "btf: \"{filename}\" is a synthetic raw BTF; model \"{model}\" needs a fitted .plmc file"
+                "btf: \"{filename}\" is a synthetic raw BTF; model \"{m}\" needs a fitted .plmc file"
             )));
         }
         let material = spec
             .and_then(|s| shared_synth_material(&s))
             .map_err(|e| scene_error(format!("btf: {e}")))?;
         let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
-        return Ok(Bsdf::Btf(bsdf));
+        let used = BtfUse {
+            file: PathBuf::from(filename),
+            model: BtfModel::Raw,
+        };
+        return Ok((Bsdf::Btf(bsdf), used));
     }
     let path = resolve(filename);
-    match model {
-        "raw" => {
-            // The message names the BTF source and the problem; the scene error adds where it is used.
-            let material = plmc::resolve_model_file(&path, "raw")
-                .and_then(|p| shared_raw_material(&p))
-                .map_err(|e| scene_error(format!("btf: {e}")))?;
-            let bsdf = BtfBsdf::new(material, uv_scale).map_err(|e| scene_error(e.to_string()))?;
-            Ok(Bsdf::Btf(bsdf))
-        }
-        "lm" | "plm" | "plmc" => {
-            let bsdf = plmc::resolve_model_file(&path, model)
-                .and_then(|p| plmc::shared_material(&p))
-                .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
-                .map_err(|e| scene_error(format!("btf: {e}")))?;
-            Ok(Bsdf::Plmc(bsdf))
-        }
-        other => Err(scene_error(format!(
-            "btf model \"{other}\" is not one of \"raw\", \"lm\", \"plm\", \"plmc\""
-        ))),
+    // The message names the BTF source and the problem; the scene error adds where it is used.
+    let (source, model) =
+        resolve_model_file(&path, model).map_err(|e| scene_error(format!("btf: {e}")))?;
+    let bsdf = match model {
+        BtfModel::Raw => shared_raw_material(&source)
+            .and_then(|m| BtfBsdf::new(m, uv_scale))
+            .map(Bsdf::Btf),
+        BtfModel::Fitted(_) => plmc::shared_material(&source)
+            .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
+            .map(Bsdf::Plmc),
     }
+    .map_err(|e| scene_error(format!("btf: {e}")))?;
+    Ok((
+        bsdf,
+        BtfUse {
+            file: source,
+            model,
+        },
+    ))
 }
 
-thread_local! {
-    static MODEL_OVERRIDE: RefCell<Option<String>> = const { RefCell::new(None) };
-}
-
-/// Runs `f` (a scene load on this thread) with every `<bsdf type="btf">` using `model` instead of
-/// its own `model` property (the CLI's `--btf-model`); `None` leaves the scene as written.
-pub fn with_model_override<R>(model: Option<&str>, f: impl FnOnce() -> R) -> R {
-    let prev = MODEL_OVERRIDE.with(|m| m.replace(model.map(str::to_string)));
-    let out = f();
-    MODEL_OVERRIDE.with(|m| *m.borrow_mut() = prev);
-    out
+/// Which file and model a `<bsdf type="btf">` renders (after the model-file convention and
+/// `--btf-model` were applied).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BtfUse {
+    /// The file read (raw data or a `.plmc` model), or the `synth:` source as written.
+    pub file: PathBuf,
+    /// The representation rendered.
+    pub model: BtfModel,
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several
@@ -220,20 +219,6 @@ impl SynthSpec {
         Ok(spec)
     }
 
-    /// The `btfpt synth` command line that writes the same values to a folder (for Mitsuba).
-    pub fn cli_equivalent(&self) -> String {
-        format!(
-            "btfpt synth {} --size {}x{} --seed {} --strata {} --subdiv {} --directions {} --format exr",
-            self.material.name(),
-            self.width,
-            self.height,
-            self.seed,
-            self.strata,
-            self.subdiv,
-            self.directions
-        )
-    }
-
     /// A canonical form of the source (all keys, fixed order): the cache key.
     pub fn canonical(&self) -> String {
         format!(
@@ -289,8 +274,9 @@ mod tests {
             filename,
             &|f| PathBuf::from(f),
             uv_scale,
-            model,
+            Some(BtfModel::parse(model)?),
         )
+        .map(|(bsdf, _)| bsdf)
     }
 
     #[test]
@@ -311,7 +297,7 @@ mod tests {
         };
         assert!(Arc::ptr_eq(a.material(), b.material()));
         let e = build(5, name, 1.0, "plmx").unwrap_err().to_string();
-        assert!(e.contains("scene.xml:5") && e.contains("plmx"), "{e}");
+        assert!(e.contains("plmx"), "{e}");
         let e = build(6, name, 0.0, "raw").unwrap_err().to_string();
         assert!(e.contains("scene.xml:6") && e.contains("uv_scale"), "{e}");
         let missing = dir.path().join("missing.btfc");

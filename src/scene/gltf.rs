@@ -20,7 +20,7 @@
 //!   camera's aspectRatio if given), `spp` (64), `max_depth` (−1). Other defines are errors.
 
 use super::shapes::{self, LocalMesh, MeshOptions};
-use super::{Camera, Emitter, IntegratorSettings, Scene};
+use super::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, RoughConductor, Texture, TwoSided};
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
@@ -114,8 +114,8 @@ fn settings(path: &Path, defines: &[(String, String)]) -> Result<Settings> {
 }
 
 /// Loads a glTF 2.0 scene (see the module docs for the mapping).
-pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
-    let settings = settings(path, defines)?;
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
+    let settings = settings(path, &options.defines)?;
     if !path.exists() {
         return Err(Error::format(path, "file not found"));
     }
@@ -155,6 +155,7 @@ pub fn load(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
         meshes: b.meshes,
         bsdfs: b.bsdfs,
         emitters: b.emitters,
+        btf_uses: Vec::new(),
     })
 }
 
@@ -180,7 +181,7 @@ impl GltfBuilder<'_> {
     fn visit(&mut self, node: &::gltf::Node, parent: Mat4) -> Result<()> {
         let local = Mat4::from_cols_array_2d(&node.transform().matrix());
         let world = parent * local;
-        if !super::transform::is_finite(&world) {
+        if !crate::math::transform::is_finite(&world) {
             return Err(self.err(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
@@ -292,7 +293,7 @@ impl GltfBuilder<'_> {
                         "spot light of node {node} has a degenerate transform"
                     )));
                 }
-                let to_world = super::transform::look_at(position, position + forward, up);
+                let to_world = crate::math::transform::look_at(position, position + forward, up);
                 let cutoff = outer_cone_angle.to_degrees();
                 self.emitters.push(Emitter::Spot {
                     to_world,

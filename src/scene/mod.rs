@@ -2,18 +2,18 @@
 
 pub mod btf_bsdf;
 pub mod gltf;
-pub mod mitsuba_xml;
+pub mod load_options;
+pub mod mitsuba;
 pub mod obj;
 pub mod ply;
-pub mod props;
 pub mod serialized;
 pub mod shapes;
-pub mod transform;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
 use crate::math::{Mat4, Spectrum, Vec3};
+pub use load_options::LoadOptions;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -28,8 +28,8 @@ use std::sync::Arc;
 ///
 /// d_cam = normalize(((1 − 2 fx / width) · t, (1 − 2 fy / height) · t / aspect, 1)),
 /// ray origin = to_world · (0, 0, 0), direction = linear part of to_world · d_cam,
-/// t_min = near_clip / d_cam.z, t_max = far_clip / d_cam.z. [`Camera::generate_ray`] does exactly
-/// this. With a crop window, pixel (i, j) of the output is pixel (i + x, j + y) of the full film.
+/// t_min = near_clip / d_cam.z, t_max = far_clip / d_cam.z. The renderer's
+/// [`crate::render::camera::PerspectiveCamera`] does exactly this. With a crop window, pixel (i, j) of the output is pixel (i + x, j + y) of the full film.
 #[derive(Clone, Debug)]
 pub struct Camera {
     /// Camera → world (no scale); the camera looks along +z with +y up and +x to the image's left.
@@ -46,23 +46,6 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// The primary ray through film position (`fx`, `fy`) in pixels of the full film (see the type
-    /// docs): (origin, unit direction, t_min, t_max), all in world space.
-    pub fn generate_ray(&self, fx: f32, fy: f32) -> (Vec3, Vec3, f32, f32) {
-        let t = (0.5 * self.fov_x_deg.to_radians()).tan();
-        let aspect = self.width as f32 / self.height as f32;
-        let d = Vec3::new(
-            (1.0 - 2.0 * fx / self.width as f32) * t,
-            (1.0 - 2.0 * fy / self.height as f32) * t / aspect,
-            1.0,
-        )
-        .normalize();
-        let inv_z = 1.0 / d.z;
-        let o = self.to_world.transform_point3(Vec3::ZERO);
-        let dw = self.to_world.transform_vector3(d).normalize();
-        (o, dw, self.near_clip * inv_z, self.far_clip * inv_z)
-    }
-
     /// Size (width, height) in pixels of the image actually rendered (the crop window if any).
     pub fn image_size(&self) -> (u32, u32) {
         match self.crop {
@@ -133,20 +116,21 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     pub bsdfs: Vec<Bsdf>,
     pub emitters: Vec<Emitter>,
+    /// The file and model each `<bsdf type="btf">` renders, in scene order (for the summary).
+    pub btf_uses: Vec<btf_bsdf::BtfUse>,
 }
 
-/// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`). `defines` override
-/// XML `<default>` values (the CLI's `-D name=value`); for glTF they set `width`, `height`, `spp`,
-/// `max_depth` (see [`gltf`]).
-pub fn load(path: &std::path::Path, defines: &[(String, String)]) -> crate::Result<Scene> {
+/// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`), with the caller's
+/// defines and BTF model choice (see [`LoadOptions`]).
+pub fn load(path: &std::path::Path, options: &LoadOptions) -> crate::Result<Scene> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
     match ext.as_str() {
-        "xml" => mitsuba_xml::load(path, defines),
-        "gltf" | "glb" => gltf::load(path, defines),
+        "xml" => mitsuba::load(path, options),
+        "gltf" | "glb" => gltf::load(path, options),
         _ => Err(crate::Error::format(
             path,
             "unknown scene format (expected .xml, .gltf or .glb)",

@@ -2,8 +2,8 @@
 //! Mitsuba's exact uv parameterisations, and the common step that turns any object-space mesh into
 //! a world-space [`Mesh`] (transform, normals, degenerate triangles, flips).
 
-use super::transform::{normal_matrix, xf_point};
 use crate::geometry::Mesh;
+use crate::math::transform::{normal_matrix, xf_point};
 use crate::math::{Mat4, Vec2, Vec3};
 
 /// Sphere tessellation: rings in θ (pole to pole) and segments in φ.

@@ -3,22 +3,28 @@
 
 use btfpt::bsdf::{Bsdf, Diffuse, Texture};
 use btfpt::geometry::Mesh;
-use btfpt::math::{Mat4, Spectrum, Vec3};
+use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::scene::{Camera, Emitter, IntegratorSettings, Scene};
+use std::process::Command;
 use std::sync::atomic::AtomicBool;
 
-/// Mitsuba's `lookat` (camera x = left).
-pub fn lookat(origin: Vec3, target: Vec3, up: Vec3) -> Mat4 {
-    let dir = (target - origin).normalize();
-    let left = up.normalize().cross(dir).normalize();
-    let new_up = dir.cross(left);
-    Mat4::from_cols(
-        left.extend(0.0),
-        new_up.extend(0.0),
-        dir.extend(0.0),
-        origin.extend(1.0),
+/// Mitsuba's `lookat` (camera x = left): the library's, re-exported for the tests.
+pub use btfpt::math::transform::look_at as lookat;
+
+/// The `btfpt` binary built for these tests, ready for arguments.
+pub fn btfpt() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_btfpt"))
+}
+
+/// Runs `btfpt ARGS` to completion: (exit success, stdout, stderr).
+pub fn btfpt_output(args: &[&str]) -> (bool, String, String) {
+    let out = btfpt().args(args).output().expect("run btfpt");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
     )
 }
 
@@ -38,6 +44,7 @@ pub fn scene(
     emitters: Vec<Emitter>,
 ) -> Scene {
     Scene {
+        btf_uses: Vec::new(),
         source: "in-code.xml".into(),
         camera: Camera {
             to_world: lookat(origin, target, Vec3::Y),

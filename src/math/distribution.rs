@@ -1,4 +1,5 @@
-//! Discrete and piecewise-constant distributions for importance sampling lights.
+//! Discrete distributions for importance sampling: emitter triangles, environment-map rows and
+//! columns, and the light-direction tables of measured BTFs.
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -10,6 +11,9 @@ pub struct Distribution1D {
     cdf: Vec<f32>,
     /// Probability of each bin.
     pmf: Vec<f32>,
+    /// Guide table: entry i is the bin sampled at u = i / len, so a sample starts its scan next
+    /// to its answer instead of a binary search whose branches mispredict (equal results).
+    guide: Vec<u32>,
     /// Sum of the (sanitised) weights.
     total: f64,
 }
@@ -37,7 +41,19 @@ impl Distribution1D {
         if let Some(last) = cdf.last_mut() {
             *last = 1.0;
         }
-        Some(Distribution1D { cdf, pmf, total })
+        let n = cdf.len();
+        let guide = (0..n)
+            .map(|i| {
+                let u = i as f32 / n as f32;
+                cdf.partition_point(|&c| c <= u).min(n - 1) as u32
+            })
+            .collect();
+        Some(Distribution1D {
+            cdf,
+            pmf,
+            guide,
+            total,
+        })
     }
 
     /// Number of bins.
@@ -61,14 +77,28 @@ impl Distribution1D {
         self.pmf[i]
     }
 
+    /// `cdf.partition_point(|c| c <= u).min(len − 1)`, started from the guide table entry: a
+    /// scan of about one step in either direction (backward only if the rounding of `u · len`
+    /// put `u` in the cell after its own).
+    #[inline]
+    fn search(&self, u: f32) -> usize {
+        let n = self.cdf.len();
+        let cell = ((u.max(0.0) * n as f32) as usize).min(n - 1);
+        let mut t = self.guide[cell] as usize;
+        while t > 0 && self.cdf[t - 1] > u {
+            t -= 1;
+        }
+        while t + 1 < n && self.cdf[t] <= u {
+            t += 1;
+        }
+        t
+    }
+
     /// Picks a bin for `u` in [0, 1); returns (bin, its probability, u re-scaled to [0, 1) inside the bin).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         // First bin whose cdf exceeds u; bins with zero probability are never chosen.
-        let mut i = self.cdf.partition_point(|&c| c <= u);
-        if i >= self.cdf.len() {
-            i = self.cdf.len() - 1;
-        }
+        let mut i = self.search(u);
         while self.pmf[i] == 0.0 && i > 0 {
             i -= 1;
         }
@@ -103,5 +133,32 @@ mod tests {
         assert_eq!(counts[1] + counts[3] + counts[4], 0);
         assert!((counts[0] as f32 / n as f32 - 0.25).abs() < 1e-3);
         assert!(Distribution1D::new([0.0, 0.0]).is_none());
+    }
+
+    #[test]
+    fn guided_search_is_the_binary_search() {
+        let mut rng = crate::math::Pcg32::new(3, 9);
+        for n in [1usize, 2, 3, 7, 50, 257] {
+            let w: Vec<f64> = (0..n)
+                .map(|i| {
+                    if i % 5 == 3 {
+                        0.0
+                    } else {
+                        rng.next_f32() as f64
+                    }
+                })
+                .collect();
+            let Some(d) = Distribution1D::new(w) else {
+                continue;
+            };
+            let mut us: Vec<f32> = (0..2000).map(|_| rng.next_f32()).collect();
+            us.extend([0.0, 1.0 - f32::EPSILON, 1.0, 2.0, -1.0]);
+            us.extend(d.cdf.iter().copied());
+            us.extend(d.cdf.iter().map(|c| c.next_down()));
+            for u in us {
+                let want = d.cdf.partition_point(|&c| c <= u).min(n - 1);
+                assert_eq!(d.search(u), want, "n={n} u={u}");
+            }
+        }
     }
 }

@@ -1,12 +1,20 @@
+use super::bsdf::floor_fast;
+use super::f4::{self, F4, Sse2};
+use super::kernel::{pow_f4, srgb_to_linear_f4};
 use super::*;
 use crate::btf::DirectionSet;
 use crate::btf::directions::DirectionInterp;
-use crate::fit::lafortune::Lobe;
-use crate::fit::model::PackedLobe;
-use crate::fit::polynomial::Poly;
+use crate::geometry::SurfaceInteraction;
 use crate::math::color::srgb_to_linear;
 use crate::math::{Pcg32, frame::from_spherical, warp};
+use crate::math::{Spectrum, Vec2, Vec3};
+use crate::model::{
+    BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec, lobe,
+    polynomial, resolve_model_file,
+};
+use std::path::Path;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::sync::OnceLock;
 
 fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
@@ -81,8 +89,8 @@ fn model(kind: ModelKind, space: ValueSpace, w: usize, h: usize, k: usize, seed:
         params,
         polys,
     };
-    let bytes = crate::btf::format::to_bytes(&m).unwrap();
-    crate::btf::format::from_bytes(&bytes, Path::new("test.plmc")).unwrap()
+    let bytes = codec::to_bytes(&m).unwrap();
+    codec::from_bytes(&bytes, Path::new("test.plmc")).unwrap()
 }
 
 struct Fixture {
@@ -242,7 +250,7 @@ fn reference_b(
         let v = vi[a] as usize;
         for c in 0..3 {
             let lobe_of = |t: usize| m.params[v].packed(t, c).unpack();
-            let y = lafortune::eval(&lobe_of(texel), wo);
+            let y = lobe::eval(&lobe_of(texel), wo);
             if !m.kind.has_polys() {
                 out[c] += vw[a] * m.space.to_linear(y);
                 continue;
@@ -251,7 +259,7 @@ fn reference_b(
             // to the largest output at the 3 measured lights.
             let y_max = (0..texels)
                 .flat_map(|t| m.lights.dirs.iter().map(move |&u| (t, u)))
-                .map(|(t, u)| lafortune::eval(&lobe_of(t), u))
+                .map(|(t, u)| lobe::eval(&lobe_of(t), u))
                 .fold(0f32, f32::max);
             let out_max = li
                 .iter()
@@ -260,7 +268,7 @@ fn reference_b(
                     (0..texels).map(move |t| (t, l))
                 })
                 .map(|(t, l)| {
-                    let yl = lafortune::eval(&lobe_of(t), m.lights.dirs[l]);
+                    let yl = lobe::eval(&lobe_of(t), m.lights.dirs[l]);
                     polynomial::eval(&m.poly(v, l, c), yl).max(0.0)
                 })
                 .fold(0f32, f32::max);
@@ -503,10 +511,12 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     let d = dir.path();
     let plmc = model(ModelKind::PlmC, ValueSpace::Linear, 2, 2, 3, 1);
     let lm = model(ModelKind::Lm, ValueSpace::Linear, 2, 2, 0, 2);
-    crate::btf::format::write(&d.join("mat.plmc"), &plmc).unwrap();
-    crate::btf::format::write(&d.join("mat.lm.plmc"), &lm).unwrap();
+    codec::write(&d.join("mat.plmc"), &plmc).unwrap();
+    codec::write(&d.join("mat.lm.plmc"), &lm).unwrap();
     std::fs::write(d.join("mat.btfc"), b"x").unwrap();
-    let r = |f: &str, m: &str| resolve_model_file(&d.join(f), m);
+    let r = |f: &str, m: &str| {
+        BtfModel::parse(m).and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|(p, _)| p))
+    };
     assert_eq!(r("mat.plmc", "plmc").unwrap(), d.join("mat.plmc"));
     assert_eq!(r("mat.plmc", "lm").unwrap(), d.join("mat.lm.plmc"));
     assert_eq!(r("mat.lm.plmc", "plmc").unwrap(), d.join("mat.plmc"));
@@ -523,43 +533,56 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     assert!(r("mat.plmc", "pca").is_err());
 
     // Through the scene entry point: model property, override, sharing, errors with the place.
-    use crate::scene::btf_bsdf::{build_btf, with_model_override};
+    use crate::scene::btf_bsdf::build_btf;
     let scene = Path::new("scene.xml");
     let mat = d.join("mat.plmc");
     let mat = mat.to_string_lossy().into_owned();
     let id = |f: &str| PathBuf::from(f);
-    let a = build_btf(scene, 3, &mat, &id, 1.0, "plmc").unwrap();
-    let b = build_btf(scene, 4, &mat, &id, 2.0, "plmc").unwrap();
+    let build = |line: u32, file: &str, uv: f32, m: Option<&str>| {
+        let m = m.map(|m| BtfModel::parse(m).unwrap());
+        build_btf(scene, line, file, &id, uv, m)
+    };
+    let (a, used) = build(3, &mat, 1.0, Some("plmc")).unwrap();
+    assert_eq!(used.model, BtfModel::Fitted(ModelKind::PlmC));
+    assert_eq!(used.file, d.join("mat.plmc"));
+    // No model: a .plmc file renders the model it holds.
+    let (b, used) = build(4, &mat, 2.0, None).unwrap();
+    assert_eq!(used.model, BtfModel::Fitted(ModelKind::PlmC));
     let (crate::bsdf::Bsdf::Plmc(a), crate::bsdf::Bsdf::Plmc(b)) = (a, b) else {
         panic!("not a model bsdf");
     };
     assert!(Arc::ptr_eq(a.material(), b.material()));
     assert_eq!(a.material().kind(), ModelKind::PlmC);
-    let l =
-        with_model_override(Some("lm"), || build_btf(scene, 5, &mat, &id, 1.0, "plmc")).unwrap();
+    let lm_file = d.join("mat.lm.plmc").to_string_lossy().into_owned();
+    let (l, used) = build(5, &lm_file, 1.0, None).unwrap();
+    assert_eq!(
+        (used.model, used.file),
+        (BtfModel::Fitted(ModelKind::Lm), d.join("mat.lm.plmc"))
+    );
     let crate::bsdf::Bsdf::Plmc(l) = l else {
         panic!("not a model bsdf");
     };
     assert_eq!(l.material().kind(), ModelKind::Lm);
-    let e = with_model_override(Some("plm"), || build_btf(scene, 6, &mat, &id, 1.0, "plmc"))
-        .unwrap_err()
-        .to_string();
+    let (l, _) = build(5, &mat, 1.0, Some("lm")).unwrap();
+    let crate::bsdf::Bsdf::Plmc(l) = l else {
+        panic!("not a model bsdf");
+    };
+    assert_eq!(l.material().kind(), ModelKind::Lm);
+    let e = build(6, &mat, 1.0, Some("plm")).unwrap_err().to_string();
     assert!(
         e.contains("scene.xml:6") && e.contains("mat.plm.plmc"),
         "{e}"
     );
     // The raw sibling exists but is not a BTF: the raw loader's error names it.
-    let e = build_btf(scene, 7, &mat, &id, 1.0, "raw")
-        .unwrap_err()
-        .to_string();
+    let e = build(7, &mat, 1.0, Some("raw")).unwrap_err().to_string();
     assert!(e.contains("scene.xml:7") && e.contains("mat.btfc"), "{e}");
-    // A corrupt model file.
+    // A corrupt model file, with and without a model asked for.
     std::fs::write(d.join("bad.plmc"), b"PLMC\x01\0\0\0junk").unwrap();
     let bad = d.join("bad.plmc").to_string_lossy().into_owned();
-    let e = build_btf(scene, 8, &bad, &id, 1.0, "plmc")
-        .unwrap_err()
-        .to_string();
-    assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
+    for m in [Some("plmc"), None] {
+        let e = build(8, &bad, 1.0, m).unwrap_err().to_string();
+        assert!(e.contains("scene.xml:8") && e.contains("bad.plmc"), "{e}");
+    }
 }
 
 #[test]

@@ -1,0 +1,294 @@
+//! The fitted-model BTF as a BSDF: texel addressing (nearest or bilinear), the per-hit state
+//! shared by one vertex's calls, eval/pdf/sample through the material and the light sampler.
+
+use super::material::PlmcMaterial;
+use crate::bsdf::{BsdfFlags, BsdfSample};
+use crate::geometry::SurfaceInteraction;
+use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
+use crate::{Error, Result};
+use std::sync::Arc;
+
+/// A fitted-model BTF instance: shared model + uv tiling + texel filter.
+#[derive(Clone, Debug)]
+pub struct PlmcBsdf {
+    material: Arc<PlmcMaterial>,
+    /// Texture-space repetitions per unit of uv.
+    uv_scale: f32,
+    /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
+    bilinear: bool,
+    /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).
+    prefetch: bool,
+}
+
+impl PlmcBsdf {
+    /// An instance of `material` tiled `uv_scale` times per unit uv (finite, non-zero).
+    pub fn new(material: Arc<PlmcMaterial>, uv_scale: f32, bilinear: bool) -> Result<Self> {
+        if !uv_scale.is_finite() || uv_scale == 0.0 {
+            return Err(Error::Invalid(format!(
+                "btf uv_scale must be finite and non-zero, got {uv_scale}"
+            )));
+        }
+        Ok(PlmcBsdf {
+            material,
+            uv_scale,
+            bilinear,
+            prefetch: true,
+        })
+    }
+
+    /// The same instance with [`PlmcBsdf::prefetch`] a no-op (to measure what it saves).
+    pub fn without_prefetch(mut self) -> Self {
+        self.prefetch = false;
+        self
+    }
+
+    /// The shared material.
+    pub fn material(&self) -> &Arc<PlmcMaterial> {
+        &self.material
+    }
+
+    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (DESIGN §2).
+    #[inline]
+    pub fn texel(&self, uv: Vec2) -> (usize, usize) {
+        let m = &self.material;
+        let idx = |c: f32, n: usize| {
+            let s = c * self.uv_scale;
+            let f = s - floor_fast(s);
+            ((f * n as f32) as usize).min(n - 1)
+        };
+        (idx(uv.x, m.width), idx(uv.y, m.height))
+    }
+
+    /// The texels (index, weight) that filter uv: 1 (nearest) or 4 (bilinear between texel
+    /// centres, wrapping at the tile border).
+    #[inline]
+    fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
+        let m = &self.material;
+        if !self.bilinear {
+            let (x, y) = self.texel(uv);
+            return ([(y * m.width + x, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], 1);
+        }
+        let axis = |c: f32, n: usize| {
+            let s = c * self.uv_scale;
+            let p = (s - floor_fast(s)) * n as f32 - 0.5;
+            let f = floor_fast(p);
+            let i0 = (f as i64).rem_euclid(n as i64) as usize;
+            (i0, (i0 + 1) % n, (p - f).clamp(0.0, 1.0))
+        };
+        let (x0, x1, fx) = axis(uv.x, m.width);
+        let (y0, y1, fy) = axis(uv.y, m.height);
+        let w = m.width;
+        (
+            [
+                (y0 * w + x0, (1.0 - fx) * (1.0 - fy)),
+                (y0 * w + x1, fx * (1.0 - fy)),
+                (y1 * w + x0, (1.0 - fx) * fy),
+                (y1 * w + x1, fx * fy),
+            ],
+            4,
+        )
+    }
+
+    /// Starts loading the index entries of the texels that filter `si.uv` (see
+    /// [`PlmcMaterial::prefetch_texel`]); only a cache hint.
+    #[inline]
+    pub fn prefetch(&self, si: &SurfaceInteraction) {
+        if !self.prefetch {
+            return;
+        }
+        let (t, n) = self.texels(si.uv);
+        for &(texel, _) in &t[..n] {
+            self.material.prefetch_texel(texel);
+        }
+    }
+
+    /// Lobes: measured reflection, glossy in general, varying over the surface.
+    pub fn flags(&self) -> BsdfFlags {
+        BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
+    }
+
+    /// The per-hit state of a shading point (see [`PlmcHit`]); None below the horizon (where
+    /// every call returns zero) — the caller then uses the stateless methods. Also starts the
+    /// loads of the texels' index entries ([`PlmcBsdf::prefetch`]) before the view lookup, so
+    /// the lookup overlaps with them.
+    #[inline]
+    pub fn prepare(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        Some(self.hit_at(si, self.prefetch))
+    }
+
+    /// The view lookup and texel addressing of `si` (wi above the horizon), with the texels'
+    /// index entries prefetched first when `prefetch` is set.
+    #[inline]
+    fn hit_at(&self, si: &SurfaceInteraction, prefetch: bool) -> PlmcHit {
+        let (texels, n) = self.texels(si.uv);
+        if prefetch {
+            for &(texel, _) in &texels[..n] {
+                self.material.prefetch_texel(texel);
+            }
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        PlmcHit {
+            vi,
+            vw,
+            texels,
+            n: n as u8,
+        }
+    }
+
+    /// f·cos θ_o and the pdf at `wo` for a prepared hit: one light-triangulation search serves
+    /// both (the model and its sampling tables share the light direction set).
+    #[inline]
+    fn eval_pdf_hit_inner(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
+        self.eval_pdf_located(hit, wo, located)
+    }
+
+    /// [`PlmcBsdf::eval_pdf_hit_inner`] with `wo` already located in the light triangulation.
+    #[inline]
+    fn eval_pdf_located(
+        &self,
+        hit: &PlmcHit,
+        wo: Vec3,
+        located: (usize, [f32; 3]),
+    ) -> (Spectrum, f32) {
+        let m = &*self.material;
+        let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
+        let t = &hit.texels[..hit.n as usize];
+        let f = Spectrum::from(m.eval_b_with(hit.vi, hit.vw, li, lw, wo, t)) * INV_PI;
+        (f, m.sampler.pdf_located(hit.vi, hit.vw, wo, located))
+    }
+
+    /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
+    #[inline]
+    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let m = &*self.material;
+        let (vi, vw) = m.view_lookup(si.wi);
+        let (t, n) = self.texels(si.uv);
+        Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
+    }
+
+    /// [`PlmcBsdf::eval`] at a prepared hit (the same value).
+    #[inline]
+    pub fn eval_hit(&self, hit: &PlmcHit, wo: Vec3) -> Spectrum {
+        if wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let t = &hit.texels[..hit.n as usize];
+        Spectrum::from(self.material.eval_b_with_views(hit.vi, hit.vw, wo, t)) * INV_PI
+    }
+
+    /// Solid-angle pdf of [`PlmcBsdf::sample`].
+    #[inline]
+    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let (vi, vw) = self.material.view_lookup(si.wi);
+        self.material.sampler.pdf(vi, vw, wo)
+    }
+
+    /// [`PlmcBsdf::pdf`] at a prepared hit (the same value).
+    #[inline]
+    pub fn pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> f32 {
+        if wo.z <= 0.0 {
+            return 0.0;
+        }
+        self.material.sampler.pdf(hit.vi, hit.vw, wo)
+    }
+
+    /// `(eval, pdf)` sharing the view lookup and the light search.
+    #[inline]
+    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        self.eval_pdf_hit_inner(&self.hit_at(si, false), wo)
+    }
+
+    /// [`PlmcBsdf::eval_pdf`] at a prepared hit (the same values).
+    #[inline]
+    pub fn eval_pdf_hit(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
+        if wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        self.eval_pdf_hit_inner(hit, wo)
+    }
+
+    /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
+    pub fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        self.sample_hit(&self.hit_at(si, false), sample1, sample2)
+    }
+
+    /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).
+    #[inline]
+    pub fn sample_hit(
+        &self,
+        hit: &PlmcHit,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        let m = &*self.material;
+        let (wo, tri) = m.sampler.sample(hit.vi, hit.vw, sample1, sample2);
+        if wo.z <= 0.0 {
+            return None;
+        }
+        // Drawn inside a light triangle: that is the triangle the search would find (up to ties
+        // on its edges, where both sides interpolate alike), so only its weights are computed.
+        let lights = m.sampler.light_interp();
+        let located = match tri {
+            Some(t) => (t, lights.triangle_weights(t, [wo.x, wo.y])),
+            None => lights.locate([wo.x, wo.y]),
+        };
+        let (f, pdf) = self.eval_pdf_located(hit, wo, located);
+        if pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        let s = BsdfSample {
+            wo,
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::GLOSSY_REFLECTION,
+        };
+        Some((s, f / pdf))
+    }
+}
+
+/// What every BSDF call at one shading point shares, computed once per hit by
+/// [`PlmcBsdf::prepare`]: the 3 measured views around wi with their weights and the texels
+/// that filter uv. Saves a view-triangulation search and the texel addressing per call (a path
+/// vertex makes two: emitter sampling's `eval_pdf` and `sample`). Plain data on the stack.
+#[derive(Clone, Copy, Debug)]
+pub struct PlmcHit {
+    vi: [u32; 3],
+    vw: [f32; 3],
+    texels: [(usize, f32); 4],
+    n: u8,
+}
+
+/// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):
+/// truncation, one down for negative non-integers; |x| ≥ 2^23 (already integers), infinities
+/// and NaN take `floor` itself. Equal to `x.floor()` for every f32.
+#[inline(always)]
+pub(super) fn floor_fast(x: f32) -> f32 {
+    if x.abs() < 8_388_608.0 {
+        // copysign: floor(−0) = −0.
+        let t = (x as i32 as f32).copysign(x);
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x.floor()
+    }
+}

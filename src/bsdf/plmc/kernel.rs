@@ -1,0 +1,362 @@
+//! The generic PLM-C / PLM / LM evaluation kernel (4 lanes per view: R, G, B, pad) for SSE2 and
+//! AVX2+FMA, its data layout, and the dispatch to the AVX-512 kernel where it applies.
+//!
+//! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
+#![allow(clippy::needless_range_loop)]
+
+use super::f4::{self, F4, Isa, Sse2};
+use super::material::PlmcMaterial;
+use crate::math::Vec3;
+use crate::model::ValueSpace;
+
+/// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
+pub const FLUSH: f32 = 1e-20;
+/// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
+pub const LANES: usize = 4;
+
+/// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct LobeRec(pub [f32; 8]);
+
+/// Polynomial coefficients of one (view, light), coefficient-major: `[a_j of R, G, B]` for
+/// j = 0..4 then one pad. `a_j` of the 3 channels is the 4-lane window starting at `3 j` (its pad
+/// lane reads the next coefficient, harmless: that lane is discarded).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub struct PolyRow(pub [f32; 16]);
+
+/// How the per-texel lobes are stored.
+pub(super) enum Params {
+    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[texel][view][R, G, B, pad]`
+    /// (the 3 views of one evaluation are a few hundred bytes apart: one or two cache lines).
+    Clustered8 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u8; 4]>,
+    },
+    /// PLM-C with more than 256 clusters: u16 indices.
+    Clustered16 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u16; 4]>,
+    },
+    /// LM / PLM: one lobe per texel and channel, `[view][texel][channel]` as `[ρ, Dx, Dy, Dz, n]`.
+    Texel { lobes: Vec<[f32; 5]> },
+}
+
+/// The lobes (R, G, B) of one (view, texel), transposed to lanes: ρ, Dx, Dy, Dz, n.
+pub(super) type LaneLobes = [F4; 5];
+
+/// Gathers the lobes of (view, texel): the only part that differs between the layouts.
+pub(super) trait LobeAt {
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes;
+}
+
+pub(super) struct Clustered<'a, I> {
+    k: usize,
+    views: usize,
+    records: &'a [LobeRec],
+    index: &'a [[I; 4]],
+}
+
+impl<I: Copy + Into<usize>> LobeAt for Clustered<'_, I> {
+    #[inline(always)]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let i = self.index[texel * self.views + view];
+        let base = view * 3 * self.k;
+        let r = &self.records[base + i[0].into()].0;
+        let g = &self.records[base + self.k + i[1].into()].0;
+        let b = &self.records[base + 2 * self.k + i[2].into()].0;
+        F4::transpose3(r, g, b)
+    }
+}
+
+pub(super) struct PerTexel<'a> {
+    texels: usize,
+    lobes: &'a [[f32; 5]],
+}
+
+impl LobeAt for PerTexel<'_> {
+    #[inline(always)]
+    fn lobes(&self, view: usize, texel: usize) -> LaneLobes {
+        let l = &self.lobes[(view * self.texels + texel) * 3..][..3];
+        std::array::from_fn(|p| F4::from_array([l[0][p], l[1][p], l[2][p], 0.0]))
+    }
+}
+
+/// Per view of one evaluation: the light-interpolated polynomial `a_0..a_4` and the two range
+/// clamps (lobe value Y, polynomial output), as lanes.
+#[derive(Clone, Copy)]
+pub(super) struct ViewPoly {
+    a: [F4; 5],
+    y_max: F4,
+    out_max: F4,
+}
+
+impl PlmcMaterial {
+    /// B blended over `texels` with both direction lookups done (views `vi`/`vw`, lights
+    /// `li`/`lw` around `wo`).
+    #[inline]
+    pub fn eval_b_with(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        #[cfg(target_arch = "x86_64")]
+        if let (Some(token), Params::Clustered8 { k, records, index }, [(texel, tw)]) =
+            (self.avx512, &self.params, texels)
+            && !self.polys.is_empty()
+        {
+            let t = super::avx512::Tables {
+                k: *k,
+                n_views: self.n_views,
+                n_lights: self.n_lights,
+                records,
+                index,
+                polys: &self.polys,
+                y_max: &self.y_max,
+                out_max: &self.out_max,
+                srgb: self.space == ValueSpace::Srgb,
+            };
+            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
+            let b = unsafe {
+                super::avx512::eval(token, &t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel)
+            };
+            return b.map(|x| x * tw);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Some(isa) = self.avx2 {
+            // SAFETY: the token exists only if this CPU has AVX2 and FMA.
+            return unsafe { self.eval_b_avx2(isa, vi, vw, (li, lw), wo, texels) };
+        }
+        self.eval_b_isa(Sse2, vi, vw, (li, lw), wo, texels)
+    }
+
+    /// [`PlmcMaterial::eval_b_with`] compiled for AVX2 + FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn eval_b_avx2(
+        &self,
+        isa: f4::Avx2Fma,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        lights: ([u32; 3], [f32; 3]),
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        self.eval_b_isa(isa, vi, vw, lights, wo, texels)
+    }
+
+    /// The kernel for the instruction set `isa`, dispatched on the index layout.
+    #[inline(always)]
+    fn eval_b_isa<I: Isa>(
+        &self,
+        isa: I,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        (li, lw): ([u32; 3], [f32; 3]),
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let texel_count = self.width * self.height;
+        match &self.params {
+            Params::Clustered8 { k, records, index } => self.eval_texels(
+                (
+                    &Clustered {
+                        k: *k,
+                        views: self.n_views,
+                        records,
+                        index,
+                    },
+                    isa,
+                ),
+                vi,
+                vw,
+                (li, lw),
+                wo,
+                texels,
+            ),
+            Params::Clustered16 { k, records, index } => self.eval_texels(
+                (
+                    &Clustered {
+                        k: *k,
+                        views: self.n_views,
+                        records,
+                        index,
+                    },
+                    isa,
+                ),
+                vi,
+                vw,
+                (li, lw),
+                wo,
+                texels,
+            ),
+            Params::Texel { lobes } => self.eval_texels(
+                (
+                    &PerTexel {
+                        texels: texel_count,
+                        lobes,
+                    },
+                    isa,
+                ),
+                vi,
+                vw,
+                (li, lw),
+                wo,
+                texels,
+            ),
+        }
+    }
+
+    /// The light-interpolated polynomial and clamps of view `v` (lights `li` with weights `lw`).
+    #[inline(always)]
+    fn view_poly<I: Isa>(&self, isa: I, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
+        let base = v * self.n_lights;
+        let r = each3(|b| &self.polys[base + li[b] as usize].0);
+        let m = each3(|b| F4::load(&self.out_max[base + li[b] as usize]));
+        let w = each3(|b| F4::splat(lw[b]));
+        // a_j of R, G, B is the 4-lane window at 3 j of the row (the pad lane is discarded).
+        let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
+        ViewPoly {
+            a: each5(|j| {
+                isa.fma(
+                    w[2],
+                    win(r[2], j),
+                    isa.fma(w[1], win(r[1], j), w[0] * win(r[0], j)),
+                )
+            }),
+            y_max: F4::load(&self.y_max[v]),
+            out_max: m[0].max(m[1]).max(m[2]),
+        }
+    }
+
+    /// [`PlmcMaterial::view_poly`] of the 3 views (no closure: too big for the inliner, it
+    /// stays an out-of-line call per view).
+    #[inline(always)]
+    fn view_polys<I: Isa>(
+        &self,
+        isa: I,
+        vi: [usize; 3],
+        li: [u32; 3],
+        lw: [f32; 3],
+    ) -> [ViewPoly; 3] {
+        [
+            self.view_poly(isa, vi[0], li, lw),
+            self.view_poly(isa, vi[1], li, lw),
+            self.view_poly(isa, vi[2], li, lw),
+        ]
+    }
+
+    #[inline(always)]
+    fn eval_texels<P: LobeAt, I: Isa>(
+        &self,
+        (p, isa): (&P, I),
+        vi: [u32; 3],
+        vw: [f32; 3],
+        (li, lw): ([u32; 3], [f32; 3]),
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let has_polys = !self.polys.is_empty();
+        let vi = each3(|a| vi[a] as usize);
+        let mut out = F4::splat(0.0);
+        // Light interpolation of the polynomial rows: once per evaluation when several texels
+        // share it (bilinear); for one texel after the gathers, so that their cache misses are
+        // issued first and the rows need not stay live across them.
+        let shared = (has_polys && texels.len() > 1).then(|| self.view_polys(isa, vi, li, lw));
+        for &(t, tw) in texels {
+            // All 9 lobes first: their cache misses overlap instead of stalling view by view.
+            let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
+            let vp = match shared {
+                Some(s) => Some(s),
+                None if has_polys => Some(self.view_polys(isa, vi, li, lw)),
+                None => None,
+            };
+            let y = self.eval_views(isa, &lobes, vp.as_ref(), wo);
+            for a in 0..3 {
+                out = isa.fma(F4::splat(tw * vw[a]), y[a], out);
+            }
+        }
+        let o = out.to_array();
+        [o[0], o[1], o[2]]
+    }
+
+    /// The (R, G, B, pad) values of the 3 views' lobes at light `wo`, linear. Stage by stage
+    /// over the views, so their independent dependency chains (log2 → exp2 → polynomial →
+    /// decode) are interleaved in the instruction stream rather than run one after the other.
+    #[inline(always)]
+    fn eval_views<I: Isa>(
+        &self,
+        isa: I,
+        l: &[LaneLobes; 3],
+        vp: Option<&[ViewPoly; 3]>,
+        wo: Vec3,
+    ) -> [F4; 3] {
+        let zero = F4::splat(0.0);
+        let (wx, wy, wz) = (F4::splat(wo.x), F4::splat(wo.y), F4::splat(wo.z));
+        let b: [F4; 3] = each3(|a| isa.fma(l[a][3], wz, isa.fma(l[a][2], wy, l[a][1] * wx)));
+        // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
+        // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
+        // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
+        // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
+        let lg: [F4; 3] = each3(|a| b[a].max(F4::splat(1e-30)).log2(isa));
+        let pw: [F4; 3] = each3(|a| (l[a][4] * lg[a]).max(F4::splat(-100.0)).exp2(isa));
+        let mut y: [F4; 3] = each3(|a| {
+            let y = l[a][0] * pw[a];
+            b[a].gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y))
+        });
+        if let Some(vp) = vp {
+            y = each3(|a| {
+                let x = y[a].min(vp[a].y_max);
+                let c = &vp[a].a;
+                // Estrin: (a0 + a1 x) + x² ((a2 + a3 x) + x² a4): 3 dependent steps, not 4.
+                let x2 = x * x;
+                let lo = isa.fma(c[1], x, c[0]);
+                let hi = isa.fma(c[4], x2, isa.fma(c[3], x, c[2]));
+                isa.fma(hi, x2, lo).min(vp[a].out_max)
+            });
+        }
+        match self.space {
+            // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
+            ValueSpace::Linear => each3(|a| y[a].max(zero)),
+            ValueSpace::Srgb => each3(|a| srgb_to_linear_f4(isa, y[a])),
+        }
+    }
+}
+
+/// `[f(0), f(1), f(2)]`, always inlined (`array::map` and `from_fn` are not always, and in
+/// the AVX2 kernel an out-of-line closure is a call per view).
+#[inline(always)]
+fn each3<T>(mut f: impl FnMut(usize) -> T) -> [T; 3] {
+    [f(0), f(1), f(2)]
+}
+
+/// `[f(0), …, f(4)]`, always inlined (see [`each3`]).
+#[inline(always)]
+fn each5<T>(mut f: impl FnMut(usize) -> T) -> [T; 5] {
+    [f(0), f(1), f(2), f(3), f(4)]
+}
+
+/// `srgb_to_linear(max(0, v))` lane-wise, branch-free.
+#[inline(always)]
+pub(super) fn srgb_to_linear_f4<I: Isa>(isa: I, y: F4) -> F4 {
+    let v = y.max(F4::splat(0.0));
+    let lo = v * F4::splat(1.0 / 12.92);
+    let base = ((v + F4::splat(0.055)) * F4::splat(1.0 / 1.055)).max(F4::splat(1e-30));
+    let hi = (F4::splat(2.4) * base.log2(isa)).exp2(isa);
+    v.le_select(F4::splat(0.04045), lo, hi)
+}
+
+/// b^n = exp2(n · log2 b) lane-wise for b > 0 (normal) and n ≥ 0; results below 2^−100 are
+/// 2^−100 (never a denormal, see `eval_view`).
+#[cfg(test)]
+#[inline(always)]
+pub(super) fn pow_f4<I: Isa>(isa: I, b: F4, n: F4) -> F4 {
+    (n * b.log2(isa)).max(F4::splat(-100.0)).exp2(isa)
+}

@@ -1,0 +1,409 @@
+//! A fitted model in its evaluation layout: SoA lobe records, index planes, polynomial rows, the
+//! range clamps, the direction interpolators and the light sampler.
+
+use super::f4;
+use super::kernel::{LobeRec, Params, PolyRow};
+use crate::bsdf::btf_sampler::BtfLightSampler;
+use crate::btf::directions::DirectionInterp;
+use crate::math::color::luminance;
+use crate::math::{Spectrum, Vec3};
+use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams, codec, lobe, polynomial};
+use crate::{Error, Result};
+use rayon::prelude::*;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Texels per axis averaged (at most) per image when building the sampling tables.
+const TABLE_TEXELS: usize = 64;
+
+/// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
+/// shared (`Arc`) by every [`PlmcBsdf`] that uses the same file.
+pub struct PlmcMaterial {
+    pub(super) kind: ModelKind,
+    pub(super) space: ValueSpace,
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) n_views: usize,
+    pub(super) n_lights: usize,
+    pub(super) params: Params,
+    /// `[view][light]`; empty for LM.
+    pub(super) polys: Vec<PolyRow>,
+    /// `[view]` (R, G, B, 0): the largest lobe value Y over the measured lights (and the clusters /
+    /// sampled texels). The polynomials were fitted on Y in this range; Y is clamped to it before
+    /// the polynomial, which a degree-4 mapping would otherwise extrapolate wildly at unmeasured
+    /// light directions near a sharp lobe's peak.
+    pub(super) y_max: Vec<[f32; 4]>,
+    /// `[view][light]`: the largest polynomial output (model space) per channel over the
+    /// clusters / sampled texels at that measured (view, light). Between measured lights the
+    /// output is clamped to the largest bound of the 3 lights: a guard against ill-conditioned
+    /// fitted polynomials (|a_j| up to 1e38 occur) that are harmless at the measured directions
+    /// but explode for lobe values in between; values at measured directions are unchanged.
+    pub(super) out_max: Vec<[f32; 4]>,
+    /// The measured views' interpolator.
+    pub(super) views: DirectionInterp,
+    /// Light sampling tables built from the model's texel-mean values, and the light
+    /// interpolator they are built on.
+    pub(super) sampler: BtfLightSampler,
+    /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) avx2: Option<f4::Avx2Fma>,
+    /// Set if this CPU has AVX-512F (and AVX2 + FMA): PLM-C with u8 indices, nearest texel,
+    /// runs the 16-lane kernel of `avx512.rs`.
+    #[cfg(target_arch = "x86_64")]
+    pub(super) avx512: Option<super::avx512::Avx512>,
+}
+
+impl PlmcMaterial {
+    /// Builds the evaluation layout, interpolators and sampling tables of a validated model.
+    pub fn new(model: &PlmcModel) -> Result<Self> {
+        model.validate()?;
+        let (nv, nl) = (model.views.len(), model.lights.len());
+        let texels = model.width * model.height;
+        let rec = |l: [f32; 5]| LobeRec([l[0], l[1], l[2], l[3], l[4], 0.0, 0.0, 0.0]);
+        let params = match model.kind {
+            ModelKind::PlmC => {
+                let k = model.clusters.max(1);
+                let mut records = vec![LobeRec::default(); nv * 3 * k];
+                let mut idx16 = vec![[0u16; 4]; nv * texels];
+                for (v, p) in model.params.iter().enumerate() {
+                    let ViewParams::Clustered {
+                        k: kv,
+                        table,
+                        index,
+                    } = p
+                    else {
+                        return Err(Error::Invalid(format!(
+                            "PLM-C model: view {v} has per-texel lobes"
+                        )));
+                    };
+                    for j in 0..*kv {
+                        for c in 0..3 {
+                            records[(v * 3 + c) * k + j] = rec(table[3 * j + c].unpack());
+                        }
+                    }
+                    for t in 0..texels {
+                        let d = &mut idx16[t * nv + v];
+                        d[..3].copy_from_slice(&index[3 * t..3 * t + 3]);
+                    }
+                }
+                if k <= 256 {
+                    let index = idx16
+                        .iter()
+                        .map(|q| [q[0] as u8, q[1] as u8, q[2] as u8, 0])
+                        .collect();
+                    Params::Clustered8 { k, records, index }
+                } else {
+                    Params::Clustered16 {
+                        k,
+                        records,
+                        index: idx16,
+                    }
+                }
+            }
+            ModelKind::Lm | ModelKind::Plm => {
+                let mut lobes = Vec::with_capacity(nv * texels * 3);
+                for (v, p) in model.params.iter().enumerate() {
+                    let ViewParams::Texel(l) = p else {
+                        return Err(Error::Invalid(format!(
+                            "{} model: view {v} is clustered",
+                            model.kind.name()
+                        )));
+                    };
+                    lobes.extend(l.iter().map(|p| p.unpack()));
+                }
+                Params::Texel { lobes }
+            }
+        };
+        let polys = if model.kind.has_polys() {
+            let mut rows = vec![PolyRow::default(); nv * nl];
+            for v in 0..nv {
+                for l in 0..nl {
+                    for c in 0..3 {
+                        let a = model.poly(v, l, c);
+                        for j in 0..5 {
+                            rows[v * nl + l].0[3 * j + c] = a[j];
+                        }
+                    }
+                }
+            }
+            rows
+        } else {
+            Vec::new()
+        };
+        let (means, y_max, out_max) = mean_values(model);
+        let y_max = y_max.iter().map(|m| [m[0], m[1], m[2], 0.0]).collect();
+        let views = model
+            .views
+            .interpolator()
+            .map_err(|e| Error::Invalid(format!("model view directions: {e}")))?;
+        let lights = model
+            .lights
+            .interpolator()
+            .map_err(|e| Error::Invalid(format!("model light directions: {e}")))?;
+        let lum: Vec<f32> = means
+            .chunks_exact(3)
+            .map(|c| luminance(Spectrum::new(c[0], c[1], c[2])))
+            .collect();
+        let sampler = BtfLightSampler::new(lights, &model.lights.dirs, &lum);
+        Ok(PlmcMaterial {
+            kind: model.kind,
+            space: model.space,
+            width: model.width,
+            height: model.height,
+            n_views: nv,
+            n_lights: nl,
+            params,
+            polys,
+            y_max,
+            out_max,
+            views,
+            sampler,
+            #[cfg(target_arch = "x86_64")]
+            avx2: f4::Avx2Fma::detect(),
+            #[cfg(target_arch = "x86_64")]
+            avx512: super::avx512::Avx512::detect(),
+        })
+    }
+
+    /// The same material evaluated by the baseline SSE2 kernel even on an AVX2+FMA CPU (to
+    /// compare the two builds; results agree to float rounding).
+    pub fn without_avx2(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx2 = None;
+            self.avx512 = None;
+        }
+        self
+    }
+
+    /// The same material without the AVX-512 kernel (the generic kernel's AVX2+FMA build where
+    /// the CPU has it): to compare the builds; results agree to float rounding.
+    pub fn without_avx512(mut self) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx512 = None;
+        }
+        self
+    }
+
+    /// True if evaluations run the AVX2+FMA build of the kernel.
+    pub fn uses_avx2(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.avx2.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// True if PLM-C evaluations (u8 indices, nearest texel) run the AVX-512 kernel.
+    pub fn uses_avx512(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.avx512.is_some() && matches!(self.params, Params::Clustered8 { .. });
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+
+    /// Reads a `.plmc` file and builds the material; errors name the file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let model = codec::read(path)?;
+        Self::new(&model).map_err(|e| Error::format(path, e.to_string()))
+    }
+
+    /// The model kind.
+    pub fn kind(&self) -> ModelKind {
+        self.kind
+    }
+
+    /// Texels per row.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows of texels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Starts loading the index entries of `texel` (all views: a few cache lines) into the
+    /// cache, without waiting; a no-op for per-texel models, whose views are far apart.
+    #[inline]
+    pub fn prefetch_texel(&self, texel: usize) {
+        let nv = self.n_views;
+        let (ptr, bytes) = match &self.params {
+            Params::Clustered8 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Clustered16 { index, .. } => match index.get(texel * nv..(texel + 1) * nv) {
+                Some(s) => (s.as_ptr() as usize, std::mem::size_of_val(s)),
+                None => return,
+            },
+            Params::Texel { .. } => return,
+        };
+        if bytes == 0 {
+            return;
+        }
+        for line in (ptr & !63..ptr + bytes).step_by(64) {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: a prefetch never faults, and this line holds part of the slice anyway.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    line as *const i8,
+                );
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            let _ = line;
+        }
+    }
+
+    /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
+    #[inline]
+    pub fn view_lookup(&self, wi: Vec3) -> ([u32; 3], [f32; 3]) {
+        self.views.lookup(wi)
+    }
+
+    /// Interpolation indices and weights of the 3 measured lights around `wo` (local frame).
+    #[inline]
+    pub fn light_lookup(&self, wo: Vec3) -> ([u32; 3], [f32; 3]) {
+        self.sampler.light_interp().lookup(wo)
+    }
+
+    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
+    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
+    #[inline]
+    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
+        let (vi, vw) = self.view_lookup(wi);
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
+    }
+
+    /// B blended over `texels` (texel index, weight) with the view lookup already done.
+    #[inline]
+    pub fn eval_b_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, texels)
+    }
+}
+
+/// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact
+/// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models), and the
+/// largest lobe value per view and channel over the measured lights (see `y_max`).
+fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
+    let (nv, nl) = (model.views.len(), model.lights.len());
+    let (w, h) = (model.width, model.height);
+    // (linear value, model-space polynomial output) of a lobe at a measured (view, light).
+    let value2 = |v: usize, l: usize, c: usize, lobe: &lobe::Lobe| {
+        let o = polynomial::eval(&model.poly(v, l, c), lobe::eval(lobe, model.lights.dirs[l]));
+        (model.space.to_linear(o), o.max(0.0))
+    };
+    // Largest value of a lobe over the measured lights: ρ · (max_l D·u_l)^n (x^n is monotone).
+    let peak = |lobe: &lobe::Lobe| {
+        let b = model.lights.dirs.iter().fold(0f32, |m, u| {
+            m.max(lobe[1] * u.x + lobe[2] * u.y + lobe[3] * u.z)
+        });
+        if b > 0.0 {
+            lobe[0] * b.powf(lobe[4])
+        } else {
+            0.0
+        }
+    };
+    type PerView = (Vec<f32>, [f32; 3], Vec<[f32; 4]>);
+    let per_view: Vec<PerView> = (0..nv)
+        .into_par_iter()
+        .map(|v| {
+            let mut out = vec![0f32; nl * 3];
+            let mut omax = vec![[0f32; 4]; nl];
+            let mut y_max = [0f32; 3];
+            match &model.params[v] {
+                ViewParams::Clustered { k, table, index } => {
+                    let mut counts = vec![0u32; 3 * k];
+                    for (t, &i) in index.iter().enumerate() {
+                        counts[3 * i as usize + t % 3] += 1;
+                    }
+                    let lobes: Vec<_> = table.iter().map(|p| p.unpack()).collect();
+                    for (j, lobe) in lobes.iter().enumerate() {
+                        if counts[j] > 0 {
+                            y_max[j % 3] = y_max[j % 3].max(peak(lobe));
+                        }
+                    }
+                    for l in 0..nl {
+                        for c in 0..3 {
+                            let mut s = 0f64;
+                            for j in 0..*k {
+                                let n = counts[3 * j + c];
+                                if n > 0 {
+                                    let (lin, o) = value2(v, l, c, &lobes[3 * j + c]);
+                                    s += n as f64 * lin as f64;
+                                    omax[l][c] = omax[l][c].max(o);
+                                }
+                            }
+                            out[3 * l + c] = (s / (w * h) as f64) as f32;
+                        }
+                    }
+                }
+                ViewParams::Texel(packed) => {
+                    let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
+                    let picks: Vec<usize> = (0..h)
+                        .step_by(sy)
+                        .flat_map(|y| (0..w).step_by(sx).map(move |x| y * w + x))
+                        .collect();
+                    let lobes: Vec<[lobe::Lobe; 3]> = picks
+                        .iter()
+                        .map(|&t| std::array::from_fn(|c| packed[3 * t + c].unpack()))
+                        .collect();
+                    for (t, p) in packed.iter().enumerate() {
+                        y_max[t % 3] = y_max[t % 3].max(peak(&p.unpack()));
+                    }
+                    for l in 0..nl {
+                        for c in 0..3 {
+                            let mut s = 0f64;
+                            for lb in &lobes {
+                                let (lin, o) = value2(v, l, c, &lb[c]);
+                                s += lin as f64;
+                                omax[l][c] = omax[l][c].max(o);
+                            }
+                            out[3 * l + c] = (s / lobes.len() as f64) as f32;
+                        }
+                    }
+                }
+            }
+            (out, y_max, omax)
+        })
+        .collect();
+    let y_max = per_view.iter().map(|p| p.1).collect();
+    let out_max = per_view.iter().flat_map(|p| p.2.iter().copied()).collect();
+    (
+        per_view.into_iter().flat_map(|p| p.0).collect(),
+        y_max,
+        out_max,
+    )
+}
+
+/// Summary only: the tables can be large.
+impl std::fmt::Debug for PlmcMaterial {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let clusters = match &self.params {
+            Params::Clustered8 { k, .. } | Params::Clustered16 { k, .. } => *k,
+            Params::Texel { .. } => 0,
+        };
+        f.debug_struct("PlmcMaterial")
+            .field("kind", &self.kind.name())
+            .field("space", &self.space)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("lights", &self.n_lights)
+            .field("clusters", &clusters)
+            .finish_non_exhaustive()
+    }
+}
+
+/// One material per model file while anything uses it (several `<bsdf>` may share a file).
+pub fn shared_material(path: &Path) -> Result<Arc<PlmcMaterial>> {
+    static CACHE: crate::io::shared::SharedCache<PlmcMaterial> = std::sync::Mutex::new(None);
+    crate::io::shared::shared_by_path(&CACHE, path, PlmcMaterial::load)
+}

@@ -1,0 +1,172 @@
+//! Area light on a triangle mesh (Mitsuba `area` emitter): uniform sampling by area, one-sided
+//! emission toward the shading normal's side.
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::LightSample;
+use crate::geometry::{Mesh, SurfaceInteraction};
+use crate::math::distribution::Distribution1D;
+use crate::math::{Spectrum, Vec2, Vec3, warp};
+
+/// Uniform area sampling over one emissive mesh (triangles chosen by area).
+#[derive(Clone, Debug)]
+pub struct AreaLight {
+    /// Index of the emissive mesh in the scene.
+    pub mesh: u32,
+    /// Emitted radiance (W/(m²·sr)).
+    pub radiance: Spectrum,
+    tris: Distribution1D,
+    /// 1 / total area (1/m²).
+    inv_area: f32,
+    /// Per triangle: what sampling needs, gathered once (no index lookups per sample).
+    geo: Vec<AreaTri>,
+}
+
+impl AreaLight {
+    /// The light of mesh `mi` with `radiance`; None for a zero-area mesh (it can neither be hit
+    /// nor sampled, so it contributes nothing).
+    pub fn new(mesh: &Mesh, mi: u32, radiance: Spectrum) -> Option<AreaLight> {
+        let areas = (0..mesh.indices.len()).map(|t| mesh.triangle_area(t) as f64);
+        let tris = Distribution1D::new(areas)?;
+        let inv_area = (1.0 / tris.total()) as f32;
+        let geo = (0..mesh.indices.len())
+            .map(|t| AreaTri::new(mesh, t))
+            .collect();
+        Some(AreaLight {
+            mesh: mi,
+            radiance,
+            tris,
+            inv_area,
+            geo,
+        })
+    }
+
+    /// Samples a point on the mesh as seen from `p` (pdf in solid angle, no selection).
+    #[inline]
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        let (t, _, ux) = self.tris.sample(u.x);
+        let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
+        let (pl, ng, ns) = self.geo[t].eval(b);
+        let to = pl - p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0) {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = to / dist;
+        let cos_l = -ns.dot(wi);
+        // One-sided: emits toward the side of the shading normal.
+        if !(cos_l > 0.0) {
+            return None;
+        }
+        let pdf = self.inv_area * d2 / cos_l;
+        Some(LightSample {
+            wi,
+            dist,
+            n_geo: ng,
+            weight: self.radiance / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+
+    /// `sel` × the solid-angle pdf with which [`AreaLight::sample_li`] from `p_ref` produces the
+    /// point `si` of this mesh (`sel`: the selection probability, 1 for none; folded in first so
+    /// the product rounds as it always has).
+    #[inline]
+    pub fn pdf_li(&self, sel: f32, p_ref: Vec3, si: &SurfaceInteraction) -> f32 {
+        let d2 = (si.p - p_ref).length_squared();
+        let cos_l = si.wi.z.abs();
+        if !(cos_l > 0.0) {
+            return 0.0;
+        }
+        sel * self.inv_area * d2 / cos_l
+    }
+}
+
+/// One triangle of an area light, pre-gathered for sampling.
+#[derive(Clone, Debug)]
+pub struct AreaTri {
+    /// First vertex and the edges to the second and third.
+    p0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    /// Unit geometric normal (from the winding).
+    ng: Vec3,
+    /// Vertex normals if they are not all equal to `ng` (then the shading normal is
+    /// interpolated as in [`crate::geometry::shading::eval_position_normals`]); None for flat triangles.
+    normals: Option<[Vec3; 3]>,
+}
+
+impl AreaTri {
+    fn new(mesh: &Mesh, t: usize) -> AreaTri {
+        let [i0, i1, i2] = mesh.indices[t].map(|i| i as usize);
+        let p0 = mesh.positions[i0];
+        let e1 = mesh.positions[i1] - p0;
+        let e2 = mesh.positions[i2] - p0;
+        let ng = e1.cross(e2).normalize_or_zero();
+        let normals = if mesh.normals.is_empty() {
+            None
+        } else {
+            let n = [mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]];
+            if n.iter().all(|&v| v == ng) {
+                None
+            } else {
+                Some(n)
+            }
+        };
+        AreaTri {
+            p0,
+            e1,
+            e2,
+            ng,
+            normals,
+        }
+    }
+
+    /// Position, geometric and shading normal at barycentrics `b`.
+    #[inline]
+    fn eval(&self, b: Vec2) -> (Vec3, Vec3, Vec3) {
+        let p = self.p0 + self.e1 * b.x + self.e2 * b.y;
+        let ns = match &self.normals {
+            None => self.ng,
+            Some([n0, n1, n2]) => {
+                let s = (*n0 * (1.0 - b.x - b.y) + *n1 * b.x + *n2 * b.y).normalize_or_zero();
+                if s == Vec3::ZERO { self.ng } else { s }
+            }
+        };
+        (p, self.ng, ns)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pre-gathered light triangles evaluate like the mesh (flat and smooth normals).
+    #[test]
+    fn area_triangles_match_mesh_evaluation() {
+        use crate::geometry::shading::eval_position_normals;
+        let smooth =
+            crate::geometry::generate::sphere(Vec3::new(0.3, -0.2, 1.0), 0.7, 6, 12, false, true);
+        let flat = crate::geometry::generate::quad(Vec3::ZERO, Vec3::X, Vec3::Y);
+        for m in [&smooth, &flat] {
+            for t in 0..m.indices.len() {
+                let a = AreaTri::new(m, t);
+                for b in [
+                    Vec2::new(0.2, 0.3),
+                    Vec2::new(1.0, 0.0),
+                    Vec2::new(0.0, 0.0),
+                ] {
+                    let (p, ng, ns) = a.eval(b);
+                    let (q, mg, ms) = eval_position_normals(m, t as u32, b);
+                    assert!((p - q).length() < 1e-5 && (ng - mg).length() < 1e-5);
+                    assert!((ns - ms).length() < 1e-5, "{ns} {ms}");
+                }
+            }
+        }
+        assert!(AreaTri::new(&flat, 0).normals.is_none());
+        assert!(AreaTri::new(&smooth, 0).normals.is_some());
+    }
+}

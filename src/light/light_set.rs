@@ -1,0 +1,182 @@
+//! Emitter selection: every light of a scene, chosen uniformly as Mitsuba does (a shape with an
+//! `area` emitter is one emitter), plus the lookups the integrator needs for MIS.
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::{
+    AreaLight, ConstantLight, DirectionalLight, EnvMapLight, Light, LightSample, PointLight,
+    SphereAreaLight, SpotLight,
+};
+use crate::Result;
+use crate::geometry::{Mesh, SurfaceInteraction};
+use crate::math::{Spectrum, Vec2, Vec3};
+use crate::scene::{Emitter, Scene};
+
+/// All emitters of a scene plus the lookups the integrator needs.
+#[derive(Clone, Debug)]
+pub struct LightSet {
+    pub lights: Vec<Light>,
+    /// For each mesh, the index of its area light in `lights`.
+    mesh_light: Vec<Option<u32>>,
+    /// Indices of lights at infinity (constant, envmap), evaluated on escaped rays.
+    infinite: Vec<u32>,
+    /// Scene bounding sphere (centre, radius), as Mitsuba's `bbox().bounding_sphere()`.
+    pub bsphere: (Vec3, f32),
+}
+
+impl LightSet {
+    /// Collects the emitters of `scene`; `bounds` are the geometry's (min, max).
+    pub fn new(scene: &Scene, bounds: (Vec3, Vec3)) -> Result<LightSet> {
+        let mut lights = Vec::new();
+        let mut mesh_light = vec![None; scene.meshes.len()];
+        for (mi, mesh) in scene.meshes.iter().enumerate() {
+            let Some(radiance) = mesh.emitter else {
+                continue;
+            };
+            let light = match mesh.sphere {
+                Some(sphere) => Light::SphereArea(SphereAreaLight { sphere, radiance }),
+                None => match AreaLight::new(mesh, mi as u32, radiance) {
+                    Some(a) => Light::Area(a),
+                    // A zero-area emitter can neither be hit nor sampled: it contributes nothing.
+                    None => continue,
+                },
+            };
+            mesh_light[mi] = Some(lights.len() as u32);
+            lights.push(light);
+        }
+        let mut infinite = Vec::new();
+        for e in &scene.emitters {
+            let l = match e {
+                Emitter::Point {
+                    position,
+                    intensity,
+                } => Light::Point(PointLight {
+                    position: *position,
+                    intensity: *intensity,
+                }),
+                Emitter::Spot {
+                    to_world,
+                    intensity,
+                    cutoff_angle,
+                    beam_width,
+                } => Light::Spot(SpotLight::new(
+                    *to_world,
+                    *intensity,
+                    *cutoff_angle,
+                    *beam_width,
+                )?),
+                Emitter::Directional {
+                    direction,
+                    irradiance,
+                } => Light::Directional(DirectionalLight::new(*direction, *irradiance)?),
+                Emitter::Constant { radiance } => {
+                    infinite.push(lights.len() as u32);
+                    Light::Constant(ConstantLight {
+                        radiance: *radiance,
+                    })
+                }
+                Emitter::EnvMap {
+                    image,
+                    to_world,
+                    scale,
+                    filename,
+                } => {
+                    infinite.push(lights.len() as u32);
+                    Light::EnvMap(Box::new(EnvMapLight::new(
+                        image, *to_world, *scale, filename,
+                    )?))
+                }
+            };
+            lights.push(l);
+        }
+        let (lo, hi) = bounds;
+        let center = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-4);
+        Ok(LightSet {
+            lights,
+            mesh_light,
+            infinite,
+            bsphere: (center, radius * (1.0 + 1e-4)),
+        })
+    }
+
+    /// True if the scene has no emitters at all.
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// Probability of selecting any one emitter (uniform, as Mitsuba).
+    #[inline]
+    fn select_pdf(&self) -> f32 {
+        1.0 / self.lights.len() as f32
+    }
+
+    /// Samples an emitter uniformly (with `u_sel`) and a direction toward it from `p`; the
+    /// sample's pdf and weight include the selection probability.
+    pub fn sample(&self, p: Vec3, u_sel: f32, u: Vec2) -> Option<LightSample> {
+        let n = self.lights.len();
+        if n == 0 {
+            return None;
+        }
+        let idx = ((u_sel * n as f32) as usize).min(n - 1);
+        let sel = self.select_pdf();
+        let mut s = match &self.lights[idx] {
+            Light::Area(l) => l.sample_li(p, u)?,
+            Light::SphereArea(l) => l.sample_li(p, u)?,
+            Light::Point(l) => l.sample_li(p)?,
+            Light::Spot(l) => l.sample_li(p)?,
+            Light::Directional(l) => l.sample_li(p, self.bsphere),
+            Light::Constant(l) => l.sample_li(u),
+            Light::EnvMap(l) => l.sample_li(u)?,
+        };
+        s.pdf *= sel;
+        s.weight /= sel;
+        Some(s)
+    }
+
+    /// Radiance emitted by the surface at `si` toward `si.wi` (0 unless the mesh has an area
+    /// emitter and the direction is on the shading normal's side).
+    #[inline]
+    pub fn area_radiance(&self, meshes: &[Mesh], si: &SurfaceInteraction) -> Spectrum {
+        match meshes[si.mesh as usize].emitter {
+            Some(l) if si.wi.z > 0.0 && self.mesh_light[si.mesh as usize].is_some() => l,
+            _ => Spectrum::ZERO,
+        }
+    }
+
+    /// True if the mesh carries an area emitter.
+    #[inline]
+    pub fn is_emissive(&self, mesh: u32) -> bool {
+        self.mesh_light[mesh as usize].is_some()
+    }
+
+    /// Solid-angle pdf (incl. selection) that [`LightSet::sample`] from `p_ref` produces the
+    /// point `si` of an area emitter.
+    pub fn pdf_area_hit(&self, p_ref: Vec3, si: &SurfaceInteraction) -> f32 {
+        let Some(li) = self.mesh_light[si.mesh as usize] else {
+            return 0.0;
+        };
+        match &self.lights[li as usize] {
+            Light::Area(l) => l.pdf_li(self.select_pdf(), p_ref, si),
+            Light::SphereArea(l) => self.select_pdf() * l.pdf_li(p_ref, si.p, si.n),
+            _ => 0.0,
+        }
+    }
+
+    /// Number of lights at infinity (constant, envmap).
+    pub fn infinite_count(&self) -> usize {
+        self.infinite.len()
+    }
+
+    /// Radiance and selection-inclusive pdf of the `k`-th light at infinity for an escaped ray
+    /// with unit world direction `d`.
+    pub fn eval_infinite(&self, k: usize, d: Vec3) -> (Spectrum, f32) {
+        let (le, pdf) = match &self.lights[self.infinite[k] as usize] {
+            Light::Constant(l) => l.eval_pdf(),
+            Light::EnvMap(env) => env.eval_pdf(d),
+            _ => return (Spectrum::ZERO, 0.0),
+        };
+        (le, pdf * self.select_pdf())
+    }
+}

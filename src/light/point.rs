@@ -1,0 +1,36 @@
+//! Isotropic point light (Mitsuba `point`).
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::LightSample;
+use crate::math::{Spectrum, Vec3};
+
+/// An isotropic point light.
+#[derive(Clone, Debug)]
+pub struct PointLight {
+    pub position: Vec3,
+    /// Radiant intensity (W/sr).
+    pub intensity: Spectrum,
+}
+
+impl PointLight {
+    /// The (delta) direction toward the light from `p`; weight = intensity / d².
+    #[inline]
+    pub fn sample_li(&self, p: Vec3) -> Option<LightSample> {
+        let to = self.position - p;
+        let d2 = to.length_squared();
+        if !(d2 > 0.0) {
+            return None;
+        }
+        let dist = d2.sqrt();
+        Some(LightSample {
+            wi: to / dist,
+            dist,
+            n_geo: Vec3::ZERO,
+            weight: self.intensity / d2,
+            pdf: 1.0,
+            delta: true,
+        })
+    }
+}

@@ -1,0 +1,333 @@
+//! `<bsdf>` (every BSDF plugin btfpt implements, measured BTFs via `btf_bsdf`) and `<texture>`,
+//! with Mitsuba's named IOR table.
+
+use super::check_finite;
+use super::properties::Props;
+use super::{Builder, N};
+use crate::Result;
+use crate::bsdf::Bsdf;
+use crate::bsdf::Conductor;
+use crate::bsdf::Dielectric;
+use crate::bsdf::Diffuse;
+use crate::bsdf::RoughConductor;
+use crate::bsdf::Texture;
+use crate::bsdf::ThinDielectric;
+use crate::bsdf::TwoSided;
+use crate::math::Mat4;
+use crate::math::Spectrum;
+use crate::math::Vec3;
+use crate::model::BtfModel;
+use std::sync::Arc;
+
+impl<'a, 'x> Builder<'a, 'x> {
+    pub(super) fn default_bsdf(&mut self) -> u32 {
+        *self.default_bsdf.get_or_insert_with(|| {
+            self.bsdfs.push(Bsdf::Diffuse(Diffuse {
+                reflectance: Texture::Constant(Spectrum::splat(0.5)),
+            }));
+            (self.bsdfs.len() - 1) as u32
+        })
+    }
+
+    /// The index in `Scene::bsdfs` of a `<bsdf>` element (built once per element).
+    pub(super) fn bsdf_index(&mut self, node: N<'a>) -> Result<u32> {
+        if let Some(&i) = self.bsdf_memo.get(&node.id()) {
+            return Ok(i);
+        }
+        let b = self.build_bsdf(node)?;
+        self.bsdfs.push(b);
+        let i = (self.bsdfs.len() - 1) as u32;
+        self.bsdf_memo.insert(node.id(), i);
+        Ok(i)
+    }
+
+    pub(super) fn build_bsdf(&mut self, node: N<'a>) -> Result<Bsdf> {
+        let x = self.x;
+        if node.tag_name().name() != "bsdf" {
+            return Err(x.err(
+                node,
+                format!("expected a <bsdf>, found <{}>", node.tag_name().name()),
+            ));
+        }
+        if let Some(&i) = self.bsdf_memo.get(&node.id()) {
+            return Ok(self.bsdfs[i as usize].clone());
+        }
+        if !self.busy.insert(node.id()) {
+            return Err(x.err(node, "cyclic <ref> between bsdfs"));
+        }
+        let r = self.build_bsdf_inner(node);
+        self.busy.remove(&node.id());
+        r
+    }
+
+    pub(super) fn build_bsdf_inner(&mut self, node: N<'a>) -> Result<Bsdf> {
+        let x = self.x;
+        let p = Props::parse(x, node)?;
+        let b = match p.ty.as_str() {
+            "diffuse" => Bsdf::Diffuse(Diffuse {
+                reflectance: self.texture_param(&p, "reflectance", Vec3::splat(0.5))?,
+            }),
+            "conductor" | "roughconductor" => {
+                let (eta, k) = conductor_ior(&p)?;
+                let specular_reflectance =
+                    self.texture_param(&p, "specular_reflectance", Vec3::ONE)?;
+                if p.ty == "conductor" {
+                    Bsdf::Conductor(Conductor {
+                        eta,
+                        k,
+                        specular_reflectance,
+                    })
+                } else {
+                    let dist = p.string_opt("distribution")?;
+                    match dist.as_deref() {
+                        Some("ggx") => {}
+                        None => {
+                            return Err(p.err(
+                                "Mitsuba's default microfacet distribution is beckmann, which btfpt does not \
+                                 implement: add <string name=\"distribution\" value=\"ggx\"/>",
+                            ));
+                        }
+                        Some(d) => {
+                            return Err(
+                                p.err(format!("unsupported distribution \"{d}\" (only ggx)"))
+                            );
+                        }
+                    }
+                    let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
+                        if p.has("alpha") {
+                            return Err(p.err(
+                                "specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both",
+                            ));
+                        }
+                        let (u, v) = (p.float_opt("alpha_u")?, p.float_opt("alpha_v")?);
+                        match (u, v) {
+                            (Some(u), Some(v)) => (u, v),
+                            _ => {
+                                return Err(
+                                    p.err("both \"alpha_u\" and \"alpha_v\" must be specified")
+                                );
+                            }
+                        }
+                    } else {
+                        let a = p.float("alpha", 0.1)?;
+                        (a, a)
+                    };
+                    if alpha_u < 0.0 || alpha_v < 0.0 {
+                        return Err(p.err("roughness must be non-negative"));
+                    }
+                    Bsdf::RoughConductor(RoughConductor {
+                        alpha_u,
+                        alpha_v,
+                        eta,
+                        k,
+                        specular_reflectance,
+                        sample_visible: p.bool("sample_visible", true)?,
+                    })
+                }
+            }
+            "dielectric" | "thindielectric" => {
+                let int_ior = ior(&p, "int_ior", "bk7")?;
+                let ext_ior = ior(&p, "ext_ior", "air")?;
+                if int_ior < 0.0 || ext_ior < 0.0 {
+                    return Err(
+                        p.err("the interior and exterior indices of refraction must be positive")
+                    );
+                }
+                let specular_reflectance =
+                    self.texture_param(&p, "specular_reflectance", Vec3::ONE)?;
+                let specular_transmittance =
+                    self.texture_param(&p, "specular_transmittance", Vec3::ONE)?;
+                let eta = int_ior / ext_ior;
+                if p.ty == "dielectric" {
+                    Bsdf::Dielectric(Dielectric {
+                        eta,
+                        specular_reflectance,
+                        specular_transmittance,
+                    })
+                } else {
+                    Bsdf::ThinDielectric(ThinDielectric {
+                        eta,
+                        specular_reflectance,
+                        specular_transmittance,
+                    })
+                }
+            }
+            "twosided" => {
+                let kids = p.children_tagged("bsdf");
+                let nodes: Vec<N<'a>> = kids.iter().map(|c| c.node).collect();
+                let (front, back) = match nodes.as_slice() {
+                    [one] => {
+                        let b = self.build_bsdf(*one)?;
+                        (b.clone(), b)
+                    }
+                    [a, b] => (self.build_bsdf(*a)?, self.build_bsdf(*b)?),
+                    _ => return Err(p.err("twosided needs one or two nested bsdfs")),
+                };
+                if matches!(front, Bsdf::TwoSided(_)) || matches!(back, Bsdf::TwoSided(_)) {
+                    return Err(p.err("a twosided bsdf cannot contain another twosided bsdf"));
+                }
+                Bsdf::TwoSided(TwoSided {
+                    front: Box::new(front),
+                    back: Box::new(back),
+                })
+            }
+            "btf" => {
+                let file = p.string_req("filename")?;
+                let uv_scale = p.float("uv_scale", 1.0)?;
+                let model = p
+                    .string_opt("model")?
+                    .map(|m| BtfModel::parse(&m).map_err(|e| p.err(e.to_string())))
+                    .transpose()?;
+                p.finish()?;
+                if uv_scale <= 0.0 {
+                    return Err(p.err("\"uv_scale\" must be positive"));
+                }
+                let (bsdf, used) = crate::scene::btf_bsdf::build_btf(
+                    &x.file,
+                    x.line(node),
+                    &file,
+                    &|f| x.resolve(f),
+                    uv_scale,
+                    self.btf_model.or(model),
+                )?;
+                self.btf_uses.push(used);
+                return Ok(bsdf);
+            }
+            _ => {
+                return Err(p.err(
+                    "unsupported bsdf type (btfpt implements diffuse, conductor, roughconductor, dielectric, \
+                     thindielectric, twosided, btf)",
+                ));
+            }
+        };
+        p.finish()?;
+        Ok(b)
+    }
+
+    /// A reflectance-like parameter: constant (rgb/float/spectrum) or nested/referenced bitmap.
+    pub(super) fn texture_param(
+        &mut self,
+        p: &Props<'a, 'x>,
+        name: &str,
+        default: Vec3,
+    ) -> Result<Texture> {
+        if let Some(c) = p.child_named(name) {
+            if c.tag() != "texture" {
+                return Err(self.x.err(
+                    c.at,
+                    format!(
+                        "\"{name}\" must be a <texture> or a colour, not a <{}>",
+                        c.tag()
+                    ),
+                ));
+            }
+            return self.texture(c.node);
+        }
+        Ok(Texture::Constant(p.color(name, default)?))
+    }
+
+    pub(super) fn texture(&mut self, node: N<'a>) -> Result<Texture> {
+        if let Some(t) = self.tex_memo.get(&node.id()) {
+            return Ok(t.clone());
+        }
+        let x = self.x;
+        let p = Props::parse(x, node)?;
+        if p.ty != "bitmap" {
+            return Err(p.err("unsupported texture type (btfpt implements only \"bitmap\")"));
+        }
+        let file = p.string_req("filename")?;
+        let filter = p.string("filter_type", "bilinear")?;
+        if filter != "bilinear" {
+            return Err(p.err(format!(
+                "filter_type \"{filter}\" is not supported (only bilinear)"
+            )));
+        }
+        let wrap = p.string("wrap_mode", "repeat")?;
+        if wrap != "repeat" {
+            return Err(p.err(format!(
+                "wrap_mode \"{wrap}\" is not supported (only repeat)"
+            )));
+        }
+        let raw = p.bool("raw", false)?;
+        if let Some(m) = p.transform_opt("to_uv")?
+            && m != Mat4::IDENTITY
+        {
+            return Err(p.err("a non-identity \"to_uv\" transform is not supported"));
+        }
+        p.finish()?;
+        let path = x.resolve(&file);
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        if raw && ext != "exr" {
+            return Err(p.err("raw=\"true\" (no sRGB decoding of 8-bit images) is not supported"));
+        }
+        let img = crate::io::read_image(&path).map_err(|e| p.err(e.to_string()))?;
+        check_finite(&img, &path).map_err(|m| p.err(m))?;
+        let t = Texture::Bitmap(Arc::new(img));
+        self.tex_memo.insert(node.id(), t.clone());
+        Ok(t)
+    }
+}
+
+/// Mitsuba's named IOR table (`ior.h`).
+pub(super) const IOR_TABLE: &[(&str, f32)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.00004),
+    ("hydrogen", 1.00013),
+    ("air", 1.00028),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+/// An IOR given as a float or one of Mitsuba's named materials.
+pub(super) fn ior(p: &Props, name: &str, default: &str) -> Result<f32> {
+    let lookup = |s: &str| {
+        let l = s.to_ascii_lowercase();
+        IOR_TABLE
+            .iter()
+            .find(|(n, _)| *n == l)
+            .map(|(_, v)| *v)
+            .ok_or_else(|| p.err(format!("unknown IOR material \"{s}\" for \"{name}\"")))
+    };
+    match p.float_or_string(name)? {
+        None => lookup(default),
+        Some(Ok(v)) => Ok(v),
+        Some(Err(s)) => lookup(&s),
+    }
+}
+
+/// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta 0,
+/// k 1) with optional explicit `eta`/`k`. Named metals need Mitsuba's spectral data: error.
+pub(super) fn conductor_ior(p: &Props) -> Result<(Spectrum, Spectrum)> {
+    let material = p.string("material", "none")?;
+    if material != "none" {
+        if p.has("eta") || p.has("k") {
+            return Err(p.err("should specify either (eta, k) or material, not both"));
+        }
+        return Err(p.err(format!(
+            "named conductor material \"{material}\" is not supported (btfpt cannot reproduce Mitsuba's \
+             spectral-to-RGB values): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+        )));
+    }
+    Ok((p.color("eta", Vec3::ZERO)?, p.color("k", Vec3::ONE)?))
+}

@@ -1,0 +1,236 @@
+//! The module structure of `src/` (docs/architecture.md) is checked here, so a cycle cannot come
+//! back unnoticed: data flow raw BTF → fit → model file → render means each top-level module
+//! may use only the modules of lower layers, and `fit` and `bsdf` (model writer and reader) never
+//! each other. Test code (`tests.rs` files, `#[cfg(test)]` modules) is exempt. Also checked: no
+//! non-test source file is over 900 lines (a file holds one concept).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// Layer of each top-level module of the library: a module may use only lower layers.
+const LAYERS: &[(&str, u32)] = &[
+    ("math", 0),
+    ("io", 1),
+    ("geometry", 2),
+    ("metrics", 2),
+    ("btf", 3),
+    ("model", 4),
+    ("fit", 5),
+    ("bsdf", 5),
+    ("scene", 6),
+    ("light", 7),
+    ("render", 8),
+    ("cli", 9),
+];
+
+/// Largest non-test source file, in lines.
+const MAX_LINES: usize = 900;
+
+fn src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("directory entry").path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// Module names declared `#[cfg(test)] mod NAME;` in `text`.
+fn test_only_mods(text: &str) -> BTreeSet<String> {
+    let lines: Vec<&str> = text.lines().map(str::trim).collect();
+    let mut out = BTreeSet::new();
+    for w in lines.windows(2) {
+        if w[0] == "#[cfg(test)]"
+            && let Some(rest) = w[1]
+                .strip_prefix("mod ")
+                .or_else(|| w[1].strip_prefix("pub(crate) mod "))
+            && let Some(name) = rest.strip_suffix(';')
+        {
+            out.insert(name.to_string());
+        }
+    }
+    out
+}
+
+/// True if `file` is test code: a `tests.rs`, or a module its parent declares under
+/// `#[cfg(test)]`.
+fn is_test_file(file: &Path) -> bool {
+    let stem = file.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+    if stem == "tests" {
+        return true;
+    }
+    let dir = file.parent().expect("file in a folder");
+    let (parent, name) = if stem == "mod" {
+        let up = dir.parent().expect("module folder in a folder");
+        let name = dir.file_name().and_then(|s| s.to_str()).unwrap_or("");
+        (up.join("mod.rs"), name.to_string())
+    } else {
+        (dir.join("mod.rs"), stem.to_string())
+    };
+    let parent = if parent.exists() {
+        parent
+    } else {
+        // A top-level folder module is declared in lib.rs.
+        src().join("lib.rs")
+    };
+    std::fs::read_to_string(&parent).is_ok_and(|t| test_only_mods(&t).contains(&name))
+}
+
+/// The non-test code of a file: without comments and without a trailing `#[cfg(test)] mod`.
+fn code(text: &str) -> String {
+    let cut = text.find("#[cfg(test)]\nmod tests {").unwrap_or(text.len());
+    text[..cut]
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// Top-level modules `code` refers to through `crate::…` paths (also inside `use crate::{…}`).
+fn references(code: &str, modules: &BTreeSet<&str>) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut rest = code;
+    while let Some(i) = rest.find("crate::") {
+        rest = &rest[i + 7..];
+        if let Some(group) = rest.strip_prefix('{') {
+            // use crate::{a::b, c, d::{e, f}}: the first segment of each top-level item.
+            let mut depth = 0;
+            let mut item_start = true;
+            let mut word = String::new();
+            for ch in group.chars() {
+                match ch {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => item_start = true,
+                    c if c.is_alphanumeric() || c == '_' => {
+                        if item_start {
+                            word.push(c);
+                        }
+                        continue;
+                    }
+                    _ => {}
+                }
+                if !word.is_empty() {
+                    if modules.contains(word.as_str()) {
+                        out.insert(word.clone());
+                    }
+                    word.clear();
+                    if ch != ',' {
+                        item_start = false;
+                    }
+                }
+            }
+        } else {
+            let word: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if modules.contains(word.as_str()) {
+                out.insert(word);
+            }
+        }
+    }
+    out
+}
+
+/// Edges `module → used module` of the non-test code, with the files that make each one.
+fn graph() -> BTreeMap<(String, String), Vec<String>> {
+    let modules: BTreeSet<&str> = LAYERS.iter().map(|l| l.0).collect();
+    let mut edges: BTreeMap<(String, String), Vec<String>> = BTreeMap::new();
+    for &(m, _) in LAYERS {
+        let dir = src().join(m);
+        assert!(dir.is_dir(), "src/{m} is missing (update LAYERS)");
+        let mut files = Vec::new();
+        rust_files(&dir, &mut files);
+        for f in files.iter().filter(|f| !is_test_file(f)) {
+            let text = std::fs::read_to_string(f).expect("readable source");
+            for r in references(&code(&text), &modules) {
+                if r != m {
+                    let rel = f.strip_prefix(src()).unwrap_or(f).display().to_string();
+                    edges.entry((m.to_string(), r)).or_default().push(rel);
+                }
+            }
+        }
+    }
+    edges
+}
+
+#[test]
+fn every_top_level_module_is_in_a_layer() {
+    let layered: BTreeSet<&str> = LAYERS.iter().map(|l| l.0).collect();
+    for e in std::fs::read_dir(src()).expect("src/") {
+        let p = e.expect("entry").path();
+        if p.is_dir() {
+            let name = p.file_name().and_then(|s| s.to_str()).unwrap_or("");
+            assert!(
+                layered.contains(name),
+                "src/{name} has no layer in tests/architecture.rs"
+            );
+        }
+    }
+}
+
+#[test]
+fn modules_use_only_lower_layers() {
+    let layer: BTreeMap<&str, u32> = LAYERS.iter().copied().collect();
+    let edges = graph();
+    let mut bad = Vec::new();
+    println!("module graph (non-test code):");
+    for ((a, b), files) in &edges {
+        println!("  {a} -> {b}   ({} files)", files.len());
+        if layer[b.as_str()] >= layer[a.as_str()] {
+            bad.push(format!("{a} -> {b} in {}", files.join(", ")));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "dependencies against the layering (docs/architecture.md):\n{}",
+        bad.join("\n")
+    );
+}
+
+#[test]
+fn references_are_found_in_paths_and_use_groups() {
+    let modules: BTreeSet<&str> = ["math", "io", "btf", "fit"].into_iter().collect();
+    let text = "use crate::{math::Vec3, io::bytes::{Reader, Writer}, Error};\nlet x = crate::btf::open(p);";
+    let found = references(text, &modules);
+    assert_eq!(
+        found,
+        ["btf", "io", "math"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    );
+    assert!(references("// crate::fit::x\n", &modules).contains("fit"));
+    assert!(!references(&code("// crate::fit::x\n"), &modules).contains("fit"));
+}
+
+#[test]
+fn no_source_file_is_over_the_line_limit() {
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    let long: Vec<String> = files
+        .iter()
+        .filter(|f| !is_test_file(f))
+        .filter_map(|f| {
+            let n = std::fs::read_to_string(f).ok()?.lines().count();
+            (n > MAX_LINES).then(|| format!("{} ({n} lines)", f.display()))
+        })
+        .collect();
+    assert!(
+        long.is_empty(),
+        "split these files (one concept each):\n{}",
+        long.join("\n")
+    );
+}
