@@ -146,7 +146,9 @@ pub fn load_filtered(
         if code != want_code || p.map(f32::to_bits) != want_p.map(f32::to_bits) {
             return Err(Error::format(
                 path,
-                format!("checkpoint was written with another reconstruction filter than {filter:?}"),
+                format!(
+                    "checkpoint was written with another reconstruction filter than {filter:?}"
+                ),
             ));
         }
     }

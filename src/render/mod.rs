@@ -119,6 +119,7 @@ pub(crate) mod tests_support {
                 width: 4,
                 height: 4,
                 crop: None,
+                filter: crate::render::filter::Filter::BOX,
             },
             integrator: IntegratorSettings::default(),
             spp: 1,
