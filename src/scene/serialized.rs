@@ -224,8 +224,11 @@ mod tests {
     use super::*;
     use std::io::Write;
 
+    /// name, extra flags, positions, uvs, triangles.
+    type TestShape<'a> = (&'a str, u32, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
+
     /// Writes shapes in Mitsuba's format (v4, single precision, u64 shape table).
-    fn write(shapes: &[(&str, u32, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>)]) -> Vec<u8> {
+    fn write(shapes: &[TestShape]) -> Vec<u8> {
         let mut out = Vec::new();
         let mut offsets = Vec::new();
         for (name, extra, pos, uv, tri) in shapes {
