@@ -506,20 +506,52 @@ fn nan_transform_is_rejected() {
 }
 
 #[test]
-fn missing_rfilter_and_film() {
+fn rfilters_and_missing_film() {
+    use btfpt::render::filter::Filter;
     let dir = tempfile::tempdir().unwrap();
-    let p = write(
-        dir.path(),
-        "nofilter.xml",
-        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\"/>\n</sensor>\n</scene>",
+    let film = |name: &str, inner: &str| {
+        write(
+            dir.path(),
+            name,
+            &format!(
+                "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\">\n{inner}</film>\n</sensor>\n</scene>"
+            ),
+        )
+    };
+    // No <rfilter>: Mitsuba's default gaussian; each type with its parameters.
+    assert_eq!(
+        load(&film("nofilter.xml", "")).camera.filter,
+        Filter::default()
     );
-    expect_err(&p, &[], 3, "<rfilter type=\"box\"/>");
-    let p = write(
-        dir.path(),
-        "gauss.xml",
-        "<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n<film type=\"hdrfilm\">\n<rfilter type=\"gaussian\"/></film>\n</sensor>\n</scene>",
-    );
+    for (inner, want) in [
+        ("<rfilter type=\"box\"/>", Filter::BOX),
+        ("<rfilter type=\"tent\"/>", Filter::tent(1.0).unwrap()),
+        (
+            "<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"0.3\"/></rfilter>",
+            Filter::gaussian(0.3).unwrap(),
+        ),
+        (
+            "<rfilter type=\"mitchell\"/>",
+            Filter::mitchell(1.0 / 3.0, 1.0 / 3.0, 2.0).unwrap(),
+        ),
+        (
+            "<rfilter type=\"catmullrom\"/>",
+            Filter::mitchell(0.0, 0.5, 2.0).unwrap(),
+        ),
+        (
+            "<rfilter type=\"lanczos\"><integer name=\"lobes\" value=\"2\"/></rfilter>",
+            Filter::lanczos(2).unwrap(),
+        ),
+    ] {
+        assert_eq!(load(&film("f.xml", inner)).camera.filter, want, "{inner}");
+    }
+    let p = film("bad.xml", "<rfilter type=\"sinc\"/>");
     expect_err(&p, &[], 4, "unsupported reconstruction filter");
+    let p = film(
+        "neg.xml",
+        "<rfilter type=\"gaussian\"><float name=\"stddev\" value=\"-1\"/></rfilter>",
+    );
+    expect_err(&p, &[], 4, "radius");
     let p = write(
         dir.path(),
         "nofilm.xml",

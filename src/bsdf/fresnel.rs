@@ -88,6 +88,19 @@ pub fn fresnel_conductor_rgb(cos_theta_i: f32, eta: Spectrum, k: Spectrum) -> Sp
     )
 }
 
+/// Hemispherically averaged (diffuse) Fresnel reflectance of an interface with relative IOR
+/// `eta`, Mitsuba 3's fit: Egan & Hilgeman (1973) for η < 1, d'Eon & Irving (2011) above.
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + eta * (eta * -1.4399 + 0.7099) + 0.6681
+    } else {
+        let (i2, i3) = (inv * inv, inv * inv * inv);
+        let (i4, i5) = (i3 * inv, i3 * inv * inv);
+        0.919317 - 3.4793 * inv + 6.75335 * i2 - 7.80989 * i3 + 4.98554 * i4 - 1.36881 * i5
+    }
+}
+
 /// Mirror reflection about the local normal (0, 0, 1).
 #[inline]
 pub fn reflect(wi: Vec3) -> Vec3 {

@@ -68,6 +68,15 @@ fn config(name: &str) -> Bsdf {
             )
             .unwrap(),
         ),
+        "plastic" => Bsdf::Plastic(Plastic::new(
+            1.49 / 1.000277,
+            c(0.2, 0.5, 0.8),
+            c(1.0, 1.0, 1.0),
+            false,
+        )),
+        "plastic_nonlinear" => {
+            Bsdf::Plastic(Plastic::new(1.7, c(0.6, 0.3, 0.1), c(0.8, 0.9, 1.0), true))
+        }
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -148,7 +157,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 11 && n_eval > 300 && n_sample > 200);
+    assert!(configs.len() == 13 && n_eval > 300 && n_sample > 200);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

@@ -14,6 +14,7 @@ pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
 pub mod microfacet;
+pub mod plastic;
 pub mod plmc;
 pub mod roughconductor;
 pub mod texture;
@@ -29,6 +30,7 @@ pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use roughconductor::RoughConductor;
 pub use texture::Texture;
@@ -103,6 +105,8 @@ pub enum Bsdf {
     Dielectric(Dielectric),
     ThinDielectric(ThinDielectric),
     TwoSided(TwoSided),
+    /// Smooth plastic: diffuse base under a smooth dielectric coating.
+    Plastic(Plastic),
     /// Measured BTF (raw data), DESIGN §2.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
@@ -119,6 +123,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.flags(),
             Bsdf::ThinDielectric(b) => b.flags(),
             Bsdf::TwoSided(b) => b.flags(),
+            Bsdf::Plastic(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
             Bsdf::Plmc(b) => b.flags(),
         }
@@ -209,6 +214,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.eval(si, wo),
             Bsdf::ThinDielectric(b) => b.eval(si, wo),
             Bsdf::TwoSided(b) => b.eval(si, wo),
+            Bsdf::Plastic(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
             Bsdf::Plmc(b) => b.eval(si, wo),
         }
@@ -223,6 +229,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.pdf(si, wo),
             Bsdf::ThinDielectric(b) => b.pdf(si, wo),
             Bsdf::TwoSided(b) => b.pdf(si, wo),
+            Bsdf::Plastic(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
             Bsdf::Plmc(b) => b.pdf(si, wo),
         }
@@ -255,6 +262,7 @@ impl Bsdf {
             Bsdf::Dielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
+            Bsdf::Plastic(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
             Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
         }

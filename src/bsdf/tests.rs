@@ -10,7 +10,7 @@ use crate::math::{Pcg32, warp};
 use std::sync::Arc;
 
 /// Number of chi-square tests in this file (the Šidák family).
-const CHI2_TESTS: usize = 4 + 32 + 3;
+const CHI2_TESTS: usize = 4 + 32 + 3 + 6;
 
 fn si(wi: Vec3) -> SurfaceInteraction {
     SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
@@ -139,6 +139,45 @@ fn chi2_twosided_back_side() {
         let wi = from_spherical(2.2, 0.4);
         let r = chi2_bsdf(b, wi, 500_000);
         assert!(r.passed, "twosided from below: {}", r.message);
+    }
+}
+
+/// Plastic's diffuse lobe: the non-delta samples against `pdf` (which integrates to the diffuse
+/// lobe's selection probability; specular samples count as missing mass, as in Mitsuba's test).
+#[test]
+fn chi2_plastic_diffuse_lobe() {
+    let cases = [
+        Plastic::new(
+            1.49,
+            Texture::Constant(Spectrum::new(0.2, 0.5, 0.8)),
+            white(),
+            false,
+        ),
+        Plastic::new(1.9, Texture::Constant(Spectrum::splat(0.05)), white(), true),
+    ];
+    for p in cases {
+        let b = Bsdf::Plastic(p);
+        for theta in [0.2, 0.9, 1.45] {
+            let si = si(from_spherical(theta, 1.3));
+            let mut lobe_rng = Pcg32::new(78, 5);
+            let t = Chi2Test {
+                sample_count: 300_000,
+                test_count: CHI2_TESTS,
+                ..Default::default()
+            };
+            let r = t.run(
+                |u1, u2| {
+                    b.sample(&si, lobe_rng.next_f32(), Vec2::new(u1, u2))
+                        .filter(|(bs, w)| {
+                            !bs.sampled.has(BsdfFlags::DELTA) && w.max_element() > 0.0
+                        })
+                        .map(|(bs, _)| bs.wo)
+                },
+                |wo| b.pdf(&si, wo),
+            );
+            assert!(r.passed, "plastic at θ = {theta}: {}", r.message);
+            assert!(r.pdf_integral < 0.999, "the specular lobe takes some mass");
+        }
     }
 }
 

@@ -21,6 +21,18 @@ impl Texture {
         }
     }
 
+    /// Mean over the texture and the RGB channels (Mitsuba `Texture::mean`, used to steer
+    /// lobe selection).
+    pub fn mean(&self) -> f32 {
+        match self {
+            Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
+            Texture::Bitmap(img) => {
+                let s: f64 = img.data.iter().map(|&v| v as f64).sum();
+                (s / img.data.len().max(1) as f64) as f32
+            }
+        }
+    }
+
     /// True if the value depends on uv.
     pub fn is_spatially_varying(&self) -> bool {
         matches!(self, Texture::Bitmap(_))

@@ -286,7 +286,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     );
 
     let mut state = if args.resume {
-        let s = checkpoint::load(&ckpt, &settings, fp)?;
+        let s = checkpoint::load_filtered(&ckpt, &settings, &rs.scene.camera.filter, fp)?;
         eprintln!(
             "resuming from {} ({:.1}% done)",
             ckpt.display(),
@@ -300,7 +300,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ckpt.display()
             );
         }
-        RenderState::new(settings)?
+        RenderState::with_filter(settings, rs.scene.camera.filter)?
     };
 
     let interrupt = super::interrupt::stop_flag();

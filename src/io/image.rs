@@ -44,8 +44,8 @@ fn extension(path: &Path) -> String {
         .to_ascii_lowercase()
 }
 
-/// Reads an image as linear RGB: EXR as stored; 8- and 16-bit PNG/JPEG decoded with the sRGB EOTF
-/// (Mitsuba's default for integer formats). Errors name the file.
+/// Reads an image as linear RGB: EXR, Radiance `.hdr` and `.pfm` as stored; 8- and 16-bit
+/// PNG/JPEG decoded with the sRGB EOTF (Mitsuba's default for integer formats). Errors name the file.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
     if !path.exists() {
         return Err(Error::format(path, "file not found"));
@@ -53,9 +53,11 @@ pub fn read_image(path: &Path) -> Result<RgbImage> {
     match extension(path).as_str() {
         "exr" => read_exr(path),
         "png" | "jpg" | "jpeg" => read_ldr(path),
+        "hdr" => read_hdr(path),
+        "pfm" => super::pfm::read_pfm(path),
         other => Err(Error::format(
             path,
-            format!("unsupported image format '.{other}' (expected .exr, .png, .jpg)"),
+            format!("unsupported image format '.{other}' (expected .exr, .hdr, .pfm, .png, .jpg)"),
         )),
     }
 }
@@ -88,6 +90,28 @@ fn read_exr(path: &Path) -> Result<RgbImage> {
     )
     .map_err(|e| crate::Error::format(path, format!("cannot read EXR: {e}")))?;
     Ok(img.layer_data.channel_data.pixels)
+}
+
+/// Radiance RGBE through the `image` crate's HDR decoder (linear, as Mitsuba reads it).
+fn read_hdr(path: &Path) -> Result<RgbImage> {
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let dec = image::codecs::hdr::HdrDecoder::new(std::io::BufReader::new(file))
+        .map_err(|e| Error::format(path, format!("cannot read Radiance HDR: {e}")))?;
+    let meta = dec.metadata();
+    let (w, h) = (meta.width as usize, meta.height as usize);
+    if w.checked_mul(h).is_none_or(|n| n > MAX_IMAGE_PIXELS) {
+        return Err(Error::format(
+            path,
+            format!("Radiance HDR size {w}×{h} is larger than {MAX_IMAGE_PIXELS} pixels"),
+        ));
+    }
+    let img = image::DynamicImage::from_decoder(dec)
+        .map_err(|e| Error::format(path, format!("cannot decode Radiance HDR: {e}")))?;
+    Ok(RgbImage {
+        width: w,
+        height: h,
+        data: img.to_rgb32f().into_raw(),
+    })
 }
 
 fn read_ldr(path: &Path) -> Result<RgbImage> {
@@ -176,6 +200,30 @@ pub fn write_png_srgb(path: &Path, img: &RgbImage) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn radiance_hdr_reads_linear_top_row_first() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("t.hdr");
+        // Powers of two are exact in RGBE; row 0 is the top of the image.
+        let px = [
+            image::Rgb([1.0f32, 0.5, 0.25]),
+            image::Rgb([2.0, 4.0, 8.0]),
+            image::Rgb([0.125, 0.0, 1.0]),
+            image::Rgb([16.0, 1.0, 0.5]),
+        ];
+        let f = std::fs::File::create(&p).unwrap();
+        image::codecs::hdr::HdrEncoder::new(f)
+            .encode(&px, 2, 2)
+            .unwrap();
+        let img = read_image(&p).unwrap();
+        assert_eq!((img.width, img.height), (2, 2));
+        assert_eq!(img.get(1, 0), [2.0, 4.0, 8.0]);
+        assert_eq!(img.get(0, 1), [0.125, 0.0, 1.0]);
+        std::fs::write(&p, b"#?RADIANCE\ngarbage").unwrap();
+        let e = read_image(&p).unwrap_err().to_string();
+        assert!(e.contains("t.hdr"), "{e}");
+    }
 
     fn test_image() -> RgbImage {
         let mut img = RgbImage::new(5, 3);

@@ -1,9 +1,11 @@
-//! File input/output shared by all subsystems: images (EXR, PNG, JPEG) and atomic writes.
+//! File input/output shared by all subsystems: images (EXR, Radiance HDR, PFM, PNG, JPEG) and
+//! atomic writes.
 
 pub mod atomic;
 pub mod bytes;
 pub mod glyph;
 pub mod image;
+pub mod pfm;
 pub mod shared;
 
 pub use atomic::write_atomic;

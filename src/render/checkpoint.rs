@@ -3,8 +3,12 @@
 //! one. Layout (little-endian): magic `BTFPTCK1`, u32 version, u64 fingerprint of the scene and
 //! options, the settings, u32 tile count, per tile (x0, y0, w, h, done: u32; rays, invalid: u64;
 //! sums and sums of squares: 6·w·h f64), then a CRC32 of everything before it.
+//! Renders with a reconstruction filter other than the radius-½ box write version 2: the filter
+//! (kind code, radius, two parameters: u32 + 3 f32) after the settings, and per tile the
+//! bordered buffers (w + 2b)(h + 2b) of sums, sums of squares, Σ w²L, Σ w and Σ w².
 
 use super::film::{RenderSettings, RenderState, Tile};
+use super::filter::{Filter, FilterKind};
 use crate::io::bytes::{Reader, Writer};
 use crate::io::write_atomic;
 use crate::{Error, Result};
@@ -12,28 +16,49 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"BTFPTCK1";
 const VERSION: u32 = 1;
+const VERSION_FILTERED: u32 = 2;
+
+/// The filter as (kind code, radius, p1, p2) for the checkpoint header.
+fn filter_code(f: &Filter) -> (u32, [f32; 3]) {
+    match f.kind {
+        FilterKind::Box => (0, [f.radius, 0.0, 0.0]),
+        FilterKind::Tent => (1, [f.radius, 0.0, 0.0]),
+        FilterKind::Gaussian { alpha, bias } => (2, [f.radius, alpha, bias]),
+        FilterKind::Mitchell { b, c } => (3, [f.radius, b, c]),
+        FilterKind::Lanczos => (4, [f.radius, 0.0, 0.0]),
+    }
+}
 
 /// Writes `state` to `path` atomically; `fingerprint` identifies the scene and options.
 pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
     let s = &state.settings;
     let mut b = Writer::new();
-    b.bytes(MAGIC).u32(VERSION).u64(fingerprint);
+    let filtered = !state.filter.is_box();
+    let version = if filtered { VERSION_FILTERED } else { VERSION };
+    b.bytes(MAGIC).u32(version).u64(fingerprint);
     for v in [
         s.width, s.height, s.crop[0], s.crop[1], s.crop[2], s.crop[3],
     ] {
         b.u32(v);
     }
     b.u32(s.spp_begin).u32(s.spp_end).u64(s.seed);
+    if filtered {
+        let (code, p) = filter_code(&state.filter);
+        b.u32(code).f32(p[0]).f32(p[1]).f32(p[2]);
+    }
     b.len32(state.tiles.len(), "tile count")?;
     for t in &state.tiles {
         for v in [t.x0, t.y0, t.w, t.h, t.done] {
             b.u32(v);
         }
         b.u64(t.rays).u64(t.invalid);
-        for px in t.sum.iter().chain(&t.sum2) {
+        for px in t.sum.iter().chain(&t.sum2).chain(&t.sum_w2) {
             for &v in px {
                 b.f64(v);
             }
+        }
+        for &v in t.weight.iter().chain(&t.weight2) {
+            b.f64(v);
         }
     }
     let crc = crc32fast::hash(b.as_bytes());
@@ -42,8 +67,20 @@ pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
     write_atomic(path, |w| w.write_all(&b).map_err(|e| Error::io(path, e)))
 }
 
-/// Reads a checkpoint and checks that it belongs to `expected` settings and `fingerprint`.
+/// Reads a box-filtered checkpoint and checks that it belongs to `expected` settings and
+/// `fingerprint`.
 pub fn load(path: &Path, expected: &RenderSettings, fingerprint: u64) -> Result<RenderState> {
+    load_filtered(path, expected, &Filter::BOX, fingerprint)
+}
+
+/// Reads a checkpoint and checks that it belongs to `expected` settings, `filter` and
+/// `fingerprint`.
+pub fn load_filtered(
+    path: &Path,
+    expected: &RenderSettings,
+    filter: &Filter,
+    fingerprint: u64,
+) -> Result<RenderState> {
     let b = std::fs::read(path).map_err(|e| Error::io(path, e))?;
     if b.len() < 12 || &b[..8] != MAGIC {
         return Err(Error::format(path, "not a btfpt checkpoint"));
@@ -56,10 +93,22 @@ pub fn load(path: &Path, expected: &RenderSettings, fingerprint: u64) -> Result<
     let mut r = Reader::new(body, path, "corrupt checkpoint");
     r.seek(8)?;
     let version = r.u32("version")?;
-    if version != VERSION {
+    let want = if filter.is_box() {
+        VERSION
+    } else {
+        VERSION_FILTERED
+    };
+    if version != want {
         return Err(Error::format(
             path,
-            format!("checkpoint version {version} is not supported (expected {VERSION})"),
+            format!(
+                "checkpoint version {version} does not fit this render (expected {want}: {})",
+                if filter.is_box() {
+                    "box filter"
+                } else {
+                    "reconstruction filter"
+                }
+            ),
         ));
     }
     if r.u64("fingerprint")? != fingerprint {
@@ -90,7 +139,20 @@ pub fn load(path: &Path, expected: &RenderSettings, fingerprint: u64) -> Result<
             format!("checkpoint settings {settings:?} differ from the requested {expected:?}"),
         ));
     }
-    let mut state = RenderState::new(settings)?;
+    if !filter.is_box() {
+        let code = r.u32("filter")?;
+        let p = [r.f32("filter")?, r.f32("filter")?, r.f32("filter")?];
+        let (want_code, want_p) = filter_code(filter);
+        if code != want_code || p.map(f32::to_bits) != want_p.map(f32::to_bits) {
+            return Err(Error::format(
+                path,
+                format!(
+                    "checkpoint was written with another reconstruction filter than {filter:?}"
+                ),
+            ));
+        }
+    }
+    let mut state = RenderState::with_filter(settings, *filter)?;
     let n = r.len32("tile count")?;
     if n != state.tiles.len() {
         return Err(Error::format(path, "checkpoint tile layout differs"));
@@ -116,10 +178,18 @@ pub fn load(path: &Path, expected: &RenderSettings, fingerprint: u64) -> Result<
             ..t.clone()
         };
         *t = tile;
-        for px in t.sum.iter_mut().chain(t.sum2.iter_mut()) {
+        for px in t
+            .sum
+            .iter_mut()
+            .chain(t.sum2.iter_mut())
+            .chain(t.sum_w2.iter_mut())
+        {
             for v in px.iter_mut() {
                 *v = r.f64("pixel sums")?;
             }
+        }
+        for v in t.weight.iter_mut().chain(t.weight2.iter_mut()) {
+            *v = r.f64("filter weights")?;
         }
     }
     r.finish()?;

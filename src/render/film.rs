@@ -1,10 +1,15 @@
 //! Film accumulation in tiles: each tile renders whole sample indices for all its pixels and
 //! keeps f64 per-pixel sums (and sums of squares) in sample order, so the result is a pure
 //! function of (scene, seed, sample range, window), whatever the threads, pass sizes or
-//! interruptions. Box filter: pixel (i, j) covers [i, i+1) × [j, j+1); each sample lands in
-//! exactly one pixel, uniformly jittered inside it.
+//! interruptions. Pixel (i, j) covers [i, i+1) × [j, j+1); each sample is uniformly jittered
+//! inside its pixel. With the radius-½ box filter it lands in exactly that pixel; with any other
+//! reconstruction filter (filter.rs) it is splatted with weights into the pixels within the
+//! filter radius: each tile then owns a bordered buffer, tiles lie on a grid fixed in the full
+//! film, a window renders the samples of its border pixels too, and the window image adds the
+//! tiles' buffers in tile order — so a pixel's value does not depend on threads or windows.
 
 use super::RenderScene;
+use super::filter::{FOOTPRINT, Filter};
 use super::integrator::TraceStats;
 use crate::io::RgbImage;
 use crate::math::Pcg32;
@@ -79,57 +84,111 @@ impl RenderSettings {
 /// One tile of the window and its accumulators.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tile {
-    /// Tile rectangle in full-film pixels.
+    /// Tile rectangle in full-film pixels: the pixels whose samples this tile renders.
     pub x0: u32,
     pub y0: u32,
     pub w: u32,
     pub h: u32,
+    /// Pixels the accumulators extend beyond the rectangle on each side (the filter's border;
+    /// 0 for the box filter). Buffer pixel (bx, by) is film pixel (x0 − border + bx, y0 − border + by).
+    pub border: u32,
     /// Samples per pixel completed (relative to spp_begin).
     pub done: u32,
-    /// Per pixel, row-major in the tile: Σ L and Σ L² (RGB).
+    /// Per buffer pixel, row-major: Σ w·L and Σ (w·L)² (RGB); w = 1 for the box filter.
     pub sum: Vec<[f64; 3]>,
     pub sum2: Vec<[f64; 3]>,
+    /// Filtered tiles only (empty for the box filter, whose weights are all 1): Σ w²·L (RGB),
+    /// Σ w and Σ w² per buffer pixel.
+    pub sum_w2: Vec<[f64; 3]>,
+    pub weight: Vec<f64>,
+    pub weight2: Vec<f64>,
     /// Rays traced and sample values discarded as NaN/Inf.
     pub rays: u64,
     pub invalid: u64,
 }
 
-/// A render in progress: the settings and the tiles.
+/// A render in progress: the settings, the reconstruction filter and the tiles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderState {
     pub settings: RenderSettings,
+    pub filter: Filter,
     pub tiles: Vec<Tile>,
 }
 
+/// Tile edges along one axis covering `lo..hi`: from `lo` in TILE steps (`grid` false), or cut at
+/// multiples of TILE of the full film (`grid` true, so every window tiles alike).
+fn tile_spans(lo: u32, hi: u32, grid: bool) -> Vec<(u32, u32)> {
+    let mut v = Vec::new();
+    let mut a = lo;
+    while a < hi {
+        let next = if grid {
+            (a / TILE + 1) * TILE
+        } else {
+            a + TILE
+        };
+        let b = next.min(hi);
+        v.push((a, b - a));
+        a = b;
+    }
+    v
+}
+
 impl RenderState {
-    /// A fresh render (nothing accumulated).
+    /// A fresh render with the box filter (nothing accumulated).
     pub fn new(settings: RenderSettings) -> Result<RenderState> {
+        RenderState::with_filter(settings, Filter::BOX)
+    }
+
+    /// A fresh render with reconstruction filter `filter`. A filtered window also renders the
+    /// samples of the `filter.border()` pixels around it (within the film).
+    pub fn with_filter(settings: RenderSettings, filter: Filter) -> Result<RenderState> {
         settings.validate()?;
         let [cx, cy, cw, ch] = settings.crop;
-        let mut tiles = Vec::new();
-        let mut y = cy;
-        while y < cy + ch {
-            let h = TILE.min(cy + ch - y);
-            let mut x = cx;
-            while x < cx + cw {
-                let w = TILE.min(cx + cw - x);
-                let n = (w * h) as usize;
+        let b = filter.border();
+        let (x0, y0) = (cx.saturating_sub(b), cy.saturating_sub(b));
+        let x1 = (cx + cw).saturating_add(b).min(settings.width);
+        let y1 = (cy + ch).saturating_add(b).min(settings.height);
+        let filtered = !filter.is_box();
+        let (xs, ys) = (tile_spans(x0, x1, filtered), tile_spans(y0, y1, filtered));
+        if filtered {
+            let side = (TILE + 2 * b) as u64;
+            let bytes = (xs.len() * ys.len()) as u64 * side * side * 88;
+            if bytes > MAX_FILM_BYTES {
+                return Err(Error::Invalid(format!(
+                    "a {cw}×{ch} window with a filter of radius {} needs ≈{:.1} GiB of film memory (limit {} GiB)",
+                    filter.radius,
+                    bytes as f64 / (1u64 << 30) as f64,
+                    MAX_FILM_BYTES >> 30
+                )));
+            }
+        }
+        let mut tiles = Vec::with_capacity(xs.len() * ys.len());
+        for &(y, h) in &ys {
+            for &(x, w) in &xs {
+                let n = ((w + 2 * b) * (h + 2 * b)) as usize;
+                let m = if filtered { n } else { 0 };
                 tiles.push(Tile {
                     x0: x,
                     y0: y,
                     w,
                     h,
+                    border: b,
                     done: 0,
                     sum: vec![[0.0; 3]; n],
                     sum2: vec![[0.0; 3]; n],
+                    sum_w2: vec![[0.0; 3]; m],
+                    weight: vec![0.0; m],
+                    weight2: vec![0.0; m],
                     rays: 0,
                     invalid: 0,
                 });
-                x += w;
             }
-            y += h;
         }
-        Ok(RenderState { settings, tiles })
+        Ok(RenderState {
+            settings,
+            filter,
+            tiles,
+        })
     }
 
     /// True once every tile has all its samples.
@@ -146,10 +205,10 @@ impl RenderState {
             .sum()
     }
 
-    /// Pixel-samples of the whole render.
+    /// Pixel-samples of the whole render (a filtered window's border pixels included).
     pub fn samples_total(&self) -> u64 {
-        let [_, _, w, h] = self.settings.crop;
-        w as u64 * h as u64 * self.settings.spp() as u64
+        let px: u64 = self.tiles.iter().map(|t| (t.w * t.h) as u64).sum();
+        px * self.settings.spp() as u64
     }
 
     /// Rays traced so far.
@@ -173,7 +232,12 @@ impl RenderState {
         progress: &(dyn Fn(u64, u64) + Sync),
     ) {
         let s = self.settings;
+        let filter = self.filter;
         self.tiles.par_iter_mut().for_each(|tile| {
+            if !filter.is_box() {
+                run_filtered(tile, &s, &filter, rs, k, interrupt, progress);
+                return;
+            }
             let end = s.spp().min(tile.done.saturating_add(k));
             if let super::IntegratorKind::Packet(opts) = rs.kind {
                 super::packet::render_tile(rs, opts, &s, tile, end, interrupt, progress);
@@ -218,22 +282,83 @@ impl RenderState {
         });
     }
 
-    /// The per-pixel mean (the image) of the window; requires a complete render.
+    /// The per-pixel mean (the image) of the window, Σ w·L / Σ w; requires a complete render.
     pub fn mean_image(&self) -> RgbImage {
+        if !self.filter.is_box() {
+            return self.filtered_image(false);
+        }
         self.image_from(|sum, _sum2, n| sum / n)
     }
 
     /// Per-pixel variance of the mean, s²/n with the unbiased sample variance s² (needs n ≥ 2).
+    /// With a filter: the delta-method variance of Σ w·L / Σ w, Σ w²(L − m)² / (Σ w)², scaled
+    /// by n_eff / (n_eff − 1) with n_eff = (Σ w)² / Σ w² (which is s²/n again for equal weights).
     pub fn variance_image(&self) -> Result<RgbImage> {
         if self.settings.spp() < 2 {
             return Err(Error::Invalid(
                 "the variance image needs at least 2 samples per pixel".into(),
             ));
         }
+        if !self.filter.is_box() {
+            return Ok(self.filtered_image(true));
+        }
         Ok(self.image_from(|sum, sum2, n| {
             let mean = sum / n;
             ((sum2 - n * mean * mean) / (n - 1.0)).max(0.0) / n
         }))
+    }
+
+    /// Adds the tiles' buffers over the window in tile order, then the mean or its variance.
+    fn filtered_image(&self, variance: bool) -> RgbImage {
+        let [cx, cy, cw, ch] = self.settings.crop;
+        let (cw, ch) = (cw as usize, ch as usize);
+        let mut a = vec![[0f64; 3]; cw * ch];
+        let mut a2 = vec![[0f64; 3]; cw * ch];
+        let mut aw2 = vec![[0f64; 3]; cw * ch];
+        let mut wsum = vec![0f64; cw * ch];
+        let mut w2sum = vec![0f64; cw * ch];
+        for t in &self.tiles {
+            let b = t.border as i64;
+            let bw = (t.w + 2 * t.border) as usize;
+            for (i, &wt) in t.weight.iter().enumerate() {
+                let x = t.x0 as i64 - b + (i % bw) as i64 - cx as i64;
+                let y = t.y0 as i64 - b + (i / bw) as i64 - cy as i64;
+                if x < 0 || y < 0 || x >= cw as i64 || y >= ch as i64 {
+                    continue;
+                }
+                let j = y as usize * cw + x as usize;
+                for c in 0..3 {
+                    a[j][c] += t.sum[i][c];
+                    a2[j][c] += t.sum2[i][c];
+                    aw2[j][c] += t.sum_w2[i][c];
+                }
+                wsum[j] += wt;
+                w2sum[j] += t.weight2[i];
+            }
+        }
+        let mut img = RgbImage::new(cw, ch);
+        for j in 0..cw * ch {
+            let w = wsum[j];
+            let v = std::array::from_fn(|c| {
+                if w == 0.0 {
+                    return 0.0;
+                }
+                let m = a[j][c] / w;
+                if !variance {
+                    return m as f32;
+                }
+                let q = w2sum[j];
+                let dev = (a2[j][c] - 2.0 * m * aw2[j][c] + m * m * q).max(0.0) / (w * w);
+                let n_eff = w * w / q;
+                if n_eff > 1.0 {
+                    (dev * n_eff / (n_eff - 1.0)) as f32
+                } else {
+                    f32::INFINITY
+                }
+            });
+            img.set(j % cw, j / cw, v);
+        }
+        img
     }
 
     fn image_from(&self, f: impl Fn(f64, f64, f64) -> f64) -> RgbImage {
@@ -250,5 +375,80 @@ impl RenderState {
             }
         }
         img
+    }
+}
+
+/// Renders up to `k` more samples of one filtered tile, splatting each into its bordered buffer.
+fn run_filtered(
+    tile: &mut Tile,
+    s: &RenderSettings,
+    filter: &Filter,
+    rs: &RenderScene,
+    k: u32,
+    interrupt: &AtomicBool,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) {
+    let end = s.spp().min(tile.done.saturating_add(k));
+    let b = tile.border as i64;
+    let (bx0, by0) = (tile.x0 as i64 - b, tile.y0 as i64 - b);
+    let (bw, bh) = (
+        (tile.w + 2 * tile.border) as i64,
+        (tile.h + 2 * tile.border) as i64,
+    );
+    let (fw, fh) = (s.width as i64, s.height as i64);
+    let mut wx = [0f32; FOOTPRINT];
+    let mut wy = [0f32; FOOTPRINT];
+    while tile.done < end {
+        if interrupt.load(Ordering::Relaxed) {
+            return;
+        }
+        let mut stats = TraceStats::default();
+        let mut invalid = 0;
+        let sample = (s.spp_begin + tile.done) as u64;
+        for ty in 0..tile.h {
+            for tx in 0..tile.w {
+                let (px, py) = (tile.x0 + tx, tile.y0 + ty);
+                let pixel = py as u64 * s.width as u64 + px as u64;
+                let mut rng = Pcg32::for_sample(s.seed, pixel, sample);
+                let fx = px as f32 + rng.next_f32();
+                let fy = py as f32 + rng.next_f32();
+                let (o, d, tmax) = rs.camera.ray(fx, fy);
+                let mut l = rs.integrator.li(rs, o, d, tmax, &mut rng, &mut stats);
+                if !l.is_finite() {
+                    // A zero-valued sample that still carries its weight, as Mitsuba's film.
+                    invalid += 1;
+                    l = crate::math::Spectrum::ZERO;
+                }
+                let (lx, nx) = filter.weights_1d(fx, &mut wx);
+                let (ly, ny) = filter.weights_1d(fy, &mut wy);
+                for (j, &wyj) in wy.iter().enumerate().take(ny) {
+                    let y = ly + j as i64;
+                    if y < 0 || y >= fh || y < by0 || y >= by0 + bh {
+                        continue;
+                    }
+                    for (i, &wxi) in wx.iter().enumerate().take(nx) {
+                        let x = lx + i as i64;
+                        if x < 0 || x >= fw || x < bx0 || x >= bx0 + bw {
+                            continue;
+                        }
+                        let w = (wxi * wyj) as f64;
+                        let q = ((y - by0) * bw + (x - bx0)) as usize;
+                        let w2 = w * w;
+                        for c in 0..3 {
+                            let v = l[c] as f64;
+                            tile.sum[q][c] += w * v;
+                            tile.sum2[q][c] += w2 * v * v;
+                            tile.sum_w2[q][c] += w2 * v;
+                        }
+                        tile.weight[q] += w;
+                        tile.weight2[q] += w2;
+                    }
+                }
+            }
+        }
+        tile.done += 1;
+        tile.rays += stats.rays;
+        tile.invalid += invalid;
+        progress((tile.w * tile.h) as u64, stats.rays);
     }
 }

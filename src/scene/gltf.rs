@@ -251,6 +251,7 @@ impl GltfBuilder<'_> {
             width,
             height,
             crop: None,
+            filter: crate::render::filter::Filter::BOX,
         })
     }
 

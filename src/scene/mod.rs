@@ -6,6 +6,7 @@ pub mod load_options;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
+pub mod serialized;
 pub mod shapes;
 
 use crate::bsdf::Bsdf;
@@ -42,6 +43,8 @@ pub struct Camera {
     pub height: u32,
     /// Optional crop window (x, y, w, h) in pixels of the full film.
     pub crop: Option<[u32; 4]>,
+    /// The film's reconstruction filter (Mitsuba's default: gaussian, σ = 0.5 pixel).
+    pub filter: crate::render::filter::Filter,
 }
 
 impl Camera {

@@ -50,6 +50,10 @@ CONFIGS = {
                        "specular_transmittance": rgb([0.9, 0.8, 0.7])},
     "twosided_rough": {"type": "twosided", "a": rough(0.3, 0.1, True),
                        "b": {"type": "diffuse", "reflectance": rgb([0.3, 0.2, 0.1])}},
+    "plastic": {"type": "plastic", "diffuse_reflectance": rgb([0.2, 0.5, 0.8])},
+    "plastic_nonlinear": {"type": "plastic", "int_ior": 1.7, "ext_ior": 1.0, "nonlinear": True,
+                          "diffuse_reflectance": rgb([0.6, 0.3, 0.1]),
+                          "specular_reflectance": rgb([0.8, 0.9, 1.0])},
 }
 
 

@@ -5,6 +5,7 @@ use super::{Builder, N};
 use crate::Result;
 use crate::math::Mat3;
 use crate::math::Mat4;
+use crate::render::filter::Filter;
 use crate::scene::Camera;
 use crate::scene::IntegratorSettings;
 
@@ -84,25 +85,39 @@ impl<'a, 'x> Builder<'a, 'x> {
                 )));
             }
         }
-        // With a box filter of radius 0.5 no sample reaches a neighbouring pixel: no effect.
-        let _ = f.bool("sample_border", false)?;
-        let rf = f.single_child("rfilter")?.ok_or_else(|| {
-            f.err(
-                "missing <rfilter>: Mitsuba would use its default gaussian filter, which btfpt does not \
-                 implement; add <rfilter type=\"box\"/> inside the <film>",
-            )
-        })?;
-        let r = Props::parse(x, rf.node)?;
-        if r.ty != "box" {
-            return Err(r.err(
-                "unsupported reconstruction filter (btfpt implements only \"box\" of radius 0.5)",
+        if f.bool("sample_border", false)? {
+            return Err(f.err(
+                "sample_border=true is not supported (samples are taken inside the film only)",
             ));
         }
-        let radius = r.float("radius", 0.5)?;
-        if radius != 0.5 {
-            return Err(r.err("only the default box radius 0.5 (one pixel) is supported"));
-        }
-        r.finish()?;
+        // No <rfilter>: Mitsuba's default gaussian (stddev 0.5).
+        let filter = match f.single_child("rfilter")? {
+            None => Filter::default(),
+            Some(rf) => {
+                let r = Props::parse(x, rf.node)?;
+                let filter = match r.ty.as_str() {
+                    "box" => Filter::boxed(r.float("radius", 0.5)?),
+                    "tent" => Filter::tent(r.float("radius", 1.0)?),
+                    "gaussian" => Filter::gaussian(r.float("stddev", 0.5)?),
+                    "mitchell" => Filter::mitchell(
+                        r.float("B", 1.0 / 3.0)?,
+                        r.float("C", 1.0 / 3.0)?,
+                        r.float("radius", 2.0)?,
+                    ),
+                    "catmullrom" => Filter::mitchell(0.0, 0.5, r.float("radius", 2.0)?),
+                    "lanczos" => Filter::lanczos(r.int("lobes", 3)?),
+                    _ => {
+                        return Err(r.err(
+                            "unsupported reconstruction filter (box, tent, gaussian, mitchell, \
+                             catmullrom and lanczos are implemented)",
+                        ));
+                    }
+                }
+                .map_err(|e| r.err(e.to_string()))?;
+                r.finish()?;
+                filter
+            }
+        };
         f.finish()?;
 
         let aspect = width as f64 / height as f64;
@@ -159,6 +174,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 width: width as u32,
                 height: height as u32,
                 crop,
+                filter,
             },
             spp,
         ))
