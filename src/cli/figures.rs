@@ -6,8 +6,8 @@
 //! - clusters = K-means clusters per view and colour channel (the table each view's texels
 //!   index), as produced; never more than the texels of one view.
 
-use btfpt::fit::model::{PlmcModel, ValueSpace, ViewParams};
 use btfpt::fit::report::raw_bytes;
+use btfpt::model::{PlmcModel, ValueSpace, ViewParams};
 
 /// Raw 8-bit size of the model's own texels, in bytes.
 pub fn raw_of(model: &PlmcModel) -> usize {

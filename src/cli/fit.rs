@@ -4,7 +4,6 @@ use anyhow::Context;
 use btfpt::btf;
 use btfpt::btf::tiling;
 use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
-use btfpt::fit::report::raw_bytes;
 use btfpt::fit::views::ViewSelection;
 use btfpt::model::ModelKind;
 use btfpt::model::codec;
@@ -203,10 +202,7 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             Stage::Lm => 0,
             Stage::Plm => 1,
             Stage::PlmC => 2,
-            Stage::Done => {
-                saved.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-                labels.len() - 1
-            }
+            Stage::Done => labels.len() - 1,
         };
         if let Some(b) = bars.get(i) {
             b.inc(1);

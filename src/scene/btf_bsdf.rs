@@ -14,7 +14,7 @@
 use crate::bsdf::plmc;
 use crate::bsdf::{Bsdf, BtfBsdf, BtfMaterial, PlmcBsdf};
 use crate::btf::synth::{MaterialKind, SynthSettings, measure};
-use crate::btf::{DirectionSet, RawBtf};
+use crate::btf::{BtfSource, DirectionSet, RawBtf};
 use crate::io::shared::{SharedCache, shared_by_path};
 use crate::model::{BtfModel, resolve_model_file};
 use crate::{Error, Result};
@@ -55,7 +55,10 @@ pub fn build_btf(
         let used = BtfUse {
             file: PathBuf::from(filename),
             model: BtfModel::Raw,
-            texels: (bsdf.material().btf().width(), bsdf.material().btf().height()),
+            texels: (
+                bsdf.material().btf().width(),
+                bsdf.material().btf().height(),
+            ),
             seconds: t0.elapsed().as_secs_f64(),
         };
         return Ok((Bsdf::Btf(bsdf), used));
