@@ -4,9 +4,9 @@
 mod common;
 
 use btfpt::geometry::generate::{quad, sphere};
+use btfpt::math::filter::Filter;
 use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::film::{RenderSettings, RenderState};
-use btfpt::render::filter::Filter;
 use btfpt::render::partial::{PartialMeta, merge, read_partial_exr, write_partial_exr};
 use btfpt::render::{RenderScene, checkpoint};
 use btfpt::scene::Emitter;

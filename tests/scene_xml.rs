@@ -507,7 +507,7 @@ fn nan_transform_is_rejected() {
 
 #[test]
 fn rfilters_and_missing_film() {
-    use btfpt::render::filter::Filter;
+    use btfpt::math::filter::Filter;
     let dir = tempfile::tempdir().unwrap();
     let film = |name: &str, inner: &str| {
         write(

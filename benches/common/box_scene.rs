@@ -77,7 +77,7 @@ pub fn box_scene(bsdfs: Vec<Bsdf>, walls: [u32; 5]) -> RenderScene {
             width: FILM,
             height: FILM,
             crop: None,
-            filter: btfpt::render::filter::Filter::BOX,
+            filter: btfpt::math::filter::Filter::BOX,
         },
         integrator: IntegratorSettings::default(),
         spp: SPP,

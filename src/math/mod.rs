@@ -2,6 +2,7 @@
 
 pub mod color;
 pub mod distribution;
+pub mod filter;
 pub mod frame;
 pub mod rng;
 pub mod simd;

@@ -105,7 +105,7 @@ mod tests {
             width: 200,
             height: 100,
             crop: None,
-            filter: crate::render::filter::Filter::BOX,
+            filter: crate::math::filter::Filter::BOX,
         };
         let c = PerspectiveCamera::new(&cam).unwrap();
         let (_, d, _) = c.ray(100.0, 50.0);
@@ -131,7 +131,7 @@ mod tests {
             width: 2,
             height: 2,
             crop: None,
-            filter: crate::render::filter::Filter::BOX,
+            filter: crate::math::filter::Filter::BOX,
         };
         assert!(PerspectiveCamera::new(&cam).is_err());
         cam.fov_x_deg = 45.0;

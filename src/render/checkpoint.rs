@@ -8,9 +8,9 @@
 //! bordered buffers (w + 2b)(h + 2b) of sums, sums of squares, Σ w²L, Σ w and Σ w².
 
 use super::film::{RenderSettings, RenderState, Tile};
-use super::filter::{Filter, FilterKind};
 use crate::io::bytes::{Reader, Writer};
 use crate::io::write_atomic;
+use crate::math::filter::{Filter, FilterKind};
 use crate::{Error, Result};
 use std::path::Path;
 

@@ -9,10 +9,10 @@
 //! tiles' buffers in tile order — so a pixel's value does not depend on threads or windows.
 
 use super::RenderScene;
-use super::filter::{FOOTPRINT, Filter};
 use super::integrator::TraceStats;
 use crate::io::RgbImage;
 use crate::math::Pcg32;
+use crate::math::filter::{FOOTPRINT, Filter};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -4,7 +4,6 @@
 pub mod camera;
 pub mod checkpoint;
 pub mod film;
-pub mod filter;
 pub mod integrator;
 pub mod packet;
 pub mod partial;
@@ -137,7 +136,7 @@ pub(crate) mod tests_support {
                 width: 4,
                 height: 4,
                 crop: None,
-                filter: crate::render::filter::Filter::BOX,
+                filter: crate::math::filter::Filter::BOX,
             },
             integrator: IntegratorSettings::default(),
             spp: 1,

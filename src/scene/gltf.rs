@@ -251,7 +251,7 @@ impl GltfBuilder<'_> {
             width,
             height,
             crop: None,
-            filter: crate::render::filter::Filter::BOX,
+            filter: crate::math::filter::Filter::BOX,
         })
     }
 

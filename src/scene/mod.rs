@@ -44,7 +44,7 @@ pub struct Camera {
     /// Optional crop window (x, y, w, h) in pixels of the full film.
     pub crop: Option<[u32; 4]>,
     /// The film's reconstruction filter (Mitsuba's default: gaussian, σ = 0.5 pixel).
-    pub filter: crate::render::filter::Filter,
+    pub filter: crate::math::filter::Filter,
 }
 
 impl Camera {

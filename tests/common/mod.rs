@@ -54,7 +54,7 @@ pub fn scene(
             width: res.0,
             height: res.1,
             crop: None,
-            filter: btfpt::render::filter::Filter::BOX,
+            filter: btfpt::math::filter::Filter::BOX,
         },
         integrator: IntegratorSettings::default(),
         spp: 4,

@@ -5,7 +5,7 @@ use super::{Builder, N};
 use crate::Result;
 use crate::math::Mat3;
 use crate::math::Mat4;
-use crate::render::filter::Filter;
+use crate::math::filter::Filter;
 use crate::scene::Camera;
 use crate::scene::IntegratorSettings;
 
