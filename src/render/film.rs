@@ -107,6 +107,26 @@ pub struct Tile {
     pub invalid: u64,
 }
 
+impl Tile {
+    /// Adds one box-filtered sample `l` to buffer pixel `i` (Σ L and Σ L², in f64). A NaN or
+    /// infinite sample adds nothing and returns false: it counts as a zero-valued sample, as
+    /// Mitsuba's film does (the caller books it as invalid).
+    #[inline]
+    pub fn add_box_sample(&mut self, i: usize, l: crate::math::Spectrum) -> bool {
+        if !l.is_finite() {
+            return false;
+        }
+        let acc = &mut self.sum[i];
+        let acc2 = &mut self.sum2[i];
+        for c in 0..3 {
+            let v = l[c] as f64;
+            acc[c] += v;
+            acc2[c] += v * v;
+        }
+        true
+    }
+}
+
 /// A render in progress: the settings, the reconstruction filter and the tiles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderState {
@@ -259,17 +279,7 @@ impl RenderState {
                         let fy = py as f32 + rng.next_f32();
                         let (o, d, tmax) = rs.camera.ray(fx, fy);
                         let l = rs.integrator.li(rs, o, d, tmax, &mut rng, &mut stats);
-                        let i = (ty * tile.w + tx) as usize;
-                        if l.is_finite() {
-                            let acc = &mut tile.sum[i];
-                            let acc2 = &mut tile.sum2[i];
-                            for c in 0..3 {
-                                let v = l[c] as f64;
-                                acc[c] += v;
-                                acc2[c] += v * v;
-                            }
-                        } else {
-                            // Counted as a zero-valued sample, as Mitsuba's film does.
+                        if !tile.add_box_sample((ty * tile.w + tx) as usize, l) {
                             invalid += 1;
                         }
                     }

@@ -72,17 +72,8 @@ pub fn render_tile(
         // Accumulate in sample order, pixel order: exactly the scalar loop's additions.
         for (k, sample) in out.chunks_exact(npix).enumerate() {
             let mut invalid = 0;
-            for (i, l) in sample.iter().enumerate() {
-                if l.is_finite() {
-                    let acc = &mut tile.sum[i];
-                    let acc2 = &mut tile.sum2[i];
-                    for c in 0..3 {
-                        let v = l[c] as f64;
-                        acc[c] += v;
-                        acc2[c] += v * v;
-                    }
-                } else {
-                    // Counted as a zero-valued sample, as Mitsuba's film does.
+            for (i, &l) in sample.iter().enumerate() {
+                if !tile.add_box_sample(i, l) {
                     invalid += 1;
                 }
             }
