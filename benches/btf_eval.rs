@@ -18,10 +18,10 @@
 //! evaluation group measures thread CPU time (the machine is shared); the render group, whose
 //! work runs on a pool thread, process CPU time.
 
-use btfpt::bsdf::plmc::PlmcMaterial;
+use btfpt::bsdf::plmc::{BATCH, PlmcHit, PlmcMaterial};
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
-use btfpt::math::{Pcg32, Spectrum};
+use btfpt::math::{Pcg32, Spectrum, Vec3};
 use btfpt::model::ModelKind;
 use btfpt::render::film::RenderState;
 #[path = "common/btf_scene.rs"]
@@ -110,6 +110,32 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
                     acc
                 })
             });
+            // The packet integrator's form: 16 queries per call (view lookups and texel
+            // addressing by `prepare`, as at a shading hit), one pass of the 16-lane kernel.
+            let batch = |want_pdf: bool| {
+                let bsdf = &bsdf;
+                let q = &q;
+                move || {
+                    let mut acc = Spectrum::ZERO;
+                    let mut out = [(Spectrum::ZERO, 0.0); BATCH];
+                    let want = [want_pdf; BATCH];
+                    for chunk in q.chunks(BATCH) {
+                        let n = chunk.len();
+                        let hits: [PlmcHit; BATCH] = std::array::from_fn(|j| {
+                            bsdf.prepare(black_box(&chunk[j.min(n - 1)].0))
+                                .expect("bench views are above the horizon")
+                        });
+                        let wo: [Vec3; BATCH] = std::array::from_fn(|j| chunk[j.min(n - 1)].1);
+                        bsdf.eval_pdf_batch(&hits[..n], black_box(&wo[..n]), &want[..n], &mut out[..n]);
+                        for (f, pdf) in &out[..n] {
+                            acc += *f * pdf.max(1.0);
+                        }
+                    }
+                    acc
+                }
+            };
+            g.bench_function("plmc_batch16", |b| b.iter(batch(false)));
+            g.bench_function("plmc_eval_pdf_batch16", |b| b.iter(batch(true)));
             g.bench_function("plmc_sample", |b| {
                 let mut rng = Pcg32::new(7, 3);
                 b.iter(|| {

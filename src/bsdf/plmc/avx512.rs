@@ -74,7 +74,7 @@ const VIEW2: __mmask16 = 0x0700;
 
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
-fn splat(x: f32) -> __m512 {
+pub(super) fn splat(x: f32) -> __m512 {
     _mm512_set1_ps(x)
 }
 
@@ -82,7 +82,7 @@ fn splat(x: f32) -> __m512 {
 /// m ∈ [√½, √2) (the series of `f4::log2_series`, same evaluation order).
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
-fn log2(x: __m512) -> __m512 {
+pub(super) fn log2(x: __m512) -> __m512 {
     let m = _mm512_getmant_ps::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(x);
     let e = _mm512_getexp_ps(x);
     let big = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(m, splat(std::f32::consts::SQRT_2));
@@ -103,7 +103,7 @@ fn log2(x: __m512) -> __m512 {
 /// `f4::exp2_poly` (same order), scaled by `vscalef` (exact: the result is a normal float).
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
-fn exp2(x: __m512) -> __m512 {
+pub(super) fn exp2(x: __m512) -> __m512 {
     let x = _mm512_min_ps(_mm512_max_ps(x, splat(-125.0)), splat(127.0));
     let r = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x);
     let f = _mm512_sub_ps(x, r);

@@ -1,6 +1,7 @@
 //! The fitted-model BTF as a BSDF: texel addressing (nearest or bilinear), the per-hit state
 //! shared by one vertex's calls, eval/pdf/sample through the material and the light sampler.
 
+use super::kernel::{BATCH, BatchQuery};
 use super::material::PlmcMaterial;
 use crate::bsdf::{BsdfFlags, BsdfSample};
 use crate::geometry::SurfaceInteraction;
@@ -218,6 +219,66 @@ impl PlmcBsdf {
             return (Spectrum::ZERO, 0.0);
         }
         self.eval_pdf_hit_inner(hit, wo)
+    }
+
+    /// [`PlmcBsdf::eval_pdf_hit`] of up to [`BATCH`] (hit, ω_l) pairs at once, the same values;
+    /// where `want_pdf[q]` is false the pdf is not computed and 0 is returned (the emitter
+    /// sample of a delta light needs only [`PlmcBsdf::eval_hit`], which is the same value). The
+    /// model evaluations of nearest-texel hits run as one pass of the 16-lane kernel
+    /// ([`PlmcMaterial::eval_b_batch`]); the rest one by one.
+    pub fn eval_pdf_batch(
+        &self,
+        hits: &[PlmcHit],
+        wo: &[Vec3],
+        want_pdf: &[bool],
+        out: &mut [(Spectrum, f32)],
+    ) {
+        let n = hits.len();
+        assert!(n <= BATCH && wo.len() == n && want_pdf.len() == n && out.len() == n);
+        let m = &*self.material;
+        let lights = m.sampler.light_interp();
+        let mut queries = [BatchQuery::default(); BATCH];
+        let mut slot = [0usize; BATCH];
+        let mut nq = 0;
+        let batches = m.batches();
+        for q in 0..n {
+            let (h, w) = (&hits[q], wo[q]);
+            if w.z <= 0.0 {
+                out[q] = (Spectrum::ZERO, 0.0);
+                continue;
+            }
+            let located = lights.locate([w.x, w.y]);
+            let (li, lw) = lights.interpolation(located.0, located.1);
+            let pdf = if want_pdf[q] {
+                m.sampler.pdf_located(h.vi, h.vw, w, located)
+            } else {
+                0.0
+            };
+            if batches && h.n == 1 && h.texels[0].1 == 1.0 {
+                queries[nq] = BatchQuery {
+                    texel: h.texels[0].0 as u32,
+                    vi: h.vi,
+                    vw: h.vw,
+                    li,
+                    lw,
+                    wo: [w.x, w.y, w.z],
+                };
+                slot[nq] = q;
+                nq += 1;
+                out[q] = (Spectrum::ZERO, pdf);
+            } else {
+                let t = &h.texels[..h.n as usize];
+                let f = Spectrum::from(m.eval_b_with(h.vi, h.vw, li, lw, w, t)) * INV_PI;
+                out[q] = (f, pdf);
+            }
+        }
+        if nq > 0 {
+            let mut b = [[0f32; 3]; BATCH];
+            m.eval_b_batch(&queries[..nq], &mut b[..nq]);
+            for j in 0..nq {
+                out[slot[j]].0 = Spectrum::from(b[j]) * INV_PI;
+            }
+        }
     }
 
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.

@@ -9,6 +9,21 @@ use super::material::PlmcMaterial;
 use crate::math::Vec3;
 use crate::model::ValueSpace;
 
+/// Most queries of one [`PlmcMaterial::eval_b_batch`] call (one per AVX-512 lane).
+pub const BATCH: usize = 16;
+
+/// One evaluation of a batch: the texel, the 3 measured views and lights around ω_v, ω_l with
+/// their interpolation weights, and ω_l (local frame).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BatchQuery {
+    pub texel: u32,
+    pub vi: [u32; 3],
+    pub vw: [f32; 3],
+    pub li: [u32; 3],
+    pub lw: [f32; 3],
+    pub wo: [f32; 3],
+}
+
 /// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
 pub const FLUSH: f32 = 1e-20;
 /// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
@@ -108,21 +123,7 @@ impl PlmcMaterial {
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
         #[cfg(target_arch = "x86_64")]
-        if let (Some(token), Params::Clustered8 { k, records, index }, [(texel, tw)]) =
-            (self.avx512, &self.params, texels)
-            && !self.polys.is_empty()
-        {
-            let t = super::avx512::Tables {
-                k: *k,
-                n_views: self.n_views,
-                n_lights: self.n_lights,
-                records,
-                index,
-                polys: &self.polys,
-                y_max: &self.y_max,
-                out_max: &self.out_max,
-                srgb: self.space == ValueSpace::Srgb,
-            };
+        if let ([(texel, tw)], Some((token, t))) = (texels, self.avx512_tables()) {
             // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
             let b = unsafe {
                 super::avx512::eval(token, &t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel)
@@ -135,6 +136,61 @@ impl PlmcMaterial {
             return unsafe { self.eval_b_avx2(isa, vi, vw, (li, lw), wo, texels) };
         }
         self.eval_b_isa(Sse2, vi, vw, (li, lw), wo, texels)
+    }
+
+    /// The tables of the 16-lane kernels, if this material runs them: PLM-C with u8 indices and
+    /// polynomials on an AVX-512 CPU (nearest texel; the caller checks that).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn avx512_tables(&self) -> Option<(super::avx512::Avx512, super::avx512::Tables<'_>)> {
+        match (self.avx512, &self.params) {
+            (Some(token), Params::Clustered8 { k, records, index }) if !self.polys.is_empty() => {
+                Some((
+                    token,
+                    super::avx512::Tables {
+                        k: *k,
+                        n_views: self.n_views,
+                        n_lights: self.n_lights,
+                        records,
+                        index,
+                        polys: &self.polys,
+                        y_max: &self.y_max,
+                        out_max: &self.out_max,
+                        srgb: self.space == ValueSpace::Srgb,
+                    },
+                ))
+            }
+            _ => None,
+        }
+    }
+
+    /// True if [`PlmcMaterial::eval_b_batch`] runs the 16-query kernel (else it evaluates the
+    /// queries one by one).
+    pub fn batches(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let Some((_, t)) = self.avx512_tables() {
+            return super::batch::fits(&t);
+        }
+        false
+    }
+
+    /// B (nearest texel) of up to 16 queries, each exactly what [`PlmcMaterial::eval_b_with`]
+    /// returns for it with the single texel `(q.texel, 1.0)`: one pass of the 16-lane kernel
+    /// where [`PlmcMaterial::batches`], else query by query.
+    pub fn eval_b_batch(&self, q: &[BatchQuery], out: &mut [[f32; 3]]) {
+        assert!(q.len() <= BATCH && out.len() == q.len());
+        #[cfg(target_arch = "x86_64")]
+        if let Some((token, t)) = self.avx512_tables()
+            && super::batch::fits(&t)
+        {
+            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
+            unsafe { super::batch::eval(token, &t, q, out) };
+            return;
+        }
+        for (o, q) in out.iter_mut().zip(q) {
+            let wo = Vec3::new(q.wo[0], q.wo[1], q.wo[2]);
+            *o = self.eval_b_with(q.vi, q.vw, q.li, q.lw, wo, &[(q.texel as usize, 1.0)]);
+        }
     }
 
     /// [`PlmcMaterial::eval_b_with`] compiled for AVX2 + FMA.

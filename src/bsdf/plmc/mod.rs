@@ -36,6 +36,8 @@
 
 #[cfg(target_arch = "x86_64")]
 mod avx512;
+#[cfg(target_arch = "x86_64")]
+mod batch;
 mod bsdf;
 mod f4;
 mod kernel;
@@ -44,5 +46,5 @@ mod material;
 mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
-pub use kernel::{FLUSH, LANES, LobeRec, PolyRow};
+pub use kernel::{BATCH, BatchQuery, FLUSH, LANES, LobeRec, PolyRow};
 pub use material::{PlmcMaterial, shared_material};

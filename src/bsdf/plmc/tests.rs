@@ -680,3 +680,50 @@ fn floor_fast_is_floor() {
     }
     assert!(floor_fast(f32::NAN).is_nan());
 }
+
+#[test]
+fn batched_evaluation_is_the_single_query_evaluation_bit_for_bit() {
+    use crate::bsdf::plmc::BATCH;
+    let mut rng = Pcg32::new(21, 8);
+    for (kind, space) in ALL {
+        let f = fixture(kind, space);
+        // PLM-C on AVX-512 runs the 16-lane kernel; the other models and CPUs one by one.
+        let expect_batch = kind == ModelKind::PlmC && f.bsdf.material().uses_avx512();
+        assert_eq!(f.bsdf.material().batches(), expect_batch);
+        for bsdf in [&f.bsdf, &f.avx2] {
+            for round in 0..40 {
+                // Partial batches too; some light directions below the horizon.
+                let n = 1 + round % BATCH;
+                let mut hits = Vec::new();
+                let mut wo = Vec::new();
+                let mut want = Vec::new();
+                while hits.len() < n {
+                    let wi = warp::square_to_uniform_hemisphere(rng.next_2d());
+                    let s = SurfaceInteraction::for_tests(wi, rng.next_2d());
+                    let Some(h) = bsdf.prepare(&s) else { continue };
+                    let mut w = warp::square_to_uniform_sphere(rng.next_2d());
+                    if rng.next_f32() < 0.1 {
+                        // Exactly at a measured light: the polynomial at its fitted point.
+                        w = dir(15.0, 60.0);
+                    }
+                    hits.push(h);
+                    wo.push(w);
+                    want.push(rng.next_f32() < 0.7);
+                }
+                let mut out = vec![(Spectrum::ZERO, 0.0); n];
+                bsdf.eval_pdf_batch(&hits, &wo, &want, &mut out);
+                for q in 0..n {
+                    let single = if want[q] {
+                        bsdf.eval_pdf_hit(&hits[q], wo[q])
+                    } else {
+                        (bsdf.eval_hit(&hits[q], wo[q]), 0.0)
+                    };
+                    let bits = |(s, p): (Spectrum, f32)| {
+                        [s.x.to_bits(), s.y.to_bits(), s.z.to_bits(), p.to_bits()]
+                    };
+                    assert_eq!(bits(out[q]), bits(single), "{kind:?} {space:?} query {q}");
+                }
+            }
+        }
+    }
+}

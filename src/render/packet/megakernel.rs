@@ -16,6 +16,7 @@
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
 use crate::bsdf::{Bsdf, BsdfFlags, BsdfSample, Prepared};
+use crate::light::LightSample;
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
@@ -191,8 +192,8 @@ pub fn trace_chunk(
             }
             lanes.shade_active += (b - a) as u64;
             lanes.shade_issued += (b - a).div_ceil(LANES) as u64 * LANES as u64;
-            for &i in &scratch.order[a..b] {
-                shade_lane(rs, pt, pool, i as usize, stats);
+            for slots in scratch.order[a..b].chunks(LANES) {
+                shade_batch(rs, pt, pool, slots, stats);
             }
         }
         // ------------------------- batched any-hit shadow pass -------------------------
@@ -235,42 +236,99 @@ fn pass_through_emitter(rs: &RenderScene, pool: &mut PathPool, i: usize, stats: 
     stats.rays += 1;
 }
 
-/// What the front half of a lane's shading (through next-event estimation) leaves for BSDF
-/// sampling: the hit, the BSDF's per-hit state, the two sampling inputs and the lane's stream.
-pub struct Front<'a> {
-    pub si: SurfaceInteraction,
-    pub bsdf: &'a Bsdf,
-    pub prep: Prepared,
-    pub u1: f32,
-    pub u2: Vec2,
-    pub rng: Pcg32,
+/// A lane between the phases of its shading round: what the front half (through drawing the
+/// emitter sample) leaves for emitter evaluation, BSDF sampling and the continuation ray.
+struct Pending<'a> {
+    slot: usize,
+    si: SurfaceInteraction,
+    bsdf: &'a Bsdf,
+    prep: Prepared,
+    rng: Pcg32,
+    /// The emitter sample of next-event estimation, if one was drawn.
+    light: Option<LightSample>,
+    /// BSDF-sampling inputs, drawn after the emitter sample was evaluated.
+    u1: f32,
+    u2: Vec2,
 }
 
-/// One round of the scalar integrator's loop body for slot `i`, through the scalar BSDF and
-/// light code (the per-lane fallback every BSDF has until it gets a batched kernel).
-fn shade_lane(
+/// Shades up to [`LANES`] slots of one BSDF batch phase by phase: every lane's front half
+/// (surface interaction, per-hit BSDF state with its prefetches, emitter sample), then every
+/// lane's emitter evaluation, then every lane's BSDF sample and continuation. Each lane does the
+/// scalar integrator's steps in the scalar order on its own random stream, so the results are
+/// the same bits as lane-by-lane shading; the phases let the memory loads one lane's per-hit
+/// state starts (a measured BTF's texel) land while the other lanes work, instead of stalling
+/// the evaluation right after.
+fn shade_batch(
     rs: &RenderScene,
     pt: &PathTracer,
     pool: &mut PathPool,
-    i: usize,
+    slots: &[u32],
     stats: &mut TraceStats,
 ) {
-    if let Some(f) = shade_front(rs, pt, pool, i, stats) {
-        let sampled = f.bsdf.sample_prepared(&f.si, &f.prep, f.u1, f.u2);
-        shade_back(pt, pool, i, &f.si, f.rng, sampled, stats);
+    debug_assert!(slots.len() <= LANES);
+    let mut lanes: [Option<Pending>; LANES] = Default::default();
+    for (p, &i) in lanes.iter_mut().zip(slots) {
+        *p = shade_front(rs, pt, pool, i as usize);
+    }
+    // Emitter evaluation. The lanes of a batch share one BSDF: a fitted BTF's evaluations run
+    // as one batch (16 per pass of its kernel), the others lane by lane.
+    let plmc = match lanes.iter().flatten().next().map(|p| p.bsdf) {
+        Some(Bsdf::Plmc(b)) => Some(b),
+        _ => None,
+    };
+    let mut evals = [None; LANES];
+    if let Some(b) = plmc {
+        let mut hits = [None; LANES];
+        let mut n = 0;
+        let mut at = [0usize; LANES];
+        let mut wo = [Vec3::ZERO; LANES];
+        let mut want = [false; LANES];
+        for (l, p) in lanes.iter().enumerate() {
+            if let Some(Pending {
+                light: Some(ls),
+                prep: Prepared::Plmc(h),
+                si,
+                ..
+            }) = p
+            {
+                hits[n] = Some(*h);
+                at[n] = l;
+                wo[n] = si.to_local(ls.wi);
+                want[n] = !ls.delta;
+                n += 1;
+            }
+        }
+        if let Some(first) = hits[0] {
+            let hits = hits.map(|h| h.unwrap_or(first));
+            let mut out = [(Spectrum::ZERO, 0.0); LANES];
+            b.eval_pdf_batch(&hits[..n], &wo[..n], &want[..n], &mut out[..n]);
+            for j in 0..n {
+                evals[at[j]] = Some(out[j]);
+            }
+        }
+    }
+    for (p, e) in lanes.iter().zip(evals) {
+        if let Some(p) = p {
+            next_event(pool, p, e, stats);
+        }
+    }
+    for p in lanes.iter_mut() {
+        if let Some(p) = p.take() {
+            let sampled = p.bsdf.sample_prepared(&p.si, &p.prep, p.u1, p.u2);
+            shade_back(pt, pool, p.slot, &p.si, p.rng, sampled, stats);
+        }
     }
 }
 
-/// The loop body up to BSDF sampling: escape, emission with MIS, the depth limit, next-event
-/// estimation (its shadow ray left pending), and the BSDF-sampling random numbers. None = the
-/// lane ends this round.
-pub fn shade_front<'a>(
+/// The loop body up to BSDF sampling, without evaluating the emitter sample: escape, emission
+/// with MIS, the depth limit, the per-hit BSDF state, the emitter sample (its random numbers
+/// first, as in the scalar loop) and the BSDF-sampling numbers. None = the lane ends this round.
+fn shade_front<'a>(
     rs: &'a RenderScene,
     pt: &PathTracer,
     pool: &mut PathPool,
     i: usize,
-    stats: &mut TraceStats,
-) -> Option<Front<'a>> {
+) -> Option<Pending<'a>> {
     let meshes = &rs.scene.meshes;
     let lights = &rs.lights;
     let (ray_o, ray_d) = (pool.ray_o.get(i), pool.ray_d.get(i));
@@ -315,64 +373,86 @@ pub fn shade_front<'a>(
     };
     let mut rng = pool.rng[i].clone();
     let prep = bsdf.prepare(&si);
-    // ----------------------------- emitter sampling -----------------------------
+    let mut light = None;
     if pt.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
         let u_sel = rng.next_f32();
         let u = rng.next_2d();
-        if let Some(ls) = lights.sample(si.p, u_sel, u) {
-            let wo = si.to_local(ls.wi);
-            let (f, bsdf_pdf) = if ls.delta {
-                (bsdf.eval_prepared(&si, &prep, wo), 0.0)
-            } else {
-                bsdf.eval_pdf_prepared(&si, &prep, wo)
-            };
-            if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
-                let so = offset_origin(si.p, si.n, ls.wi);
-                stats.rays += 1;
-                let mis = if ls.delta {
-                    1.0
-                } else {
-                    mis_weight(ls.pdf, bsdf_pdf)
-                };
-                pool.shadow_c.set(i, throughput * f * ls.weight * mis);
-                pool.shadow_o.set(i, so);
-                pool.shadow[i] = Shadow::Test;
-                if ls.dist.is_finite() {
-                    let target = if ls.n_geo != Vec3::ZERO {
-                        offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
-                    } else {
-                        si.p + ls.wi * ls.dist
-                    };
-                    let to = target - so;
-                    let len = to.length();
-                    if len > 0.0 {
-                        pool.shadow_d.set(i, to / len);
-                        pool.shadow_t[i] = len * (1.0 - 1e-4);
-                    } else {
-                        pool.shadow[i] = Shadow::Unoccluded;
-                    }
-                } else {
-                    pool.shadow_d.set(i, ls.wi);
-                    pool.shadow_t[i] = f32::INFINITY;
-                }
-            }
-        }
+        light = lights.sample(si.p, u_sel, u);
     }
+    // Evaluating the emitter sample draws no random numbers, so these follow at once.
     let u1 = rng.next_f32();
     let u2 = rng.next_2d();
-    Some(Front {
+    Some(Pending {
+        slot: i,
         si,
         bsdf,
         prep,
+        rng,
+        light,
         u1,
         u2,
-        rng,
     })
+}
+
+/// Next-event estimation of a pending lane: evaluates its emitter sample and leaves the
+/// shadow ray and its contribution pending for the batched any-hit pass.
+/// `eval`: the BSDF's (f, pdf) for the emitter sample if a batched kernel made it already
+/// (the pdf 0 for a delta light).
+fn next_event(
+    pool: &mut PathPool,
+    p: &Pending,
+    eval: Option<(Spectrum, f32)>,
+    stats: &mut TraceStats,
+) {
+    let Some(ls) = &p.light else { return };
+    let (si, bsdf, prep, i) = (&p.si, p.bsdf, &p.prep, p.slot);
+    let (f, bsdf_pdf) = match eval {
+        Some(e) => e,
+        None => {
+            let wo = si.to_local(ls.wi);
+            if ls.delta {
+                (bsdf.eval_prepared(si, prep, wo), 0.0)
+            } else {
+                bsdf.eval_pdf_prepared(si, prep, wo)
+            }
+        }
+    };
+    if f == Spectrum::ZERO || ls.weight == Spectrum::ZERO {
+        return;
+    }
+    let so = offset_origin(si.p, si.n, ls.wi);
+    stats.rays += 1;
+    let mis = if ls.delta {
+        1.0
+    } else {
+        mis_weight(ls.pdf, bsdf_pdf)
+    };
+    pool.shadow_c.set(i, pool.throughput.get(i) * f * ls.weight * mis);
+    pool.shadow_o.set(i, so);
+    pool.shadow[i] = Shadow::Test;
+    if ls.dist.is_finite() {
+        let target = if ls.n_geo != Vec3::ZERO {
+            offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
+        } else {
+            si.p + ls.wi * ls.dist
+        };
+        let to = target - so;
+        let len = to.length();
+        if len > 0.0 {
+            pool.shadow_d.set(i, to / len);
+            pool.shadow_t[i] = len * (1.0 - 1e-4);
+        } else {
+            pool.shadow[i] = Shadow::Unoccluded;
+        }
+    } else {
+        pool.shadow_d.set(i, ls.wi);
+        pool.shadow_t[i] = f32::INFINITY;
+    }
 }
 
 /// The loop body after BSDF sampling (`sampled`, from the scalar code or a batched kernel):
 /// throughput, Russian roulette on the lane's stream, the continuation ray.
-pub fn shade_back(
+fn shade_back(
     pt: &PathTracer,
     pool: &mut PathPool,
     i: usize,

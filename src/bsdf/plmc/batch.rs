@@ -1,0 +1,159 @@
+//! Sixteen PLM-C evaluations per pass, one per AVX-512 lane (u8 cluster indices, with
+//! polynomials): the batched form of `avx512::eval` for the packet integrator, where the
+//! emitter samples of a whole BSDF batch are evaluated together. Where the single-query kernel
+//! puts one query's 3 views × 3 channels in 12 lanes and runs one dependent chain (index load →
+//! record loads → log2 → exp2 → polynomial → decode) per query, here every lane is a different
+//! query: the 9 (view, channel) chains of 16 queries are independent, so their latencies and
+//! their cache misses (one index entry and 9 lobe records per query, random texels) overlap.
+//!
+//! Same arithmetic as `avx512::eval`, operation by operation (the same fused multiply-adds in
+//! the same order, the same clamps with the same operand order, its log2/exp2): each lane's
+//! result is the single-query kernel's to the last bit (tested in `tests.rs`).
+
+use super::avx512::{Avx512, Tables, exp2, log2, splat};
+use super::FLUSH;
+use core::arch::x86_64::*;
+
+use super::kernel::{BATCH, BatchQuery as Query};
+
+/// True if every table offset of `t` fits the 32-bit gather indices (always for the UBO2003
+/// and UBO2014 direction sets at any texture size up to 2^31 / views index entries).
+pub fn fits(t: &Tables) -> bool {
+    let m = i32::MAX as usize;
+    t.index.len() <= m && t.records.len() * 8 <= m && t.polys.len() * 16 <= m && t.y_max.len() * 4 <= m
+}
+
+/// B (cosine-baked, linear RGB, nearest texel) of up to [`BATCH`] queries into `out`
+/// (`out.len() == q.len()`). Panics if a view, light or texel is out of range or the tables do
+/// not [`fit`] 32-bit offsets.
+#[target_feature(enable = "avx512f,avx2,fma")]
+pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
+    let n = q.len();
+    assert!(n <= BATCH && out.len() == n);
+    if n == 0 {
+        return;
+    }
+    let (nv, nl, k) = (t.n_views, t.n_lights, t.k);
+    assert!(fits(t));
+    assert!(t.records.len() == nv * 3 * k && t.polys.len() == nv * nl);
+    assert!(t.out_max.len() == nv * nl && t.y_max.len() == nv);
+    assert!(k <= 256 && nv > 0);
+    let texels = t.index.len() / nv;
+    // SoA lanes; lanes past n repeat query 0 (valid addresses; their results are dropped).
+    let mut texel = [0i32; BATCH];
+    let mut vi = [[0i32; BATCH]; 3];
+    let mut vw = [[0f32; BATCH]; 3];
+    let mut li = [[0i32; BATCH]; 3];
+    let mut lw = [[0f32; BATCH]; 3];
+    let mut wo = [[0f32; BATCH]; 3];
+    for l in 0..BATCH {
+        let s = &q[if l < n { l } else { 0 }];
+        assert!((s.texel as usize) < texels);
+        texel[l] = s.texel as i32;
+        for a in 0..3 {
+            assert!((s.vi[a] as usize) < nv && (s.li[a] as usize) < nl);
+            vi[a][l] = s.vi[a] as i32;
+            vw[a][l] = s.vw[a];
+            li[a][l] = s.li[a] as i32;
+            lw[a][l] = s.lw[a];
+            wo[a][l] = s.wo[a];
+        }
+    }
+    // SAFETY: every gather offset is in bounds of its table by the checks above: index entry
+    // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..5 with i < k (u8 indices are
+    // < k by model validation, and k ≤ 256); polynomial (v·nl + l)·16 + 3j + c < 16·polys.len();
+    // bounds (v·nl + l)·4 + c and v·4 + c. All fit i32 ([`fits`]). The stores go to locals.
+    unsafe {
+        let ld = |a: &[f32; BATCH]| _mm512_loadu_ps(a.as_ptr());
+        let ldi = |a: &[i32; BATCH]| _mm512_loadu_si512(a.as_ptr() as *const _);
+        let ci = |x: i32| _mm512_set1_epi32(x);
+        let gf = |base: *const f32, off: __m512i| _mm512_i32gather_ps::<4>(off, base as *const _);
+        let index = t.index.as_ptr() as *const i32;
+        let rec = t.records.as_ptr() as *const f32;
+        let poly = t.polys.as_ptr() as *const f32;
+        let omax = t.out_max.as_ptr() as *const f32;
+        let ymax = t.y_max.as_ptr() as *const f32;
+        let tex = ldi(&texel);
+        let (wx, wy, wz) = (ld(&wo[0]), ld(&wo[1]), ld(&wo[2]));
+        let (w0, w1, w2) = (ld(&lw[0]), ld(&lw[1]), ld(&lw[2]));
+        let zero = _mm512_setzero_ps();
+        // y of view a, channel c, then the blend of the views.
+        let mut y = [[zero; 3]; 3];
+        for a in 0..3 {
+            let v = ldi(&vi[a]);
+            let ent = _mm512_i32gather_epi32::<4>(
+                _mm512_add_epi32(_mm512_mullo_epi32(tex, ci(nv as i32)), v),
+                index as *const _,
+            );
+            // Row (v, l_b) of the polynomial and bound tables.
+            let row = |b: usize| _mm512_add_epi32(_mm512_mullo_epi32(v, ci(nl as i32)), ldi(&li[b]));
+            let rows = [row(0), row(1), row(2)];
+            let rbase = _mm512_mullo_epi32(v, ci(3 * k as i32));
+            for c in 0..3 {
+                let cl = _mm512_and_si512(_mm512_srli_epi32::<0>(ent), ci(0xff));
+                let cl = match c {
+                    0 => cl,
+                    1 => _mm512_and_si512(_mm512_srli_epi32::<8>(ent), ci(0xff)),
+                    _ => _mm512_and_si512(_mm512_srli_epi32::<16>(ent), ci(0xff)),
+                };
+                let r = _mm512_slli_epi32::<3>(_mm512_add_epi32(
+                    _mm512_add_epi32(rbase, ci((c * k) as i32)),
+                    cl,
+                ));
+                let field = |f: i32| gf(rec, _mm512_add_epi32(r, ci(f)));
+                let (rho, dx, dy, dz, nn) = (field(0), field(1), field(2), field(3), field(4));
+                let b = _mm512_fmadd_ps(dz, wz, _mm512_fmadd_ps(dy, wy, _mm512_mul_ps(dx, wx)));
+                let lg = log2(_mm512_max_ps(b, splat(1e-30)));
+                let pw = exp2(_mm512_max_ps(_mm512_mul_ps(nn, lg), splat(-100.0)));
+                let yy = _mm512_mul_ps(rho, pw);
+                let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
+                    & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(yy, splat(FLUSH));
+                let yy = _mm512_maskz_mov_ps(keep, yy);
+                // Light-interpolated coefficient a_j of this channel: w0·r0, + w1·r1, + w2·r2.
+                let coef = |j: usize| {
+                    let at = |b: usize| {
+                        gf(poly, _mm512_add_epi32(_mm512_slli_epi32::<4>(rows[b]), ci((3 * j + c) as i32)))
+                    };
+                    let s = _mm512_mul_ps(w0, at(0));
+                    let s = _mm512_fmadd_ps(w1, at(1), s);
+                    _mm512_fmadd_ps(w2, at(2), s)
+                };
+                let cf = [coef(0), coef(1), coef(2), coef(3), coef(4)];
+                let bound =
+                    |b: usize| gf(omax, _mm512_add_epi32(_mm512_slli_epi32::<2>(rows[b]), ci(c as i32)));
+                let out_max = _mm512_max_ps(_mm512_max_ps(bound(0), bound(1)), bound(2));
+                let y_max = gf(ymax, _mm512_add_epi32(_mm512_slli_epi32::<2>(v), ci(c as i32)));
+                let x = _mm512_min_ps(yy, y_max);
+                let x2 = _mm512_mul_ps(x, x);
+                let lo = _mm512_fmadd_ps(cf[1], x, cf[0]);
+                let hi = _mm512_fmadd_ps(cf[4], x2, _mm512_fmadd_ps(cf[3], x, cf[2]));
+                let yy = _mm512_min_ps(_mm512_fmadd_ps(hi, x2, lo), out_max);
+                y[a][c] = if t.srgb {
+                    let v = _mm512_max_ps(yy, zero);
+                    let lin = _mm512_mul_ps(v, splat(1.0 / 12.92));
+                    let base = _mm512_max_ps(
+                        _mm512_mul_ps(_mm512_add_ps(v, splat(0.055)), splat(1.0 / 1.055)),
+                        splat(1e-30),
+                    );
+                    let pow = exp2(_mm512_mul_ps(splat(2.4), log2(base)));
+                    let small = _mm512_cmp_ps_mask::<_CMP_LE_OS>(v, splat(0.04045));
+                    _mm512_mask_blend_ps(small, pow, lin)
+                } else {
+                    _mm512_max_ps(yy, zero)
+                };
+            }
+        }
+        // Blend the views: vw0·y0, + vw1·y1, + vw2·y2 (the single-query kernel's order).
+        let (v0, v1, v2) = (ld(&vw[0]), ld(&vw[1]), ld(&vw[2]));
+        let mut res = [[0f32; BATCH]; 3];
+        for c in 0..3 {
+            let o = _mm512_mul_ps(v0, y[0][c]);
+            let o = _mm512_fmadd_ps(v1, y[1][c], o);
+            let o = _mm512_fmadd_ps(v2, y[2][c], o);
+            _mm512_storeu_ps(res[c].as_mut_ptr(), o);
+        }
+        for (l, o) in out.iter_mut().enumerate() {
+            *o = [res[0][l], res[1][l], res[2][l]];
+        }
+    }
+}
