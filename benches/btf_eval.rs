@@ -126,7 +126,12 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
                                 .expect("bench views are above the horizon")
                         });
                         let wo: [Vec3; BATCH] = std::array::from_fn(|j| chunk[j.min(n - 1)].1);
-                        bsdf.eval_pdf_batch(&hits[..n], black_box(&wo[..n]), &want[..n], &mut out[..n]);
+                        bsdf.eval_pdf_batch(
+                            &hits[..n],
+                            black_box(&wo[..n]),
+                            &want[..n],
+                            &mut out[..n],
+                        );
                         for (f, pdf) in &out[..n] {
                             acc += *f * pdf.max(1.0);
                         }

@@ -10,8 +10,8 @@
 //! the same order, the same clamps with the same operand order, its log2/exp2): each lane's
 //! result is the single-query kernel's to the last bit (tested in `tests.rs`).
 
-use super::avx512::{Avx512, Tables, exp2, log2, splat};
 use super::FLUSH;
+use super::avx512::{Avx512, Tables, exp2, log2, splat};
 use core::arch::x86_64::*;
 
 use super::kernel::{BATCH, BatchQuery as Query};
@@ -20,7 +20,10 @@ use super::kernel::{BATCH, BatchQuery as Query};
 /// and UBO2014 direction sets at any texture size up to 2^31 / views index entries).
 pub fn fits(t: &Tables) -> bool {
     let m = i32::MAX as usize;
-    t.index.len() <= m && t.records.len() * 8 <= m && t.polys.len() * 16 <= m && t.y_max.len() * 4 <= m
+    t.index.len() <= m
+        && t.records.len() * 8 <= m
+        && t.polys.len() * 16 <= m
+        && t.y_max.len() * 4 <= m
 }
 
 /// B (cosine-baked, linear RGB, nearest texel) of up to [`BATCH`] queries into `out`
@@ -43,8 +46,6 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     let mut texel = [0i32; BATCH];
     let mut vi = [[0i32; BATCH]; 3];
     let mut vw = [[0f32; BATCH]; 3];
-    let mut li = [[0i32; BATCH]; 3];
-    let mut lw = [[0f32; BATCH]; 3];
     let mut wo = [[0f32; BATCH]; 3];
     for l in 0..BATCH {
         let s = &q[if l < n { l } else { 0 }];
@@ -54,15 +55,14 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             assert!((s.vi[a] as usize) < nv && (s.li[a] as usize) < nl);
             vi[a][l] = s.vi[a] as i32;
             vw[a][l] = s.vw[a];
-            li[a][l] = s.li[a] as i32;
-            lw[a][l] = s.lw[a];
             wo[a][l] = s.wo[a];
         }
     }
-    // SAFETY: every gather offset is in bounds of its table by the checks above: index entry
+    // SAFETY: every address is in bounds of its table by the checks above: index entry
     // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..5 with i < k (u8 indices are
-    // < k by model validation, and k ≤ 256); polynomial (v·nl + l)·16 + 3j + c < 16·polys.len();
-    // bounds (v·nl + l)·4 + c and v·4 + c. All fit i32 ([`fits`]). The stores go to locals.
+    // < k by model validation, and k ≤ 256); polynomial row v·nl + l < polys.len() (64-byte
+    // aligned rows of 16 f32); bound rows v·nl + l < out_max.len() and v < y_max.len() (4 f32
+    // each). Gather offsets fit i32 ([`fits`]). The stores go to locals.
     unsafe {
         let ld = |a: &[f32; BATCH]| _mm512_loadu_ps(a.as_ptr());
         let ldi = |a: &[i32; BATCH]| _mm512_loadu_si512(a.as_ptr() as *const _);
@@ -75,33 +75,68 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         let ymax = t.y_max.as_ptr() as *const f32;
         let tex = ldi(&texel);
         let (wx, wy, wz) = (ld(&wo[0]), ld(&wo[1]), ld(&wo[2]));
-        let (w0, w1, w2) = (ld(&lw[0]), ld(&lw[1]), ld(&lw[2]));
         let zero = _mm512_setzero_ps();
         // y of view a, channel c, then the blend of the views.
         let mut y = [[zero; 3]; 3];
+        let v = [ldi(&vi[0]), ldi(&vi[1]), ldi(&vi[2])];
+        // Every load that depends on the texel is issued first, in program order: the 3 index
+        // entries (usually DRAM misses for a large material), then the 9 lobe records, so that
+        // the misses of all 16 queries are in flight together instead of view by view.
+        let mut ent = [_mm512_setzero_si512(); 3];
         for a in 0..3 {
-            let v = ldi(&vi[a]);
-            let ent = _mm512_i32gather_epi32::<4>(
-                _mm512_add_epi32(_mm512_mullo_epi32(tex, ci(nv as i32)), v),
-                index as *const _,
-            );
-            // Row (v, l_b) of the polynomial and bound tables.
-            let row = |b: usize| _mm512_add_epi32(_mm512_mullo_epi32(v, ci(nl as i32)), ldi(&li[b]));
-            let rows = [row(0), row(1), row(2)];
-            let rbase = _mm512_mullo_epi32(v, ci(3 * k as i32));
+            let off = _mm512_add_epi32(_mm512_mullo_epi32(tex, ci(nv as i32)), v[a]);
+            ent[a] = _mm512_i32gather_epi32::<4>(off, index as *const _);
+        }
+        let mut lobes = [[[zero; 5]; 3]; 3];
+        for a in 0..3 {
+            let rbase = _mm512_mullo_epi32(v[a], ci(3 * k as i32));
+            let e = ent[a];
+            let cls = [
+                _mm512_and_si512(e, ci(0xff)),
+                _mm512_and_si512(_mm512_srli_epi32::<8>(e), ci(0xff)),
+                _mm512_and_si512(_mm512_srli_epi32::<16>(e), ci(0xff)),
+            ];
             for c in 0..3 {
-                let cl = _mm512_and_si512(_mm512_srli_epi32::<0>(ent), ci(0xff));
-                let cl = match c {
-                    0 => cl,
-                    1 => _mm512_and_si512(_mm512_srli_epi32::<8>(ent), ci(0xff)),
-                    _ => _mm512_and_si512(_mm512_srli_epi32::<16>(ent), ci(0xff)),
-                };
-                let r = _mm512_slli_epi32::<3>(_mm512_add_epi32(
-                    _mm512_add_epi32(rbase, ci((c * k) as i32)),
-                    cl,
-                ));
-                let field = |f: i32| gf(rec, _mm512_add_epi32(r, ci(f)));
-                let (rho, dx, dy, dz, nn) = (field(0), field(1), field(2), field(3), field(4));
+                let r = _mm512_add_epi32(_mm512_add_epi32(rbase, ci((c * k) as i32)), cls[c]);
+                let r = _mm512_slli_epi32::<3>(r);
+                for f in 0..5 {
+                    lobes[a][c][f] = gf(rec, _mm512_add_epi32(r, ci(f as i32)));
+                }
+            }
+        }
+        // Per query, the light-interpolated polynomial row of each view (w0·r0, + w1·r1, + w2·r2
+        // on whole 16-float rows, as the single-query kernel) and the 3 views' output bounds
+        // (largest of the 3 lights'); then 16 × 16 transposes make them lanes: coefficient
+        // a_j of channel c is `coef[a][3 j + c]`, the bound of view a, channel c `bounds[4 a + c]`.
+        // Whole-row loads and shuffles instead of 16-lane gathers (5 × as many loads).
+        let mut coef = [[zero; 16]; 3];
+        let mut bounds = [zero; 16];
+        for l in 0..BATCH {
+            let s = &q[if l < n { l } else { 0 }];
+            let (sw0, sw1, sw2) = (splat(s.lw[0]), splat(s.lw[1]), splat(s.lw[2]));
+            let mut om = [_mm_setzero_ps(); 4];
+            for a in 0..3 {
+                let base = s.vi[a] as usize * nl;
+                let row = |b: usize| _mm512_load_ps(poly.add((base + s.li[b] as usize) * 16));
+                let r = _mm512_mul_ps(sw0, row(0));
+                let r = _mm512_fmadd_ps(sw1, row(1), r);
+                coef[a][l] = _mm512_fmadd_ps(sw2, row(2), r);
+                let bound = |b: usize| _mm_loadu_ps(omax.add((base + s.li[b] as usize) * 4));
+                om[a] = _mm_max_ps(_mm_max_ps(bound(0), bound(1)), bound(2));
+            }
+            bounds[l] = _mm512_insertf32x4::<2>(
+                _mm512_insertf32x4::<1>(_mm512_zextps128_ps512(om[0]), om[1]),
+                om[2],
+            );
+        }
+        for c in coef.iter_mut() {
+            transpose16(c);
+        }
+        transpose16(&mut bounds);
+        for a in 0..3 {
+            let v = v[a];
+            for c in 0..3 {
+                let [rho, dx, dy, dz, nn] = lobes[a][c];
                 let b = _mm512_fmadd_ps(dz, wz, _mm512_fmadd_ps(dy, wy, _mm512_mul_ps(dx, wx)));
                 let lg = log2(_mm512_max_ps(b, splat(1e-30)));
                 let pw = exp2(_mm512_max_ps(_mm512_mul_ps(nn, lg), splat(-100.0)));
@@ -109,20 +144,12 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
                 let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
                     & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(yy, splat(FLUSH));
                 let yy = _mm512_maskz_mov_ps(keep, yy);
-                // Light-interpolated coefficient a_j of this channel: w0·r0, + w1·r1, + w2·r2.
-                let coef = |j: usize| {
-                    let at = |b: usize| {
-                        gf(poly, _mm512_add_epi32(_mm512_slli_epi32::<4>(rows[b]), ci((3 * j + c) as i32)))
-                    };
-                    let s = _mm512_mul_ps(w0, at(0));
-                    let s = _mm512_fmadd_ps(w1, at(1), s);
-                    _mm512_fmadd_ps(w2, at(2), s)
-                };
-                let cf = [coef(0), coef(1), coef(2), coef(3), coef(4)];
-                let bound =
-                    |b: usize| gf(omax, _mm512_add_epi32(_mm512_slli_epi32::<2>(rows[b]), ci(c as i32)));
-                let out_max = _mm512_max_ps(_mm512_max_ps(bound(0), bound(1)), bound(2));
-                let y_max = gf(ymax, _mm512_add_epi32(_mm512_slli_epi32::<2>(v), ci(c as i32)));
+                let cf = [0, 1, 2, 3, 4].map(|j| coef[a][3 * j + c]);
+                let out_max = bounds[4 * a + c];
+                let y_max = gf(
+                    ymax,
+                    _mm512_add_epi32(_mm512_slli_epi32::<2>(v), ci(c as i32)),
+                );
                 let x = _mm512_min_ps(yy, y_max);
                 let x2 = _mm512_mul_ps(x, x);
                 let lo = _mm512_fmadd_ps(cf[1], x, cf[0]);
@@ -155,5 +182,38 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         for (l, o) in out.iter_mut().enumerate() {
             *o = [res[0][l], res[1][l], res[2][l]];
         }
+    }
+}
+
+/// Transposes 16 rows of 16 f32 in registers: afterwards `r[e]` holds element e of every input
+/// row (lane i = row i). Unpacks within 128-bit blocks, then two rounds of block shuffles.
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[inline]
+fn transpose16(r: &mut [__m512; 16]) {
+    let pd = _mm512_castps_pd;
+    let ps = _mm512_castpd_ps;
+    let mut t = [_mm512_setzero_ps(); 16];
+    for i in 0..8 {
+        t[2 * i] = _mm512_unpacklo_ps(r[2 * i], r[2 * i + 1]);
+        t[2 * i + 1] = _mm512_unpackhi_ps(r[2 * i], r[2 * i + 1]);
+    }
+    // u[4 i + m], block k: element 4 k + m of rows 4 i .. 4 i + 3.
+    let mut u = [_mm512_setzero_ps(); 16];
+    for i in 0..4 {
+        u[4 * i] = ps(_mm512_unpacklo_pd(pd(t[4 * i]), pd(t[4 * i + 2])));
+        u[4 * i + 1] = ps(_mm512_unpackhi_pd(pd(t[4 * i]), pd(t[4 * i + 2])));
+        u[4 * i + 2] = ps(_mm512_unpacklo_pd(pd(t[4 * i + 1]), pd(t[4 * i + 3])));
+        u[4 * i + 3] = ps(_mm512_unpackhi_pd(pd(t[4 * i + 1]), pd(t[4 * i + 3])));
+    }
+    for m in 0..4 {
+        let (a, b, c, d) = (u[m], u[4 + m], u[8 + m], u[12 + m]);
+        let x0 = _mm512_shuffle_f32x4::<0x44>(a, b);
+        let x1 = _mm512_shuffle_f32x4::<0xEE>(a, b);
+        let y0 = _mm512_shuffle_f32x4::<0x44>(c, d);
+        let y1 = _mm512_shuffle_f32x4::<0xEE>(c, d);
+        r[m] = _mm512_shuffle_f32x4::<0x88>(x0, y0);
+        r[4 + m] = _mm512_shuffle_f32x4::<0xDD>(x0, y0);
+        r[8 + m] = _mm512_shuffle_f32x4::<0x88>(x1, y1);
+        r[12 + m] = _mm512_shuffle_f32x4::<0xDD>(x1, y1);
     }
 }

@@ -16,10 +16,10 @@
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
 use crate::bsdf::{Bsdf, BsdfFlags, BsdfSample, Prepared};
-use crate::light::LightSample;
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
+use crate::light::LightSample;
 use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use crate::render::RenderScene;
 use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
@@ -427,7 +427,8 @@ fn next_event(
     } else {
         mis_weight(ls.pdf, bsdf_pdf)
     };
-    pool.shadow_c.set(i, pool.throughput.get(i) * f * ls.weight * mis);
+    pool.shadow_c
+        .set(i, pool.throughput.get(i) * f * ls.weight * mis);
     pool.shadow_o.set(i, so);
     pool.shadow[i] = Shadow::Test;
     if ls.dist.is_finite() {
