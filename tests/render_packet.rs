@@ -110,6 +110,43 @@ fn packet_replays_the_scalar_integrator_sample_by_sample() {
         }
         assert!(scalar.rays() > 0 || rs.integrator.max_depth == 0);
     }
+    // Fitted BTFs (PLM-C), whose emitter evaluations the packet integrator runs 16 per pass of
+    // the batched kernel: under a point light (eval only) and in the showcase (environment map,
+    // area light: eval and pdf; bilinear and nearest texels; several PLM-C materials).
+    let corduroy = format!(
+        "{}/scenes/showcase/materials/corduroy.plmc",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    for (k, (path, defines)) in [
+        (
+            "scenes/btf-plane/scene.xml",
+            vec![
+                ("width", "80"),
+                ("height", "60"),
+                ("btf", corduroy.as_str()),
+            ],
+        ),
+        (
+            "scenes/showcase/scene.xml",
+            vec![("width", "80"), ("height", "60")],
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let scene = load(path, &defines);
+        let mut rs = RenderScene::new(scene).unwrap();
+        let st = window(&rs, [7, 5, 61, 47], (3, 7), 31 + k as u64);
+        let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
+        for kind in [packet(256, true), packet(16, false)] {
+            let p = render_with(&mut rs, kind, st);
+            assert!(
+                p == scalar,
+                "{path} with {kind:?}: the packet render differs from the scalar one"
+            );
+        }
+        assert!(scalar.rays() > 0);
+    }
 }
 
 #[test]
