@@ -185,6 +185,7 @@ fn render(scene: Scene) -> RgbImage {
 const CORNELL: &str = "scenes/cornell-box/scene.xml";
 const ALL: &str = "scenes/cornell-box-all/scene.xml";
 const CONSTANT: &str = "scenes/cornell-box-all/scene-constant.xml";
+const BSDFS: &str = "scenes/mitsuba-bsdfs/scene.xml";
 
 /// The correct renders, shared by the positive and the image-space negative tests.
 fn cornell() -> &'static RgbImage {
@@ -226,8 +227,27 @@ fn cornell_box_all_constant_matches_mitsuba() {
     assert!(f.is_empty(), "{f:?}");
 }
 
+/// plastic, roughplastic, roughdielectric, blendbsdf and mask (issue #16) in one box. A noisy
+/// scene (a frosted-glass caustic, light through the half-opaque panel): Mitsuba at 256 spp fails
+/// 190–229 of 9216 pixels and 3–5 of 576 blocks against its own 4096-spp reference, mean z
+/// +0.096…+0.148, relMSE 5.6e-3…6.0e-3 (mitsuba-bsdfs_calibration.json); same bounds rule.
+#[test]
+fn mitsuba_bsdfs_match_mitsuba() {
+    let r = reference("mitsuba-bsdfs");
+    let f = failures(&r, &render(load(BSDFS, &[])), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
 // ------------------------------------------------------------------------------------------
 // Negative tests: each breaks one convention and must make the comparison fail.
+
+#[test]
+fn mitsuba_bsdfs_fail_with_wrong_mask_opacity() {
+    // The masked panel 0.35 opaque instead of 0.45 (measured: 36 failing blocks, mean z +0.24).
+    let r = reference("mitsuba-bsdfs");
+    let img = render(load(BSDFS, &[("opacity", "0.35")]));
+    assert!(!failures(&r, &img, "opacity 0.35").is_empty());
+}
 
 fn scaled(img: &RgbImage, s: f32) -> RgbImage {
     let mut o = img.clone();
