@@ -726,7 +726,7 @@ fn bad_bsdf_parameters_name_the_line() {
         ),
         (
             r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="nan"/></bsdf>"#,
-            "alpha",
+            "non-finite",
         ),
         (
             r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/></bsdf>"#,
