@@ -663,12 +663,14 @@ fn plastic_rough_blend_and_mask_bsdfs_parse() {
 <bsdf type="blendbsdf" id="b"><float name="weight" value="0.25"/><ref id="p"/><bsdf type="diffuse"/></bsdf>
 <bsdf type="mixturebsdf" id="m"><string name="weights" value="0.6, 0.9"/><ref id="rp"/><bsdf type="diffuse"/></bsdf>
 <bsdf type="mask" id="k"><float name="opacity" value="0.4"/><ref id="rd"/></bsdf>
+<bsdf type="normalmap" id="nm"><rgb name="normalmap" value="0.6, 0.5, 0.9"/><boolean name="use_shadowing_function" value="false"/><ref id="p"/></bsdf>
 <shape type="cube"><ref id="p"/></shape>
 <shape type="cube"><ref id="rp"/></shape>
 <shape type="cube"><ref id="rd"/></shape>
 <shape type="cube"><ref id="b"/></shape>
 <shape type="cube"><ref id="m"/></shape>
-<shape type="cube"><ref id="k"/></shape>"#,
+<shape type="cube"><ref id="k"/></shape>
+<shape type="cube"><ref id="nm"/></shape>"#,
     );
     let s = load(&p);
     let b = |i: usize| &s.bsdfs[s.meshes[i].bsdf as usize];
@@ -704,6 +706,13 @@ fn plastic_rough_blend_and_mask_bsdfs_parse() {
     }
     match b(5) {
         Bsdf::Mask(m) => assert!(matches!(*m.nested, Bsdf::RoughDielectric(_))),
+        other => panic!("{other:?}"),
+    }
+    match b(6) {
+        Bsdf::NormalMap(n) => {
+            assert!(!n.use_shadowing_function && n.flip_invalid_normals);
+            assert!(matches!(*n.nested, Bsdf::Plastic(_)));
+        }
         other => panic!("{other:?}"),
     }
 }
@@ -765,6 +774,14 @@ fn bad_bsdf_parameters_name_the_line() {
             "non-negative numbers",
         ),
         (r#"<bsdf type="mask"/>"#, "needs a nested bsdf"),
+        (
+            r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
+            "\"normalmap\" texture is required",
+        ),
+        (
+            r#"<bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/></bsdf>"#,
+            "needs a nested bsdf",
+        ),
         (
             r#"<bsdf type="mask"><float name="opacity" value="-0.2"/><bsdf type="diffuse"/></bsdf>"#,
             "\"opacity\" must lie in [0, 1]",

@@ -129,6 +129,25 @@ fn config(name: &str) -> Bsdf {
                 true,
             ))),
         }),
+        "normalmap" => Bsdf::NormalMap(NormalMap {
+            normalmap: c(0.7, 0.35, 0.9),
+            nested: Box::new(Bsdf::RoughPlastic(RoughPlastic::new(
+                0.2,
+                1.49 / 1.000277,
+                c(0.5, 0.3, 0.2),
+                c(1.0, 1.0, 1.0),
+                false,
+                true,
+            ))),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }),
+        "normalmap_rough" => Bsdf::NormalMap(NormalMap {
+            normalmap: c(0.2, 0.6, 0.8),
+            nested: Box::new(rough(0.3, 0.1, true)),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }),
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -210,7 +229,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 19 && n_eval > 300 && n_sample > 200);
+    assert!(configs.len() == 21 && n_eval > 300 && n_sample > 200);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

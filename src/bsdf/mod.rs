@@ -16,6 +16,7 @@ pub mod diffuse;
 pub mod fresnel;
 pub mod mask;
 pub mod microfacet;
+pub mod normalmap;
 pub mod plastic;
 pub mod plmc;
 pub mod roughconductor;
@@ -36,6 +37,7 @@ pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
+pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use roughconductor::RoughConductor;
@@ -123,6 +125,8 @@ pub enum Bsdf {
     Blend(BlendBsdf),
     /// Opacity mask: a null (straight-through) lobe around a nested BSDF.
     Mask(Mask),
+    /// Shading-frame perturbation from a tangent-space normal map around a nested BSDF.
+    NormalMap(NormalMap),
     /// Measured BTF (raw data), DESIGN §2.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
@@ -144,6 +148,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.flags(),
             Bsdf::Blend(b) => b.flags(),
             Bsdf::Mask(b) => b.flags(),
+            Bsdf::NormalMap(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
             Bsdf::Plmc(b) => b.flags(),
         }
@@ -244,6 +249,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval(si, wo),
             Bsdf::Blend(b) => b.eval(si, wo),
             Bsdf::Mask(b) => b.eval(si, wo),
+            Bsdf::NormalMap(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
             Bsdf::Plmc(b) => b.eval(si, wo),
         }
@@ -263,6 +269,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.pdf(si, wo),
             Bsdf::Blend(b) => b.pdf(si, wo),
             Bsdf::Mask(b) => b.pdf(si, wo),
+            Bsdf::NormalMap(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
             Bsdf::Plmc(b) => b.pdf(si, wo),
         }
@@ -277,6 +284,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.eval_pdf(si, wo),
             Bsdf::Blend(b) => b.eval_pdf(si, wo),
             Bsdf::Mask(b) => b.eval_pdf(si, wo),
+            Bsdf::NormalMap(b) => b.eval_pdf(si, wo),
             Bsdf::Btf(b) => b.eval_pdf(si, wo),
             Bsdf::Plmc(b) => b.eval_pdf(si, wo),
             _ => (self.eval(si, wo), self.pdf(si, wo)),
@@ -303,6 +311,7 @@ impl Bsdf {
             Bsdf::RoughDielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::Blend(b) => b.sample(si, sample1, sample2),
             Bsdf::Mask(b) => b.sample(si, sample1, sample2),
+            Bsdf::NormalMap(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
             Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
         }

@@ -10,7 +10,7 @@ use crate::math::{Pcg32, warp};
 use std::sync::Arc;
 
 /// Number of chi-square tests in this file (the Šidák family).
-const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2;
+const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3;
 
 fn si(wi: Vec3) -> SurfaceInteraction {
     SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
@@ -297,6 +297,17 @@ fn chi2_mask_and_null_lobe() {
             "null fraction {frac}"
         );
     }
+}
+
+#[test]
+fn chi2_normalmap() {
+    let b = Bsdf::NormalMap(NormalMap {
+        normalmap: Texture::Constant(Spectrum::new(0.75, 0.4, 0.85)),
+        nested: Box::new(rough_plastic(0.25, false, true)),
+        flip_invalid_normals: true,
+        use_shadowing_function: true,
+    });
+    chi2_cases("normalmap", &[b], &[0.3, 1.0, 1.4]);
 }
 
 #[test]

@@ -73,6 +73,11 @@ CONFIGS = {
     "mask": {"type": "mask", "opacity": 0.35,
              "a": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1,
                    "diffuse_reflectance": rgb([0.1, 0.6, 0.3])}},
+    "normalmap": {"type": "normalmap", "normalmap": rgb([0.7, 0.35, 0.9]),
+                  "a": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
+                        "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}},
+    "normalmap_rough": {"type": "normalmap", "normalmap": rgb([0.2, 0.6, 0.8]),
+                        "a": rough(0.3, 0.1, True)},
 }
 
 

@@ -11,6 +11,7 @@ use crate::bsdf::Conductor;
 use crate::bsdf::Dielectric;
 use crate::bsdf::Diffuse;
 use crate::bsdf::Mask;
+use crate::bsdf::NormalMap;
 use crate::bsdf::Plastic;
 use crate::bsdf::RoughConductor;
 use crate::bsdf::RoughDielectric;
@@ -344,6 +345,24 @@ impl<'a, 'x> Builder<'a, 'x> {
                     nested: Box::new(self.build_bsdf(node)?),
                 })
             }
+            "normalmap" => {
+                let kids = p.children_tagged("bsdf");
+                let node = match kids.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("needs a nested bsdf")),
+                    _ => return Err(p.err("cannot have more than one nested bsdf")),
+                };
+                if !p.has("normalmap") {
+                    return Err(p.err("the \"normalmap\" texture is required"));
+                }
+                let normalmap = self.texture_param(&p, "normalmap", Vec3::new(0.5, 0.5, 1.0))?;
+                Bsdf::NormalMap(NormalMap {
+                    normalmap,
+                    flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+                    use_shadowing_function: p.bool("use_shadowing_function", true)?,
+                    nested: Box::new(self.build_bsdf(node)?),
+                })
+            }
             "btf" => {
                 let file = p.string_req("filename")?;
                 let uv_scale = p.float("uv_scale", 1.0)?;
@@ -370,7 +389,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 return Err(p.err(
                     "unsupported bsdf type (btfpt implements diffuse, conductor, roughconductor, dielectric, \
                      thindielectric, roughdielectric, plastic, roughplastic, twosided, blendbsdf, \
-                     mixturebsdf (two components), mask, btf)",
+                     mixturebsdf (two components), mask, normalmap, btf)",
                 ));
             }
         };
