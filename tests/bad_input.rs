@@ -239,6 +239,54 @@ fn cases(dir: &Path) -> Vec<Case> {
         vec!["nan.xml", "finite"],
     );
     add(
+        "blend-weight-range",
+        "`blendbsdf` weight outside [0, 1]",
+        &|d, o| {
+            let body = format!(
+                r#"<shape type="rectangle"><bsdf type="blendbsdf"><float name="weight" value="1.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>{LIGHT}"#
+            );
+            let s = write(&d.join("blend.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["blend.xml", "weight", "[0, 1]"],
+    );
+    add(
+        "mixture-three",
+        "Mitsuba 0.6 `mixturebsdf` with three components",
+        &|d, o| {
+            let body = format!(
+                r#"<shape type="rectangle"><bsdf type="mixturebsdf"><string name="weights" value="0.2, 0.3, 0.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>{LIGHT}"#
+            );
+            let s = write(&d.join("mix.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["mix.xml", "more than two"],
+    );
+    add(
+        "mask-no-bsdf",
+        "`mask` without a nested bsdf",
+        &|d, o| {
+            let body = format!(
+                r#"<shape type="rectangle"><bsdf type="mask"><float name="opacity" value="0.5"/></bsdf></shape>{LIGHT}"#
+            );
+            let s = write(&d.join("mask.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["mask.xml", "nested bsdf"],
+    );
+    add(
+        "roughplastic-alpha",
+        "`roughplastic` with a negative roughness",
+        &|d, o| {
+            let body = format!(
+                r#"<shape type="rectangle"><bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="-0.2"/></bsdf></shape>{LIGHT}"#
+            );
+            let s = write(&d.join("rp.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["rp.xml", "alpha", "roughness"],
+    );
+    add(
         "transform-inf",
         "Inf in a shape transform (`<scale value=\"inf\"/>`)",
         &|d, o| {

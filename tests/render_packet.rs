@@ -28,6 +28,8 @@ fn load(scene: &str, defines: &[(&str, &str)]) -> Scene {
 const CORNELL: &str = "scenes/cornell-box/scene.xml";
 const ALL: &str = "scenes/cornell-box-all/scene.xml";
 const CONSTANT: &str = "scenes/cornell-box-all/scene-constant.xml";
+/// plastic, roughplastic, roughdielectric, blendbsdf, mask (null lobe) through the per-lane path.
+const BSDFS: &str = "scenes/mitsuba-bsdfs/scene.xml";
 
 fn packet(pool: usize, refill: bool) -> IntegratorKind {
     IntegratorKind::Packet(PacketOptions { pool, refill })
@@ -93,6 +95,7 @@ fn packet_replays_the_scalar_integrator_sample_by_sample() {
             Box::new(|s| s.integrator.max_depth = -1),
             Box::new(|_| {}),
         ),
+        (BSDFS, Box::new(|_| {}), Box::new(|_| {})),
     ];
     for (k, (path, edit_scene, edit_rs)) in cases.iter().enumerate() {
         let mut scene = load(path, &[("width", "80"), ("height", "60")]);

@@ -429,7 +429,7 @@ fn unknown_plugin_property_and_element() {
     let dir = tempfile::tempdir().unwrap();
     let p = scene_with(
         dir.path(),
-        "<shape type=\"cube\"><bsdf type=\"plastic\"/></shape>",
+        "<shape type=\"cube\"><bsdf type=\"hair\"/></shape>",
     );
     expect_err(&p, &[], 7, "unsupported bsdf type");
     let p = scene_with(
@@ -650,4 +650,145 @@ property float z\nproperty float u\nproperty float v\nelement face 2\nproperty l
         "PLY uvs are not flipped by default"
     );
     assert_eq!(m.normals.len(), 4);
+}
+
+#[test]
+fn plastic_rough_blend_and_mask_bsdfs_parse() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        r#"<bsdf type="plastic" id="p"><rgb name="diffuse_reflectance" value="0.1 0.2 0.3"/></bsdf>
+<bsdf type="roughplastic" id="rp"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/><boolean name="nonlinear" value="true"/></bsdf>
+<bsdf type="roughdielectric" id="rd"><string name="distribution" value="GGX"/><float name="alpha_u" value="0.3"/><float name="alpha_v" value="0.1"/><string name="int_ior" value="water"/></bsdf>
+<bsdf type="blendbsdf" id="b"><float name="weight" value="0.25"/><ref id="p"/><bsdf type="diffuse"/></bsdf>
+<bsdf type="mixturebsdf" id="m"><string name="weights" value="0.6, 0.9"/><ref id="rp"/><bsdf type="diffuse"/></bsdf>
+<bsdf type="mask" id="k"><float name="opacity" value="0.4"/><ref id="rd"/></bsdf>
+<bsdf type="normalmap" id="nm"><rgb name="normalmap" value="0.6, 0.5, 0.9"/><boolean name="use_shadowing_function" value="false"/><ref id="p"/></bsdf>
+<shape type="cube"><ref id="p"/></shape>
+<shape type="cube"><ref id="rp"/></shape>
+<shape type="cube"><ref id="rd"/></shape>
+<shape type="cube"><ref id="b"/></shape>
+<shape type="cube"><ref id="m"/></shape>
+<shape type="cube"><ref id="k"/></shape>
+<shape type="cube"><ref id="nm"/></shape>"#,
+    );
+    let s = load(&p);
+    let b = |i: usize| &s.bsdfs[s.meshes[i].bsdf as usize];
+    match b(0) {
+        Bsdf::Plastic(p) => assert!((p.eta() - 1.49 / 1.00028).abs() < 1e-6),
+        other => panic!("{other:?}"),
+    }
+    match b(1) {
+        Bsdf::RoughPlastic(p) => assert!(p.nonlinear && p.internal_reflectance() > 0.3),
+        other => panic!("{other:?}"),
+    }
+    match b(2) {
+        Bsdf::RoughDielectric(d) => {
+            assert!((d.eta - 1.333 / 1.00028).abs() < 1e-6);
+            assert!(matches!(d.alpha_u, Texture::Constant(c) if c.x == 0.3));
+        }
+        other => panic!("{other:?}"),
+    }
+    match b(3) {
+        Bsdf::Blend(bl) => {
+            assert!(matches!(bl.weight, Texture::Constant(c) if c.x == 0.25));
+            assert!(matches!(bl.bsdfs[0], Bsdf::Plastic(_)));
+            assert!(matches!(bl.bsdfs[1], Bsdf::Diffuse(_)));
+        }
+        other => panic!("{other:?}"),
+    }
+    match b(4) {
+        // Mitsuba 0.6 renormalises weights summing to more than 1.
+        Bsdf::Blend(bl) => {
+            assert!(matches!(bl.weight, Texture::Constant(c) if (c.x - 0.9 / 1.5).abs() < 1e-6))
+        }
+        other => panic!("{other:?}"),
+    }
+    match b(5) {
+        Bsdf::Mask(m) => assert!(matches!(*m.nested, Bsdf::RoughDielectric(_))),
+        other => panic!("{other:?}"),
+    }
+    match b(6) {
+        Bsdf::NormalMap(n) => {
+            assert!(!n.use_shadowing_function && n.flip_invalid_normals);
+            assert!(matches!(*n.nested, Bsdf::Plastic(_)));
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn bad_bsdf_parameters_name_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases: &[(&str, &str)] = &[
+        (
+            r#"<bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>"#,
+            "beckmann",
+        ),
+        (
+            r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="-0.1"/></bsdf>"#,
+            "non-negative roughness",
+        ),
+        (
+            r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.2"/></bsdf>"#,
+            "anisotropic",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="nan"/></bsdf>"#,
+            "non-finite",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/></bsdf>"#,
+            "both \"alpha_u\" and \"alpha_v\"",
+        ),
+        (
+            r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="int_ior" value="1"/><float name="ext_ior" value="1"/></bsdf>"#,
+            "must be positive and differ",
+        ),
+        (
+            r#"<bsdf type="plastic"><float name="int_ior" value="-1.5"/></bsdf>"#,
+            "must be positive",
+        ),
+        (
+            r#"<bsdf type="blendbsdf"><float name="weight" value="1.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "must lie in [0, 1]",
+        ),
+        (
+            r#"<bsdf type="blendbsdf"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "\"weight\"",
+        ),
+        (
+            r#"<bsdf type="blendbsdf"><float name="weight" value="0.5"/><bsdf type="diffuse"/></bsdf>"#,
+            "exactly two nested bsdfs, found 1",
+        ),
+        (
+            r#"<bsdf type="mixturebsdf"><string name="weights" value="0.2, 0.3, 0.5"/><bsdf type="diffuse"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "more than two",
+        ),
+        (
+            r#"<bsdf type="mixturebsdf"><string name="weights" value="0.2, 0.3"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "sum to 0.5",
+        ),
+        (
+            r#"<bsdf type="mixturebsdf"><string name="weights" value="0.2, x"/><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf>"#,
+            "non-negative numbers",
+        ),
+        (r#"<bsdf type="mask"/>"#, "needs a nested bsdf"),
+        (
+            r#"<bsdf type="normalmap"><bsdf type="diffuse"/></bsdf>"#,
+            "\"normalmap\" texture is required",
+        ),
+        (
+            r#"<bsdf type="normalmap"><rgb name="normalmap" value="0.5, 0.5, 1"/></bsdf>"#,
+            "needs a nested bsdf",
+        ),
+        (
+            r#"<bsdf type="mask"><float name="opacity" value="-0.2"/><bsdf type="diffuse"/></bsdf>"#,
+            "\"opacity\" must lie in [0, 1]",
+        ),
+    ];
+    for (body, needle) in cases {
+        let p = scene_with(dir.path(), body);
+        expect_err(&p, &[], 7, needle);
+    }
 }

@@ -119,6 +119,13 @@ pub fn refract(wi: Vec3, cos_theta_t: f32, eta_ti: f32) -> Vec3 {
     Vec3::new(-eta_ti * wi.x, -eta_ti * wi.y, cos_theta_t)
 }
 
+/// Refraction of `wi` through the microfacet with unit normal `m` (Mitsuba `refract(wi, m, ...)`),
+/// with `cos_theta_t`/`eta_ti` from [`fresnel_dielectric`] at cos = wi·m.
+#[inline]
+pub fn refract_about(wi: Vec3, m: Vec3, cos_theta_t: f32, eta_ti: f32) -> Vec3 {
+    m * (wi.dot(m) * eta_ti + cos_theta_t) - wi * eta_ti
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

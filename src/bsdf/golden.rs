@@ -77,6 +77,77 @@ fn config(name: &str) -> Bsdf {
         "plastic_nonlinear" => {
             Bsdf::Plastic(Plastic::new(1.7, c(0.6, 0.3, 0.1), c(0.8, 0.9, 1.0), true))
         }
+        "roughplastic" => Bsdf::RoughPlastic(RoughPlastic::new(
+            0.2,
+            1.49 / 1.000277,
+            c(0.2, 0.5, 0.8),
+            c(1.0, 1.0, 1.0),
+            false,
+            true,
+        )),
+        "roughplastic_nonlinear_novis" => Bsdf::RoughPlastic(RoughPlastic::new(
+            0.45,
+            1.7,
+            c(0.6, 0.3, 0.1),
+            c(0.8, 0.9, 1.0),
+            true,
+            false,
+        )),
+        "roughdielectric" => Bsdf::RoughDielectric(RoughDielectric {
+            alpha_u: c(0.25, 0.25, 0.25),
+            alpha_v: c(0.25, 0.25, 0.25),
+            eta: 1.5,
+            specular_reflectance: c(1.0, 1.0, 1.0),
+            specular_transmittance: c(1.0, 1.0, 1.0),
+            sample_visible: true,
+        }),
+        "roughdielectric_aniso_novis" => Bsdf::RoughDielectric(RoughDielectric {
+            alpha_u: c(0.4, 0.4, 0.4),
+            alpha_v: c(0.1, 0.1, 0.1),
+            eta: 1.33,
+            specular_reflectance: c(0.5, 0.6, 0.7),
+            specular_transmittance: c(0.9, 0.3, 0.4),
+            sample_visible: false,
+        }),
+        "blend" => Bsdf::Blend(BlendBsdf {
+            weight: c(0.3, 0.3, 0.3),
+            bsdfs: Box::new([
+                rough(0.3, 0.3, true),
+                Bsdf::Diffuse(Diffuse {
+                    reflectance: c(0.3, 0.2, 0.1),
+                }),
+            ]),
+        }),
+        "mask" => Bsdf::Mask(Mask {
+            opacity: c(0.35, 0.35, 0.35),
+            nested: Box::new(Bsdf::RoughPlastic(RoughPlastic::new(
+                0.1,
+                1.49 / 1.000277,
+                c(0.1, 0.6, 0.3),
+                c(1.0, 1.0, 1.0),
+                false,
+                true,
+            ))),
+        }),
+        "normalmap" => Bsdf::NormalMap(NormalMap {
+            normalmap: c(0.7, 0.35, 0.9),
+            nested: Box::new(Bsdf::RoughPlastic(RoughPlastic::new(
+                0.2,
+                1.49 / 1.000277,
+                c(0.5, 0.3, 0.2),
+                c(1.0, 1.0, 1.0),
+                false,
+                true,
+            ))),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }),
+        "normalmap_rough" => Bsdf::NormalMap(NormalMap {
+            normalmap: c(0.2, 0.6, 0.8),
+            nested: Box::new(rough(0.3, 0.1, true)),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }),
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -87,6 +158,7 @@ fn flags_from_mitsuba(bits: u32) -> BsdfFlags {
         1 | 64 => BsdfFlags::DELTA_TRANSMISSION,
         2 => BsdfFlags::DIFFUSE_REFLECTION,
         8 => BsdfFlags::GLOSSY_REFLECTION,
+        16 => BsdfFlags::GLOSSY_TRANSMISSION,
         32 => BsdfFlags::DELTA_REFLECTION,
         _ => BsdfFlags(u32::MAX),
     }
@@ -157,7 +229,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 13 && n_eval > 300 && n_sample > 200);
+    assert!(configs.len() == 21 && n_eval > 300 && n_sample > 200);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

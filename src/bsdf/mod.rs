@@ -5,6 +5,7 @@
 //! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
+pub mod blend;
 pub mod btf;
 pub mod btf_sampler;
 #[cfg(test)]
@@ -13,10 +14,14 @@ pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
+pub mod mask;
 pub mod microfacet;
+pub mod normalmap;
 pub mod plastic;
 pub mod plmc;
 pub mod roughconductor;
+pub mod roughdielectric;
+pub mod roughplastic;
 pub mod texture;
 pub mod thindielectric;
 pub mod twosided;
@@ -26,13 +31,18 @@ mod golden;
 #[cfg(test)]
 mod tests;
 
+pub use blend::BlendBsdf;
 pub use btf::{BtfBsdf, BtfMaterial};
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
+pub use mask::Mask;
+pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use roughconductor::RoughConductor;
+pub use roughdielectric::RoughDielectric;
+pub use roughplastic::RoughPlastic;
 pub use texture::Texture;
 pub use thindielectric::ThinDielectric;
 pub use twosided::TwoSided;
@@ -107,6 +117,16 @@ pub enum Bsdf {
     TwoSided(TwoSided),
     /// Smooth plastic: diffuse base under a smooth dielectric coating.
     Plastic(Plastic),
+    /// Rough plastic: diffuse base under a rough (GGX) dielectric coating.
+    RoughPlastic(RoughPlastic),
+    /// Rough (GGX) dielectric interface.
+    RoughDielectric(RoughDielectric),
+    /// Weighted blend of two BSDFs (also Mitsuba 0.6's two-component `mixturebsdf`).
+    Blend(BlendBsdf),
+    /// Opacity mask: a null (straight-through) lobe around a nested BSDF.
+    Mask(Mask),
+    /// Shading-frame perturbation from a tangent-space normal map around a nested BSDF.
+    NormalMap(NormalMap),
     /// Measured BTF (raw data), DESIGN §2.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
@@ -124,6 +144,11 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.flags(),
             Bsdf::TwoSided(b) => b.flags(),
             Bsdf::Plastic(b) => b.flags(),
+            Bsdf::RoughPlastic(b) => b.flags(),
+            Bsdf::RoughDielectric(b) => b.flags(),
+            Bsdf::Blend(b) => b.flags(),
+            Bsdf::Mask(b) => b.flags(),
+            Bsdf::NormalMap(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
             Bsdf::Plmc(b) => b.flags(),
         }
@@ -140,6 +165,11 @@ impl Bsdf {
                 b.front.prefetch(si);
                 b.back.prefetch(si);
             }
+            Bsdf::Blend(b) => {
+                b.bsdfs[0].prefetch(si);
+                b.bsdfs[1].prefetch(si);
+            }
+            Bsdf::Mask(b) => b.nested.prefetch(si),
             _ => {}
         }
     }
@@ -215,6 +245,11 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.eval(si, wo),
             Bsdf::TwoSided(b) => b.eval(si, wo),
             Bsdf::Plastic(b) => b.eval(si, wo),
+            Bsdf::RoughPlastic(b) => b.eval(si, wo),
+            Bsdf::RoughDielectric(b) => b.eval(si, wo),
+            Bsdf::Blend(b) => b.eval(si, wo),
+            Bsdf::Mask(b) => b.eval(si, wo),
+            Bsdf::NormalMap(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
             Bsdf::Plmc(b) => b.eval(si, wo),
         }
@@ -230,6 +265,11 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.pdf(si, wo),
             Bsdf::TwoSided(b) => b.pdf(si, wo),
             Bsdf::Plastic(b) => b.pdf(si, wo),
+            Bsdf::RoughPlastic(b) => b.pdf(si, wo),
+            Bsdf::RoughDielectric(b) => b.pdf(si, wo),
+            Bsdf::Blend(b) => b.pdf(si, wo),
+            Bsdf::Mask(b) => b.pdf(si, wo),
+            Bsdf::NormalMap(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
             Bsdf::Plmc(b) => b.pdf(si, wo),
         }
@@ -241,6 +281,10 @@ impl Bsdf {
         match self {
             Bsdf::RoughConductor(b) => b.eval_pdf(si, wo),
             Bsdf::TwoSided(b) => b.eval_pdf(si, wo),
+            Bsdf::RoughDielectric(b) => b.eval_pdf(si, wo),
+            Bsdf::Blend(b) => b.eval_pdf(si, wo),
+            Bsdf::Mask(b) => b.eval_pdf(si, wo),
+            Bsdf::NormalMap(b) => b.eval_pdf(si, wo),
             Bsdf::Btf(b) => b.eval_pdf(si, wo),
             Bsdf::Plmc(b) => b.eval_pdf(si, wo),
             _ => (self.eval(si, wo), self.pdf(si, wo)),
@@ -263,6 +307,11 @@ impl Bsdf {
             Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
             Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
             Bsdf::Plastic(b) => b.sample(si, sample1, sample2),
+            Bsdf::RoughPlastic(b) => b.sample(si, sample1, sample2),
+            Bsdf::RoughDielectric(b) => b.sample(si, sample1, sample2),
+            Bsdf::Blend(b) => b.sample(si, sample1, sample2),
+            Bsdf::Mask(b) => b.sample(si, sample1, sample2),
+            Bsdf::NormalMap(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
             Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
         }

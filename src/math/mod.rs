@@ -4,6 +4,7 @@ pub mod color;
 pub mod distribution;
 pub mod filter;
 pub mod frame;
+pub mod quad;
 pub mod rng;
 pub mod simd;
 pub mod transform;

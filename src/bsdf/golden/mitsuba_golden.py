@@ -9,7 +9,7 @@ Line formats (whitespace separated, one case per line):
     eval <id> wix wiy wiz wox woy woz  r g b  pdf
     sample <id> wix wiy wiz s1 u1 u2  ok wox woy woz pdf eta type  r g b
 (type = Mitsuba 3 BSDFFlags: 1 null, 2 diffuse refl., 8 glossy refl., 32 delta refl.,
- 64 delta transm.; ok = 1 if the sample has pdf > 0 and a non-zero weight)
+ 16 glossy transm., 64 delta transm.; ok = 1 if the sample has pdf > 0 and a non-zero weight)
 """
 import math
 import random
@@ -54,6 +54,30 @@ CONFIGS = {
     "plastic_nonlinear": {"type": "plastic", "int_ior": 1.7, "ext_ior": 1.0, "nonlinear": True,
                           "diffuse_reflectance": rgb([0.6, 0.3, 0.1]),
                           "specular_reflectance": rgb([0.8, 0.9, 1.0])},
+    "roughplastic": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
+                     "diffuse_reflectance": rgb([0.2, 0.5, 0.8])},
+    "roughplastic_nonlinear_novis": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.45,
+                                     "int_ior": 1.7, "ext_ior": 1.0, "nonlinear": True,
+                                     "sample_visible": False,
+                                     "diffuse_reflectance": rgb([0.6, 0.3, 0.1]),
+                                     "specular_reflectance": rgb([0.8, 0.9, 1.0])},
+    "roughdielectric": {"type": "roughdielectric", "distribution": "ggx", "alpha": 0.25,
+                        "int_ior": 1.5, "ext_ior": 1.0},
+    "roughdielectric_aniso_novis": {"type": "roughdielectric", "distribution": "ggx",
+                                    "alpha_u": 0.4, "alpha_v": 0.1, "int_ior": 1.33,
+                                    "ext_ior": 1.0, "sample_visible": False,
+                                    "specular_reflectance": rgb([0.5, 0.6, 0.7]),
+                                    "specular_transmittance": rgb([0.9, 0.3, 0.4])},
+    "blend": {"type": "blendbsdf", "weight": 0.3, "a": rough(0.3, 0.3, True),
+              "b": {"type": "diffuse", "reflectance": rgb([0.3, 0.2, 0.1])}},
+    "mask": {"type": "mask", "opacity": 0.35,
+             "a": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.1,
+                   "diffuse_reflectance": rgb([0.1, 0.6, 0.3])}},
+    "normalmap": {"type": "normalmap", "normalmap": rgb([0.7, 0.35, 0.9]),
+                  "a": {"type": "roughplastic", "distribution": "ggx", "alpha": 0.2,
+                        "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}},
+    "normalmap_rough": {"type": "normalmap", "normalmap": rgb([0.2, 0.6, 0.8]),
+                        "a": rough(0.3, 0.1, True)},
 }
 
 

@@ -5,11 +5,17 @@ use super::check_finite;
 use super::properties::Props;
 use super::{Builder, N};
 use crate::Result;
+use crate::bsdf::BlendBsdf;
 use crate::bsdf::Bsdf;
 use crate::bsdf::Conductor;
 use crate::bsdf::Dielectric;
 use crate::bsdf::Diffuse;
+use crate::bsdf::Mask;
+use crate::bsdf::NormalMap;
+use crate::bsdf::Plastic;
 use crate::bsdf::RoughConductor;
+use crate::bsdf::RoughDielectric;
+use crate::bsdf::RoughPlastic;
 use crate::bsdf::Texture;
 use crate::bsdf::ThinDielectric;
 use crate::bsdf::TwoSided;
@@ -171,6 +177,192 @@ impl<'a, 'x> Builder<'a, 'x> {
                     back: Box::new(back),
                 })
             }
+            "plastic" | "roughplastic" => {
+                let int_ior = ior(&p, "int_ior", "polypropylene")?;
+                let ext_ior = ior(&p, "ext_ior", "air")?;
+                if !(int_ior > 0.0 && ext_ior > 0.0)
+                    || (p.ty == "roughplastic" && int_ior == ext_ior)
+                {
+                    return Err(p.err(
+                        "the interior and exterior indices of refraction must be positive and differ",
+                    ));
+                }
+                let diffuse_reflectance =
+                    self.texture_param(&p, "diffuse_reflectance", Vec3::splat(0.5))?;
+                let specular_reflectance =
+                    self.texture_param(&p, "specular_reflectance", Vec3::ONE)?;
+                let nonlinear = p.bool("nonlinear", false)?;
+                let eta = int_ior / ext_ior;
+                if p.ty == "plastic" {
+                    Bsdf::Plastic(Plastic::new(
+                        eta,
+                        diffuse_reflectance,
+                        specular_reflectance,
+                        nonlinear,
+                    ))
+                } else {
+                    ggx_distribution(&p)?;
+                    if p.has("alpha_u") || p.has("alpha_v") {
+                        return Err(p.err(
+                            "roughplastic does not support anisotropic roughness (as Mitsuba): use \"alpha\"",
+                        ));
+                    }
+                    let alpha = p.float("alpha", 0.1)?;
+                    check_alpha(&p, "alpha", alpha)?;
+                    Bsdf::RoughPlastic(RoughPlastic::new(
+                        alpha,
+                        eta,
+                        diffuse_reflectance,
+                        specular_reflectance,
+                        nonlinear,
+                        p.bool("sample_visible", true)?,
+                    ))
+                }
+            }
+            "roughdielectric" => {
+                let int_ior = ior(&p, "int_ior", "bk7")?;
+                let ext_ior = ior(&p, "ext_ior", "air")?;
+                if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+                    return Err(p.err(
+                        "the interior and exterior indices of refraction must be positive and differ",
+                    ));
+                }
+                ggx_distribution(&p)?;
+                let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
+                    if p.has("alpha") {
+                        return Err(
+                            p.err("specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both")
+                        );
+                    }
+                    if !(p.has("alpha_u") && p.has("alpha_v")) {
+                        return Err(p.err("both \"alpha_u\" and \"alpha_v\" must be specified"));
+                    }
+                    (
+                        self.texture_param(&p, "alpha_u", Vec3::splat(0.1))?,
+                        self.texture_param(&p, "alpha_v", Vec3::splat(0.1))?,
+                    )
+                } else {
+                    let a = self.texture_param(&p, "alpha", Vec3::splat(0.1))?;
+                    (a.clone(), a)
+                };
+                for (name, t) in [("alpha_u", &alpha_u), ("alpha_v", &alpha_v)] {
+                    if let Texture::Constant(c) = t {
+                        check_alpha(&p, name, c.x)?;
+                    }
+                }
+                Bsdf::RoughDielectric(RoughDielectric {
+                    alpha_u,
+                    alpha_v,
+                    eta: int_ior / ext_ior,
+                    specular_reflectance: self.texture_param(
+                        &p,
+                        "specular_reflectance",
+                        Vec3::ONE,
+                    )?,
+                    specular_transmittance: self.texture_param(
+                        &p,
+                        "specular_transmittance",
+                        Vec3::ONE,
+                    )?,
+                    sample_visible: p.bool("sample_visible", true)?,
+                })
+            }
+            "blendbsdf" | "mixturebsdf" => {
+                let kids = p.children_tagged("bsdf");
+                let nodes: Vec<N<'a>> = kids.iter().map(|c| c.node).collect();
+                if nodes.len() != 2 {
+                    return Err(p.err(format!(
+                        "needs exactly two nested bsdfs, found {} (a mixture of more than two \
+                         components is not supported)",
+                        nodes.len()
+                    )));
+                }
+                let weight = if p.ty == "blendbsdf" {
+                    if !p.has("weight") {
+                        return Err(
+                            p.err("the blend \"weight\" (0..1, a float or texture) is required")
+                        );
+                    }
+                    let w = self.texture_param(&p, "weight", Vec3::splat(0.5))?;
+                    if let Texture::Constant(c) = &w
+                        && !(c.min_element() >= 0.0 && c.max_element() <= 1.0)
+                    {
+                        return Err(p.err(format!("\"weight\" must lie in [0, 1], got {c}")));
+                    }
+                    w
+                } else {
+                    let text = p.string_req("weights")?;
+                    let ws = text
+                        .split([',', ' '])
+                        .filter(|t| !t.is_empty())
+                        .map(|t| t.parse::<f32>().ok().filter(|v| v.is_finite() && *v >= 0.0))
+                        .collect::<Option<Vec<f32>>>()
+                        .ok_or_else(|| {
+                            p.err(format!(
+                                "\"weights\" must be non-negative numbers, got \"{text}\""
+                            ))
+                        })?;
+                    if ws.len() != nodes.len() {
+                        return Err(p.err(format!(
+                            "{} weights for {} nested bsdfs",
+                            ws.len(),
+                            nodes.len()
+                        )));
+                    }
+                    let sum = ws[0] + ws[1];
+                    // Mitsuba 0.6 renormalises weights summing to more than 1; a sum below 1
+                    // (an absorbing mixture) has no blendbsdf equivalent.
+                    if !(sum >= 1.0 - 1e-3) {
+                        return Err(p.err(format!(
+                            "\"weights\" sum to {sum} < 1: only mixtures whose weights sum to 1 \
+                             (or more, renormalised) are supported"
+                        )));
+                    }
+                    Texture::Constant(Spectrum::splat(ws[1] / sum))
+                };
+                let a = self.build_bsdf(nodes[0])?;
+                let b = self.build_bsdf(nodes[1])?;
+                Bsdf::Blend(BlendBsdf {
+                    weight,
+                    bsdfs: Box::new([a, b]),
+                })
+            }
+            "mask" => {
+                let kids = p.children_tagged("bsdf");
+                let node = match kids.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("needs a nested bsdf")),
+                    _ => return Err(p.err("cannot have more than one nested bsdf")),
+                };
+                let opacity = self.texture_param(&p, "opacity", Vec3::splat(0.5))?;
+                if let Texture::Constant(c) = &opacity
+                    && !(c.min_element() >= 0.0 && c.max_element() <= 1.0)
+                {
+                    return Err(p.err(format!("\"opacity\" must lie in [0, 1], got {c}")));
+                }
+                Bsdf::Mask(Mask {
+                    opacity,
+                    nested: Box::new(self.build_bsdf(node)?),
+                })
+            }
+            "normalmap" => {
+                let kids = p.children_tagged("bsdf");
+                let node = match kids.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("needs a nested bsdf")),
+                    _ => return Err(p.err("cannot have more than one nested bsdf")),
+                };
+                if !p.has("normalmap") {
+                    return Err(p.err("the \"normalmap\" texture is required"));
+                }
+                let normalmap = self.texture_param(&p, "normalmap", Vec3::new(0.5, 0.5, 1.0))?;
+                Bsdf::NormalMap(NormalMap {
+                    normalmap,
+                    flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+                    use_shadowing_function: p.bool("use_shadowing_function", true)?,
+                    nested: Box::new(self.build_bsdf(node)?),
+                })
+            }
             "btf" => {
                 let file = p.string_req("filename")?;
                 let uv_scale = p.float("uv_scale", 1.0)?;
@@ -196,7 +388,8 @@ impl<'a, 'x> Builder<'a, 'x> {
             _ => {
                 return Err(p.err(
                     "unsupported bsdf type (btfpt implements diffuse, conductor, roughconductor, dielectric, \
-                     thindielectric, twosided, btf)",
+                     thindielectric, roughdielectric, plastic, roughplastic, twosided, blendbsdf, \
+                     mixturebsdf (two components), mask, normalmap, btf)",
                 ));
             }
         };
@@ -269,6 +462,33 @@ impl<'a, 'x> Builder<'a, 'x> {
         let t = Texture::Bitmap(Arc::new(img));
         self.tex_memo.insert(node.id(), t.clone());
         Ok(t)
+    }
+}
+
+/// Requires `distribution="ggx"` (Mitsuba's default, beckmann, is not implemented).
+fn ggx_distribution(p: &Props) -> Result<()> {
+    match p
+        .string_opt("distribution")?
+        .map(|d| d.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("ggx") => Ok(()),
+        None => Err(p.err(
+            "Mitsuba's default microfacet distribution is beckmann, which btfpt does not \
+             implement: add <string name=\"distribution\" value=\"ggx\"/>",
+        )),
+        Some(d) => Err(p.err(format!("unsupported distribution \"{d}\" (only ggx)"))),
+    }
+}
+
+/// A roughness must be finite and non-negative (0 is clamped to 1e-4, as Mitsuba).
+fn check_alpha(p: &Props, name: &str, alpha: f32) -> Result<()> {
+    if alpha.is_finite() && alpha >= 0.0 {
+        Ok(())
+    } else {
+        Err(p.err(format!(
+            "\"{name}\" must be a non-negative roughness, got {alpha}"
+        )))
     }
 }
 
