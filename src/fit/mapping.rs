@@ -202,7 +202,19 @@ fn fit_pairs_weighted(x: &[f32], y: &[f32], w: Option<&[f32]>, floor: f32) -> Po
         return constant;
     }
     let domain = hi.abs().max(lo.abs()).max(floor as f64);
-    let (mom, rhs) = moments(x, y, w, centre, half);
+    let mut mom = [0.0f64; 9];
+    let mut rhs = [0.0f64; 5];
+    for (i, (&xi, &yi)) in x.iter().zip(y).enumerate() {
+        let t = (xi as f64 - centre) / half;
+        let mut p = w.map_or(1.0, |w| w[i] as f64);
+        for (k, m) in mom.iter_mut().enumerate() {
+            *m += p;
+            if k < 5 {
+                rhs[k] += p * yi as f64;
+            }
+            p *= t;
+        }
+    }
     for degree in (1..=max_degree).rev() {
         let Some(b) = solve_moments(&mom, &rhs, degree + 1) else {
             continue;
@@ -225,88 +237,6 @@ fn fit_pairs_weighted(x: &[f32], y: &[f32], w: Option<&[f32]>, floor: f32) -> Po
         }
     }
     constant
-}
-
-/// Weighted power moments Σ w·t^k (k < 9) and Σ w·y·t^k (k < 5) of t = (x − `centre`)/`half`,
-/// in f64, with the AVX2 build of the kernel where the CPU has it.
-fn moments(
-    x: &[f32],
-    y: &[f32],
-    w: Option<&[f32]>,
-    centre: f64,
-    half: f64,
-) -> ([f64; 9], [f64; 5]) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the running CPU supports AVX2 (checked just above).
-        return unsafe {
-            match w {
-                Some(w) => moments_avx2(x, y, |i| w[i] as f64, centre, half),
-                None => moments_avx2(x, y, |_| 1.0, centre, half),
-            }
-        };
-    }
-    match w {
-        Some(w) => moments_kernel(x, y, |i| w[i] as f64, centre, half),
-        None => moments_kernel(x, y, |_| 1.0, centre, half),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn moments_avx2(
-    x: &[f32],
-    y: &[f32],
-    w: impl Fn(usize) -> f64,
-    centre: f64,
-    half: f64,
-) -> ([f64; 9], [f64; 5]) {
-    moments_kernel(x, y, w, centre, half)
-}
-
-/// Pairs processed side by side by [`moments_kernel`] (independent accumulators vectorise).
-const MOMENT_LANES: usize = 4;
-
-/// The moments kernel: [`MOMENT_LANES`] lane-split partial sums, added up at the end (pairs
-/// beyond a whole number of lanes go to lane 0).
-#[inline(always)]
-fn moments_kernel(
-    x: &[f32],
-    y: &[f32],
-    w: impl Fn(usize) -> f64,
-    centre: f64,
-    half: f64,
-) -> ([f64; 9], [f64; 5]) {
-    const L: usize = MOMENT_LANES;
-    let n = x.len().min(y.len());
-    let inv_half = 1.0 / half;
-    let mut mom = [[0.0f64; L]; 9];
-    let mut rhs = [[0.0f64; L]; 5];
-    let mut add = |i0: usize, lanes: usize| {
-        let (mut t, mut p, mut yv) = ([0.0f64; L], [0.0f64; L], [0.0f64; L]);
-        for l in 0..lanes {
-            t[l] = (x[i0 + l] as f64 - centre) * inv_half;
-            p[l] = w(i0 + l);
-            yv[l] = y[i0 + l] as f64;
-        }
-        for k in 0..9 {
-            for l in 0..L {
-                mom[k][l] += p[l];
-                if k < 5 {
-                    rhs[k][l] += p[l] * yv[l];
-                }
-                p[l] *= t[l];
-            }
-        }
-    };
-    let whole = n / L * L;
-    for i0 in (0..whole).step_by(L) {
-        add(i0, L);
-    }
-    for i in whole..n {
-        add(i, 1);
-    }
-    (mom.map(|m| m.iter().sum()), rhs.map(|r| r.iter().sum()))
 }
 
 /// p(x) = Σ_j b_j ((x − c)/h)^j expanded into powers of x (f64, rounded once to f32).

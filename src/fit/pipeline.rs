@@ -67,7 +67,7 @@ pub fn fingerprint_keyed(source: &dyn BtfSource, opts: &FitOptions, key: u64) ->
 }
 
 /// Bumped whenever the fitting code changes results, so stale parts are refitted.
-const FIT_CODE_VERSION: u64 = 6;
+const FIT_CODE_VERSION: u64 = 5;
 
 /// The sidecar directory holding finished views of an interrupted fit: `mat.plmc.parts/`.
 pub fn parts_dir(output: &Path) -> PathBuf {
