@@ -91,6 +91,9 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
     let first = rng.next_below(n as u32) as usize;
     centers.extend_from_slice(point(first));
     let mut d2: Vec<f32> = (0..n).map(|i| dist2(point(i), point(first))).collect();
+    // Distance to the second-nearest centre so far, kept along so the first Lloyd pass needs no
+    // full scan (it would recompute exactly these nearest and second-nearest distances).
+    let mut second = vec![f32::INFINITY; n];
     let mut assign = vec![0u32; n];
     while centers.len() / dim < k {
         let total: f64 = d2.iter().map(|&v| v as f64).sum();
@@ -115,22 +118,29 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
         for i in 0..n {
             let d = dist2(point(i), point(pick));
             if d < d2[i] {
+                second[i] = d2[i];
                 d2[i] = d;
                 assign[i] = c as u32;
+            } else if d < second[i] {
+                second[i] = d;
             }
         }
     }
     let k = centers.len() / dim;
 
     // Hamerly's algorithm: upper bound to own centre, lower bound to the second closest.
+    // The seeding already scanned every centre in index order with the same distance function,
+    // so these are exactly the bounds a full first assignment pass would give (and `assign` is
+    // its result: the lowest index among the nearest centres).
     let mut upper: Vec<f32> = d2.iter().map(|v| v.sqrt()).collect();
-    let mut lower = vec![0.0f32; n];
+    let mut lower: Vec<f32> = second.iter().map(|v| v.sqrt()).collect();
+    drop(second);
     let mut sums = vec![0.0f64; k * dim];
     let mut counts = vec![0usize; k];
     let mut half_sep = vec![0.0f32; k];
     let mut moved = vec![0.0f32; k];
     let mut iterations = 0;
-    // Initial second-closest bounds need one full scan.
+    // The first iteration only moves the centres: the seeding made its assignment and bounds.
     let mut first_pass = true;
     let mut changed;
     let mut max_moved = 1.0f32;
@@ -140,8 +150,9 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
         iterations += 1;
         changed = false;
         let mut reassigned = 0usize;
-        // Half the distance from each centre to its nearest other centre.
-        for a in 0..k {
+        // Half the distance from each centre to its nearest other centre (not needed by the
+        // first pass, whose assignment the seeding already made).
+        for a in 0..k * usize::from(!first_pass) {
             let mut m = f32::INFINITY;
             for b in 0..k {
                 if a != b {
@@ -153,15 +164,15 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
             }
             half_sep[a] = 0.5 * m.sqrt();
         }
-        for i in 0..n {
+        for i in 0..n * usize::from(!first_pass) {
             let a = assign[i] as usize;
             let bound = half_sep[a].max(lower[i]);
-            if !first_pass && upper[i] <= bound {
+            if upper[i] <= bound {
                 continue;
             }
             let p = point(i);
             upper[i] = dist2(p, &centers[a * dim..(a + 1) * dim]).sqrt();
-            if !first_pass && upper[i] <= bound {
+            if upper[i] <= bound {
                 continue;
             }
             let (mut best, mut best_d, mut second_d) = (a, f32::INFINITY, f32::INFINITY);

@@ -109,9 +109,14 @@ pub fn fit_view(
     if opts.kind == ModelKind::Lm {
         return out;
     }
-    out.plm_polys = fit_polys(lights, data, &sorted, texels, &mut out.stats, |t, c, u| {
-        lobe::eval(&lm_lobes[3 * t + c], u)
-    });
+    out.plm_polys = fit_polys(
+        lights,
+        data,
+        &sorted,
+        texels,
+        &mut out.stats,
+        texel_images(lights, &lm_lobes, texels),
+    );
     stage(Stage::Plm);
     if opts.kind == ModelKind::Plm {
         return out;
@@ -272,9 +277,14 @@ pub fn fit_view(
     }
     let unpacked: Vec<Lobe> = table.iter().map(|p| p.unpack()).collect();
     let mut stats = out.stats;
-    let mut polys = fit_polys(lights, data, &sorted, texels, &mut stats, |t, c, u| {
-        lobe::eval(&unpacked[3 * index[3 * t + c] as usize + c], u)
-    });
+    let mut polys = fit_polys(
+        lights,
+        data,
+        &sorted,
+        texels,
+        &mut stats,
+        cluster_images(lights, &unpacked, &index, texels),
+    );
     if opts.refine_iters > 0 {
         // A second, short refinement through the PLM-C mappings themselves (the first used PLM's),
         // then the mappings refitted; kept only if the view's absolute error drops.
@@ -331,9 +341,14 @@ pub fn fit_view(
         }
         let unpacked2: Vec<Lobe> = table2.iter().map(|p| p.unpack()).collect();
         let mut stats2 = out.stats;
-        let polys2 = fit_polys(lights, data, &sorted, texels, &mut stats2, |t, c, u| {
-            lobe::eval(&unpacked2[3 * index2[3 * t + c] as usize + c], u)
-        });
+        let polys2 = fit_polys(
+            lights,
+            data,
+            &sorted,
+            texels,
+            &mut stats2,
+            cluster_images(lights, &unpacked2, &index2, texels),
+        );
         if view_err(&table2, &index2, &polys2) < view_err(&table, &index, &polys) {
             (table, index, polys, stats) = (table2, index2, polys2, stats2);
             stats.refine_second_kept += 1;
@@ -376,7 +391,43 @@ fn sorted_planes(data: &[f32], texels: usize, lights: usize) -> Vec<f32> {
     out
 }
 
-/// Polynomials `[light][channel]` mapping the model image `model(texel, channel, u)` onto the
+/// The LM model's images `[light][channel][texel]` from per-texel lobes `[texel][channel]`.
+fn texel_images(lights: &DirectionSet, lobes: &[Lobe], texels: usize) -> Vec<f32> {
+    let mut out = vec![0.0f32; lights.len() * 3 * texels];
+    out.par_chunks_mut(texels.max(1))
+        .enumerate()
+        .for_each(|(i, img)| {
+            let (l, c) = (i / 3, i % 3);
+            let u = lights.dirs[l];
+            for (t, v) in img.iter_mut().enumerate() {
+                *v = lobe::eval(&lobes[3 * t + c], u);
+            }
+        });
+    out
+}
+
+/// A clustered model's images `[light][channel][texel]` from its lobe table `[cluster][channel]`
+/// and index image `[texel][channel]`: each cluster's lobe is evaluated once per image and
+/// looked up per texel (the same values as evaluating every texel's lobe).
+fn cluster_images(lights: &DirectionSet, table: &[Lobe], index: &[u16], texels: usize) -> Vec<f32> {
+    let k = table.len() / 3;
+    let mut out = vec![0.0f32; lights.len() * 3 * texels];
+    out.par_chunks_mut(texels.max(1))
+        .enumerate()
+        .for_each_init(Vec::new, |vals, (i, img)| {
+            let (l, c) = (i / 3, i % 3);
+            let u = lights.dirs[l];
+            vals.clear();
+            vals.extend((0..k).map(|j| lobe::eval(&table[3 * j + c], u)));
+            for (t, v) in img.iter_mut().enumerate() {
+                *v = vals[index[3 * t + c] as usize];
+            }
+        });
+    out
+}
+
+/// Polynomials `[light][channel]` mapping the model images `images` (`[light][channel][texel]`,
+/// see [`texel_images`] and [`cluster_images`]) onto the
 /// original image `data` (`[light][texel][rgb]`, also given sorted, see [`sorted_planes`]).
 ///
 /// Per image two mappings are fitted and the one with the lower MAE on the image is kept (counted
@@ -396,17 +447,8 @@ fn fit_polys(
     sorted: &[f32],
     texels: usize,
     stats: &mut ViewStats,
-    model: impl Fn(usize, usize, crate::math::Vec3) -> f32 + Sync,
+    images: Vec<f32>,
 ) -> Vec<Poly> {
-    let images: Vec<f32> = (0..lights.len() * 3)
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let (l, c) = (i / 3, i % 3);
-            let u = lights.dirs[l];
-            (0..texels).map(move |t| (t, c, u))
-        })
-        .map(|(t, c, u)| model(t, c, u))
-        .collect();
     let mut floor = [0.0f32; 3];
     for (i, img) in images.chunks(texels.max(1)).enumerate() {
         let m = img.iter().fold(0.0f32, |m, &v| m.max(v));
