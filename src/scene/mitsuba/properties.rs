@@ -84,13 +84,13 @@ impl<'a, 'x> Props<'a, 'x> {
         let ty = x.req_attr(node, "type")?.to_string();
         let mut props: Vec<Prop<'a>> = Vec::new();
         let mut children = Vec::new();
-        for ch in node.children() {
-            if !ch.is_element() {
-                if ch.is_text() && !ch.text().unwrap_or("").trim().is_empty() {
-                    return Err(x.err(ch, format!("unexpected text content in <{tag}>")));
-                }
-                continue;
-            }
+        if let Some(t) = node
+            .children()
+            .find(|c| c.is_text() && !c.text().unwrap_or("").trim().is_empty())
+        {
+            return Err(x.err(t, format!("unexpected text content in <{tag}>")));
+        }
+        for ch in x.children(node) {
             let ctag = ch.tag_name().name();
             if OBJECT_TAGS.contains(&ctag) || ctag == "ref" {
                 let target = x.deref(ch)?;
@@ -108,9 +108,6 @@ impl<'a, 'x> Props<'a, 'x> {
                     used: Cell::new(false),
                 });
                 continue;
-            }
-            if ctag == "default" {
-                continue; // handled by the substitution pass
             }
             let value = match ctag {
                 "float" => {
@@ -183,9 +180,6 @@ impl<'a, 'x> Props<'a, 'x> {
                 }
                 "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
                     return Err(x.err(ch, format!("<{ctag}> can only occur inside a <transform>")));
-                }
-                "include" | "alias" | "path" => {
-                    return Err(x.err(ch, format!("<{ctag}> is not supported by btfpt")));
                 }
                 other => return Err(x.err(ch, format!("unexpected element <{other}> in <{tag}>"))),
             };
