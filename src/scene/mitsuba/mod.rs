@@ -133,7 +133,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 ));
             }
         }
-        let mut camera: Option<(Camera, u32)> = None;
+        let mut camera: Option<(Camera, u32, crate::scene::SamplerType)> = None;
         let mut integrator: Option<IntegratorSettings> = None;
         if let Some(t) = root
             .children()
@@ -179,11 +179,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
         }
-        let (camera, spp) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let (camera, spp, sampler) =
+            camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let mut integrator = integrator.unwrap_or_default();
+        integrator.sampler = sampler;
         Ok(Scene {
             source: x.file.clone(),
             camera,
-            integrator: integrator.unwrap_or_default(),
+            integrator,
             spp,
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),
