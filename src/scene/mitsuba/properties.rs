@@ -80,7 +80,12 @@ impl<'a, 'x> Props<'a, 'x> {
     /// Parses the children of a plugin element.
     pub fn parse(x: &'x XmlDoc<'a>, node: Node<'a, 'a>) -> Result<Self> {
         let tag = node.tag_name().name().to_string();
-        x.check_attrs(node, &["type", "id", "name"])?;
+        if node.parent_element().is_none() {
+            // The root object of an included object file carries the file's version.
+            x.check_attrs(node, &["type", "id", "name", "version"])?;
+        } else {
+            x.check_attrs(node, &["type", "id", "name"])?;
+        }
         let ty = x.req_attr(node, "type")?.to_string();
         let mut props: Vec<Prop<'a>> = Vec::new();
         let mut children = Vec::new();
