@@ -24,7 +24,8 @@ const DOUBLE: u32 = 0x2000;
 #[derive(Debug)]
 pub struct SerializedShape {
     pub mesh: LocalMesh,
-    /// The file asks for face normals (flag 0x0010).
+    /// The file asks for face normals (flag 0x0010); Mitsuba 3 ignores this flag in version 3/4
+    /// files, and so does the scene loader.
     pub face_normals: bool,
     /// Shape name (version 4 files; empty otherwise).
     pub name: String,
@@ -102,7 +103,7 @@ fn parse(b: &[u8], path: &Path, index: u32) -> Result<SerializedShape> {
             let got = z.take(n).read_to_end(out).map_err(|e| {
                 Error::format(
                     path,
-                    format!("{KIND}: cannot decompress the shape data: {e}"),
+                    format!("{KIND}: compressed shape data is truncated or corrupt: {e}"),
                 )
             })?;
             if (got as u64) < n {
@@ -346,7 +347,7 @@ mod tests {
     fn bad_files_are_clear_errors() {
         let b = two_shapes();
         let err = |b: &[u8], i: u32| parse(b, pth(), i).unwrap_err().to_string();
-        assert!(err(&b[..30], 0).contains("ends early"));
+        assert!(err(&b[..30], 0).contains("truncated"));
         assert!(err(b"ply\n", 0).contains("magic"));
         assert!(err(&[], 0).contains("truncated"));
         assert!(err(&[], 0).contains("mesh.serialized"));

@@ -310,10 +310,14 @@ impl<'a> XmlDoc<'a> {
                     .map(Path::to_path_buf)
                     .unwrap_or_default();
                 let p = Path::new(&v);
+                // Relative to this file's folder, else through the file resolver (Mitsuba).
                 let folder = if p.is_absolute() {
                     p.to_path_buf()
                 } else {
-                    here.join(p)
+                    std::iter::once(here.join(p))
+                        .chain(self.resolver(w).into_iter().map(|b| b.join(p)))
+                        .find(|c| c.is_dir())
+                        .unwrap_or_else(|| here.join(p))
                 };
                 if !folder.is_dir() {
                     return Err(self.err(
@@ -418,7 +422,7 @@ impl<'a> XmlDoc<'a> {
             p.to_path_buf()
         } else {
             std::iter::once(here.join(p))
-                .chain(self.search.iter().map(|s| s.join(p)))
+                .chain(self.resolver(w).into_iter().map(|b| b.join(p)))
                 .find(|c| c.is_file())
                 .unwrap_or_else(|| here.join(p))
         };
@@ -461,6 +465,23 @@ impl<'a> XmlDoc<'a> {
         let r = self.walk(w, root, None);
         w.stack.pop();
         r
+    }
+
+    /// Mitsuba's file resolver during the parse, after the current file's own folder: the
+    /// folders of the files including it (innermost first), the root's `<path>`s, the root's
+    /// folder and the working directory.
+    fn resolver(&self, w: &Walk) -> Vec<PathBuf> {
+        let mut v: Vec<PathBuf> = w
+            .stack
+            .iter()
+            .rev()
+            .skip(1)
+            .filter_map(|f| f.parent().map(Path::to_path_buf))
+            .collect();
+        v.extend(self.search.iter().cloned());
+        v.push(self.dir.clone());
+        v.push(PathBuf::from("."));
+        v
     }
 
     /// The element children of `node` as Mitsuba sees them: an `<include>` of a `<scene>` file

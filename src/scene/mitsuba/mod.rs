@@ -162,6 +162,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 "texture" => {
                     self.texture(ch)?;
                 }
+                // Built where a <ref> names them (Mitsuba instantiates them at the top level
+                // too, but an unreferenced sampler, film or filter changes nothing).
+                "sampler" | "film" | "rfilter" if x.attr(ch, "id").is_some() => {}
                 "emitter" => {
                     let p = Props::parse(x, ch)?;
                     if p.ty == "area" {

@@ -120,6 +120,8 @@ impl<'a, 'x> Builder<'a, 'x> {
                         )));
                     }
                 }
+                // The Mitsuba logo stamped into the output file: no effect on the radiance.
+                let _ = f.bool("banner", true)?;
                 if f.bool("sample_border", false)? {
                     return Err(f.err(
                     "sample_border=true is not supported (samples are taken inside the film only)",

@@ -52,8 +52,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 let index = u32::try_from(index)
                     .map_err(|_| p.err(format!("invalid shape_index {index}")))?;
                 let sh = crate::scene::serialized::load(&path, index).map_err(wrap)?;
-                // The file's face-normals flag applies unless the scene says otherwise.
-                opts.face_normals = p.bool("face_normals", sh.face_normals)?;
+                // Mitsuba 3 ignores the face-normals flag of version 3/4 files (only its v5
+                // loader applies it): the property alone decides, as in its load_legacy.
+                opts.face_normals = p.bool("face_normals", false)?;
                 opts.recompute_normals = true;
                 let label = if sh.name.is_empty() {
                     format!("{file}[{index}]")
