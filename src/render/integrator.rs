@@ -135,15 +135,16 @@ impl PathTracer {
                     } else {
                         bsdf.eval_pdf_prepared(&si, &prep, wo)
                     };
-                    if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
-                        if !occluded(rs, &si, &ls, stats) {
-                            let mis = if ls.delta {
-                                1.0
-                            } else {
-                                mis_weight(ls.pdf, bsdf_pdf)
-                            };
-                            result += throughput * f * ls.weight * mis;
-                        }
+                    if f != Spectrum::ZERO
+                        && ls.weight != Spectrum::ZERO
+                        && !occluded(rs, &si, &ls, stats)
+                    {
+                        let mis = if ls.delta {
+                            1.0
+                        } else {
+                            mis_weight(ls.pdf, bsdf_pdf)
+                        };
+                        result += throughput * f * ls.weight * mis;
                     }
                 }
             }

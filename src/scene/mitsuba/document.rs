@@ -29,7 +29,7 @@ const MAX_INCLUDE_DEPTH: usize = 15;
 /// An element of one of the loaded documents: (document index, node id).
 pub(crate) type Key = (usize, NodeId);
 
-/// What [`XmlDoc::new`] found: the whole document, or the next included file to read first.
+/// What [`XmlDoc::load`] found: the whole document, or the next included file to read first.
 pub(crate) enum Loaded<'a> {
     /// Every `<include>` was available.
     Done(Box<XmlDoc<'a>>),
@@ -105,7 +105,7 @@ impl<'a> XmlDoc<'a> {
     /// order (as Mitsuba does: a `<default>` only applies to the elements after it, also in
     /// included files; `defines` win over defaults), and collects ids. Returns
     /// [`Loaded::Need`] when an include names a file not in `docs` yet.
-    pub fn new(
+    pub fn load(
         files: &[PathBuf],
         docs: Vec<&'a Document<'a>>,
         defines: &[(String, String)],

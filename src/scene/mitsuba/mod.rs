@@ -42,7 +42,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                 docs.push(parse_xml(file, text)?);
             }
             let files: Vec<PathBuf> = texts.iter().map(|t| t.0.clone()).collect();
-            match XmlDoc::new(&files, docs.iter().collect(), &options.defines)? {
+            match XmlDoc::load(&files, docs.iter().collect(), &options.defines)? {
                 Loaded::Need(p) => p,
                 Loaded::Done(x) => {
                     let mut b = Builder {

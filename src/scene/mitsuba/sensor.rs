@@ -264,7 +264,12 @@ pub(super) fn mitsuba_sample_count(ty: SamplerType, n: u32) -> u32 {
             r * r
         }
         SamplerType::Orthogonal => {
-            let is_prime = |x: u32| x >= 2 && (2..).take_while(|d| d * d <= x).all(|d| x % d != 0);
+            let is_prime = |x: u32| {
+                x >= 2
+                    && (2..)
+                        .take_while(|d| d * d <= x)
+                        .all(|d| !x.is_multiple_of(d))
+            };
             let mut r = 2u32;
             while r * r < n || !is_prime(r) {
                 r += 1;
