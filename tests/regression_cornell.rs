@@ -343,3 +343,80 @@ fn reference_has_the_expected_size() {
     assert!(r.variance.data.iter().all(|v| v.is_finite() && *v >= 0.0));
     assert!(Path::new(&root().join(CORNELL)).is_file());
 }
+
+// ------------------------------------------------------------------------------------------
+// Mitsuba scene-file features (#16): include/path/alias/spectrum, serialized, cylinder, bitmap
+// options, checkerboard, hide_emitters (path) and the direct integrator, each scene against its
+// own Mitsuba reference and calibration (reference-images/mitsuba-features*/).
+
+const FEATURES: &str = "scenes/mitsuba-features/scene.xml";
+const FEATURES_DIRECT: &str = "scenes/mitsuba-features/scene-direct.xml";
+
+fn features_ref() -> &'static Reference {
+    static R: OnceLock<Reference> = OnceLock::new();
+    R.get_or_init(|| reference("mitsuba-features"))
+}
+
+fn features_direct_ref() -> &'static Reference {
+    static R: OnceLock<Reference> = OnceLock::new();
+    R.get_or_init(|| reference("mitsuba-features-direct"))
+}
+
+#[test]
+fn mitsuba_features_match_mitsuba() {
+    let f = failures(features_ref(), &render(load(FEATURES, &[])), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
+#[test]
+fn mitsuba_features_direct_match_mitsuba() {
+    let f = failures(
+        features_direct_ref(),
+        &render(load(FEATURES_DIRECT, &[])),
+        "btfpt",
+    );
+    assert!(f.is_empty(), "{f:?}");
+}
+
+#[test]
+fn mitsuba_features_fail_with_swapped_checkerboard() {
+    // The checkerboard's two colours swapped (the squares' parity convention).
+    use btfpt::bsdf::texture::Checkerboard;
+    use btfpt::bsdf::{Bsdf, Texture};
+    fn swap(b: &mut Bsdf) -> bool {
+        if let Bsdf::Diffuse(d) = b
+            && let Texture::Checkerboard(c) = &d.reflectance
+        {
+            d.reflectance = Texture::Checkerboard(std::sync::Arc::new(Checkerboard {
+                color0: c.color1.clone(),
+                color1: c.color0.clone(),
+                to_uv: c.to_uv,
+            }));
+            return true;
+        }
+        false
+    }
+    let mut s = load(FEATURES, &[]);
+    let mut found = false;
+    for b in &mut s.bsdfs {
+        if let Bsdf::TwoSided(t) = b {
+            found |= swap(&mut t.front);
+            found |= swap(&mut t.back);
+        }
+    }
+    assert!(found, "the features scene has a checkerboard");
+    assert!(!failures(features_ref(), &render(s), "checkerboard swapped").is_empty());
+}
+
+#[test]
+fn mitsuba_features_direct_fail_with_delta_light_weighted_per_sample() {
+    // Mitsuba weighs a delta emitter's samples by 1, not 1 / emitter_samples (the scene takes
+    // 2): dividing, as a textbook estimator would, halves the point light.
+    let mut s = load(FEATURES_DIRECT, &[]);
+    for e in &mut s.emitters {
+        if let Emitter::Point { intensity, .. } = e {
+            *intensity *= 0.5;
+        }
+    }
+    assert!(!failures(features_direct_ref(), &render(s), "delta / emitter_samples").is_empty());
+}

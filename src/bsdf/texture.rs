@@ -1,15 +1,131 @@
-//! Spatially varying parameters: a constant or a bitmap looked up by uv.
+//! Spatially varying parameters: a constant, a bitmap or a checkerboard looked up by uv, as
+//! Mitsuba 3.9's `srgb`/`bitmap`/`checkerboard` textures evaluate them in its rgb variants.
 
 use crate::io::RgbImage;
+use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2};
 use std::sync::Arc;
 
 /// A reflectance-like parameter (linear RGB).
 #[derive(Clone, Debug)]
 pub enum Texture {
+    /// A uniform value (`<rgb>`, `<float>`, `<spectrum value>`).
     Constant(Spectrum),
-    /// Mitsuba `bitmap`: bilinear filtering, repeat wrap, row 0 of the image at v = 0.
+    /// A bitmap with Mitsuba's defaults: bilinear filtering, repeat wrap, identity `to_uv`
+    /// (row 0 of the image at v = 0).
     Bitmap(Arc<RgbImage>),
+    /// A bitmap with explicit filter, wrap mode and `to_uv` transform.
+    Mapped(Arc<BitmapTexture>),
+    /// Mitsuba `checkerboard`.
+    Checkerboard(Arc<Checkerboard>),
+}
+
+/// Texel filtering of a bitmap (`filter_type`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexFilter {
+    /// Interpolate the four nearest texel centres.
+    Bilinear,
+    /// The texel containing the lookup point.
+    Nearest,
+}
+
+/// How texel indices outside the image wrap (`wrap_mode`, Dr.Jit's texture semantics).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    /// Tile the image.
+    Repeat,
+    /// Tile the image, every other tile mirrored.
+    Mirror,
+    /// Use the edge texel.
+    Clamp,
+}
+
+/// Mitsuba's `to_uv` as the 2D affine map it keeps of the XML's 4×4 transform
+/// (`Transform4f::extract`): uv' = (a·u + b·v + c, d·u + e·v + f).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform(pub [f32; 6]);
+
+impl UvTransform {
+    /// The identity map.
+    pub const IDENTITY: UvTransform = UvTransform([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+
+    /// The upper-left 2×2 block and the first two entries of the last column of a 4×4
+    /// transform (what Mitsuba's `props.get<ScalarAffineTransform3f>` does with it).
+    pub fn from_mat4(m: &crate::math::Mat4) -> UvTransform {
+        // glam is column-major: m.col(j)[i] is row i, column j.
+        UvTransform([
+            m.x_axis.x, m.y_axis.x, m.w_axis.x, m.x_axis.y, m.y_axis.y, m.w_axis.y,
+        ])
+    }
+
+    /// Applies the map to `uv`.
+    #[inline]
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        let m = &self.0;
+        Vec2::new(
+            m[0] * uv.x + m[1] * uv.y + m[2],
+            m[3] * uv.x + m[4] * uv.y + m[5],
+        )
+    }
+}
+
+/// Mitsuba `bitmap` with its sampling options.
+#[derive(Clone, Debug)]
+pub struct BitmapTexture {
+    /// Linear RGB texels (sRGB already decoded unless `raw`).
+    pub image: RgbImage,
+    /// Texel filtering.
+    pub filter: TexFilter,
+    /// Wrap mode of texel indices.
+    pub wrap: Wrap,
+    /// Applied to the surface uv before the lookup.
+    pub to_uv: UvTransform,
+    /// Mean Rec.709 luminance of the texels (Mitsuba's `BitmapTexture::mean` in rgb variants).
+    mean: f32,
+}
+
+impl BitmapTexture {
+    /// A bitmap texture; `image` must hold at least one texel.
+    pub fn new(image: RgbImage, filter: TexFilter, wrap: Wrap, to_uv: UvTransform) -> Self {
+        let mean = luminance_mean(&image);
+        BitmapTexture {
+            image,
+            filter,
+            wrap,
+            to_uv,
+            mean,
+        }
+    }
+
+    /// The filtered value at (untransformed) `uv`.
+    pub fn eval(&self, uv: Vec2) -> Spectrum {
+        let uv = self.to_uv.apply(uv);
+        match self.filter {
+            TexFilter::Bilinear => bilinear(&self.image, uv, self.wrap),
+            TexFilter::Nearest => nearest(&self.image, uv, self.wrap),
+        }
+    }
+}
+
+/// Mitsuba `checkerboard`: `color0` where both fractional parts of `to_uv(uv)` are on the
+/// same side of ½, `color1` elsewhere.
+#[derive(Clone, Debug)]
+pub struct Checkerboard {
+    /// The colour of the squares at uv ∈ [0, ½)² (and [½, 1)²).
+    pub color0: Texture,
+    /// The other squares.
+    pub color1: Texture,
+    /// Applied to the surface uv before the test.
+    pub to_uv: UvTransform,
+}
+
+impl Checkerboard {
+    /// True where `color0` shows.
+    #[inline]
+    fn is_color0(&self, uv: Vec2) -> bool {
+        let t = self.to_uv.apply(uv);
+        (t.x - t.x.floor() > 0.5) == (t.y - t.y.floor() > 0.5)
+    }
 }
 
 impl Texture {
@@ -17,57 +133,183 @@ impl Texture {
     pub fn eval(&self, uv: Vec2) -> Spectrum {
         match self {
             Texture::Constant(c) => *c,
-            Texture::Bitmap(img) => bilinear_repeat(img, uv),
+            Texture::Bitmap(img) => bilinear(img, uv, Wrap::Repeat),
+            Texture::Mapped(b) => b.eval(uv),
+            Texture::Checkerboard(c) => {
+                if c.is_color0(uv) {
+                    c.color0.eval(uv)
+                } else {
+                    c.color1.eval(uv)
+                }
+            }
         }
     }
 
-    /// Mean over the texture and the RGB channels (Mitsuba `Texture::mean`, used to steer
-    /// lobe selection).
+    /// The scalar value at `uv` (Mitsuba's `eval_1`, used for roughness): a constant's channel
+    /// mean, a bitmap's luminance.
+    pub fn eval_1(&self, uv: Vec2) -> f32 {
+        match self {
+            Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
+            Texture::Bitmap(_) | Texture::Mapped(_) => luminance(self.eval(uv)),
+            // Mitsuba 3.9's Checkerboard::eval_1 selects with the opposite test to its eval
+            // (color0 where the halves differ); matched here so scalar uses agree with it.
+            Texture::Checkerboard(c) => {
+                if c.is_color0(uv) {
+                    c.color1.eval_1(uv)
+                } else {
+                    c.color0.eval_1(uv)
+                }
+            }
+        }
+    }
+
+    /// Mean over the texture (Mitsuba `Texture::mean` in rgb variants, used to steer lobe
+    /// selection): a constant's channel mean, a bitmap's mean luminance.
     pub fn mean(&self) -> f32 {
         match self {
             Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
-            Texture::Bitmap(img) => {
-                let s: f64 = img.data.iter().map(|&v| v as f64).sum();
-                (s / img.data.len().max(1) as f64) as f32
-            }
+            Texture::Bitmap(img) => luminance_mean(img),
+            Texture::Mapped(b) => b.mean,
+            Texture::Checkerboard(c) => 0.5 * (c.color0.mean() + c.color1.mean()),
         }
     }
 
     /// True if the value depends on uv.
     pub fn is_spatially_varying(&self) -> bool {
-        matches!(self, Texture::Bitmap(_))
+        !matches!(self, Texture::Constant(_))
     }
 }
 
-fn bilinear_repeat(img: &RgbImage, uv: Vec2) -> Spectrum {
+fn luminance_mean(img: &RgbImage) -> f32 {
+    let s: f64 = img
+        .data
+        .chunks_exact(3)
+        .map(|p| luminance(Spectrum::new(p[0], p[1], p[2])) as f64)
+        .sum();
+    (s / (img.data.len() / 3).max(1) as f64) as f32
+}
+
+/// Dr.Jit's wrap of a texel index `i` into `0..n`.
+#[inline]
+fn wrap_index(i: i64, n: i64, wrap: Wrap) -> usize {
+    (match wrap {
+        Wrap::Repeat => i.rem_euclid(n),
+        Wrap::Clamp => i.clamp(0, n - 1),
+        Wrap::Mirror => {
+            let p = i.rem_euclid(2 * n);
+            if p >= n { 2 * n - p - 1 } else { p }
+        }
+    }) as usize
+}
+
+/// Texel lookup at a float texel coordinate; NaN or huge uv (from a degenerate `to_uv`) clamp
+/// to the i64 range instead of panicking.
+#[inline]
+fn to_index(v: f32) -> i64 {
+    if v.is_nan() {
+        0
+    } else {
+        v.clamp(-1e15, 1e15) as i64
+    }
+}
+
+fn bilinear(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
     let (w, h) = (img.width as i64, img.height as i64);
     let x = uv.x * w as f32 - 0.5;
     let y = uv.y * h as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let wrap = |i: i64, n: i64| i.rem_euclid(n) as usize;
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let px = |xi: i64, yi: i64| Spectrum::from(img.get(wrap(xi, w), wrap(yi, h)));
+    let (x0, y0) = (to_index(x0), to_index(y0));
+    let px = |xi: i64, yi: i64| {
+        Spectrum::from(img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)))
+    };
     let top = px(x0, y0) * (1.0 - fx) + px(x0 + 1, y0) * fx;
     let bottom = px(x0, y0 + 1) * (1.0 - fx) + px(x0 + 1, y0 + 1) * fx;
     top * (1.0 - fy) + bottom * fy
+}
+
+fn nearest(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let xi = to_index((uv.x * w as f32).floor());
+    let yi = to_index((uv.y * h as f32).floor());
+    Spectrum::from(img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn bitmap_is_exact_at_pixel_centres_and_wraps() {
+    fn quad() -> RgbImage {
         let mut img = RgbImage::new(2, 2);
         img.set(0, 0, [1.0, 0.0, 0.0]);
         img.set(1, 0, [0.0, 1.0, 0.0]);
         img.set(0, 1, [0.0, 0.0, 1.0]);
         img.set(1, 1, [1.0, 1.0, 1.0]);
-        let t = Texture::Bitmap(Arc::new(img));
+        img
+    }
+
+    #[test]
+    fn bitmap_is_exact_at_pixel_centres_and_wraps() {
+        let t = Texture::Bitmap(Arc::new(quad()));
         assert_eq!(t.eval(Vec2::new(0.25, 0.25)), Spectrum::new(1.0, 0.0, 0.0));
         assert_eq!(t.eval(Vec2::new(1.75, 0.75)), Spectrum::ONE);
         let mid = t.eval(Vec2::new(0.5, 0.25));
         assert!((mid - Spectrum::new(0.5, 0.5, 0.0)).length() < 1e-6);
+    }
+
+    #[test]
+    fn wrap_modes_follow_drjit() {
+        // n = 3: repeat 0 1 2 0 1 2, mirror 0 1 2 2 1 0, clamp 0 1 2 2 2 2.
+        let r: Vec<usize> = (-3..6).map(|i| wrap_index(i, 3, Wrap::Repeat)).collect();
+        assert_eq!(r, [0, 1, 2, 0, 1, 2, 0, 1, 2]);
+        let m: Vec<usize> = (-3..6).map(|i| wrap_index(i, 3, Wrap::Mirror)).collect();
+        assert_eq!(m, [2, 1, 0, 0, 1, 2, 2, 1, 0]);
+        let c: Vec<usize> = (-3..6).map(|i| wrap_index(i, 3, Wrap::Clamp)).collect();
+        assert_eq!(c, [0, 0, 0, 0, 1, 2, 2, 2, 2]);
+    }
+
+    #[test]
+    fn nearest_clamp_and_to_uv() {
+        let b = BitmapTexture::new(
+            quad(),
+            TexFilter::Nearest,
+            Wrap::Clamp,
+            UvTransform::IDENTITY,
+        );
+        assert_eq!(b.eval(Vec2::new(0.49, 0.1)), Spectrum::new(1.0, 0.0, 0.0));
+        assert_eq!(b.eval(Vec2::new(0.51, 0.1)), Spectrum::new(0.0, 1.0, 0.0));
+        assert_eq!(b.eval(Vec2::new(7.0, 7.0)), Spectrum::ONE);
+        // Bilinear + clamp: beyond the edge the edge texel, not the wrapped one.
+        let c = BitmapTexture::new(
+            quad(),
+            TexFilter::Bilinear,
+            Wrap::Clamp,
+            UvTransform::IDENTITY,
+        );
+        assert_eq!(c.eval(Vec2::new(0.0, 0.0)), Spectrum::new(1.0, 0.0, 0.0));
+        // to_uv = scale 2 then offset 0.5 in u: uv (0.1, 0.1) → (0.7, 0.2).
+        let t = UvTransform([2.0, 0.0, 0.5, 0.0, 2.0, 0.0]);
+        let s = BitmapTexture::new(quad(), TexFilter::Nearest, Wrap::Repeat, t);
+        assert_eq!(s.eval(Vec2::new(0.1, 0.1)), Spectrum::new(0.0, 1.0, 0.0));
+        // Garbage uv does not panic.
+        let _ = s.eval(Vec2::new(f32::NAN, f32::INFINITY));
+        assert!((s.mean - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn checkerboard_matches_mitsuba_layout() {
+        let c = Texture::Checkerboard(Arc::new(Checkerboard {
+            color0: Texture::Constant(Spectrum::splat(0.4)),
+            color1: Texture::Constant(Spectrum::splat(0.2)),
+            to_uv: UvTransform([4.0, 0.0, 0.0, 0.0, 4.0, 0.0]),
+        }));
+        assert_eq!(c.eval(Vec2::new(0.05, 0.05)), Spectrum::splat(0.4));
+        assert_eq!(c.eval(Vec2::new(0.2, 0.05)), Spectrum::splat(0.2));
+        assert_eq!(c.eval(Vec2::new(0.2, 0.2)), Spectrum::splat(0.4));
+        assert_eq!(c.eval(Vec2::new(-0.05, 0.05)), Spectrum::splat(0.2));
+        // Mitsuba's eval_1 uses the opposite test.
+        assert_eq!(c.eval_1(Vec2::new(0.05, 0.05)), 0.2);
+        assert!((c.mean() - 0.3).abs() < 1e-6);
+        assert!(c.is_spatially_varying());
     }
 }

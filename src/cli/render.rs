@@ -254,7 +254,11 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene_spp = scene.spp;
     let btf_uses = scene.btf_uses.clone();
     let mut rs = RenderScene::new(scene)?;
-    if args.integrator == "packet" {
+    if args.integrator == "packet" && rs.integrator.direct.is_some() {
+        eprintln!(
+            "  --integrator packet: the scene uses Mitsuba's direct integrator, which only the scalar integrator implements; rendering with scalar"
+        );
+    } else if args.integrator == "packet" {
         rs.kind = IntegratorKind::Packet(PacketOptions {
             pool: args.packet_pool as usize,
             refill: args.packet_refill == "on",

@@ -47,12 +47,18 @@ fn extension(path: &Path) -> String {
 /// Reads an image as linear RGB: EXR, Radiance `.hdr` and `.pfm` as stored; 8- and 16-bit
 /// PNG/JPEG decoded with the sRGB EOTF (Mitsuba's default for integer formats). Errors name the file.
 pub fn read_image(path: &Path) -> Result<RgbImage> {
+    read_image_as(path, true)
+}
+
+/// [`read_image`], with `srgb_decode = false` keeping 8- and 16-bit PNG/JPEG values as stored
+/// (scaled to [0, 1]: Mitsuba's `raw` bitmaps); float formats are read as stored either way.
+pub fn read_image_as(path: &Path, srgb_decode: bool) -> Result<RgbImage> {
     if !path.exists() {
         return Err(Error::format(path, "file not found"));
     }
     match extension(path).as_str() {
         "exr" => read_exr(path),
-        "png" | "jpg" | "jpeg" => read_ldr(path),
+        "png" | "jpg" | "jpeg" => read_ldr(path, srgb_decode),
         "hdr" => read_hdr(path),
         "pfm" => super::pfm::read_pfm(path),
         other => Err(Error::format(
@@ -114,7 +120,7 @@ fn read_hdr(path: &Path) -> Result<RgbImage> {
     })
 }
 
-fn read_ldr(path: &Path) -> Result<RgbImage> {
+fn read_ldr(path: &Path, srgb_decode: bool) -> Result<RgbImage> {
     let dynimg = image::ImageReader::open(path)
         .map_err(|e| Error::io(path, e))?
         .with_guessed_format()
@@ -130,7 +136,10 @@ fn read_ldr(path: &Path) -> Result<RgbImage> {
             .to_rgb16()
             .into_raw()
             .into_iter()
-            .map(|v| srgb_to_linear(v as f32 / 65535.0))
+            .map(|v| {
+                let v = v as f32 / 65535.0;
+                if srgb_decode { srgb_to_linear(v) } else { v }
+            })
             .collect(),
         _ => {
             let lut = srgb8_to_linear_table();
@@ -138,7 +147,13 @@ fn read_ldr(path: &Path) -> Result<RgbImage> {
                 .to_rgb8()
                 .into_raw()
                 .into_iter()
-                .map(|v| lut[v as usize])
+                .map(|v| {
+                    if srgb_decode {
+                        lut[v as usize]
+                    } else {
+                        v as f32 / 255.0
+                    }
+                })
                 .collect()
         }
     };

@@ -9,4 +9,4 @@ pub mod pfm;
 pub mod shared;
 
 pub use atomic::write_atomic;
-pub use image::{RgbImage, read_image, write_exr, write_png_srgb};
+pub use image::{RgbImage, read_image, read_image_as, write_exr, write_png_srgb};

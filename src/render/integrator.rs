@@ -12,7 +12,7 @@ use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::{Pcg32, Spectrum, Vec3};
-use crate::scene::IntegratorSettings;
+use crate::scene::{DirectSettings, IntegratorSettings};
 use crate::{Error, Result};
 
 /// Counters a worker keeps while tracing (summed for progress and the final report).
@@ -31,6 +31,8 @@ pub struct PathTracer {
     pub hide_emitters: bool,
     /// Next-event estimation on (the default). Off = pure BSDF sampling, used to cross-check MIS.
     pub nee: bool,
+    /// Some: Mitsuba's `direct` integrator ([`super::direct`]) instead of path tracing.
+    pub direct: Option<DirectSettings>,
 }
 
 impl PathTracer {
@@ -57,6 +59,7 @@ impl PathTracer {
             rr_depth: s.rr_depth as u32,
             hide_emitters: s.hide_emitters,
             nee: true,
+            direct: s.direct,
         })
     }
 
@@ -70,6 +73,9 @@ impl PathTracer {
         rng: &mut Pcg32,
         stats: &mut TraceStats,
     ) -> Spectrum {
+        if let Some(ds) = &self.direct {
+            return super::direct::li(ds, self.hide_emitters, rs, o, d, tmax, rng, stats);
+        }
         let mut result = Spectrum::ZERO;
         if self.max_depth == 0 {
             return result;
@@ -82,27 +88,8 @@ impl PathTracer {
         let mut prev_p = o;
         let mut prev_pdf = 1.0f32;
         let mut prev_delta = true;
-        let (mut ray_o, mut ray_d, mut ray_t) = (o, d, tmax);
-        stats.rays += 1;
-        let mut hit = rs.accel.intersect(ray_o, ray_d, ray_t);
-        if self.hide_emitters {
-            // Camera rays pass through area emitters (Mitsuba's skip_area_emitters).
-            while let Some(h) = hit {
-                if !lights.is_emissive(h.mesh) {
-                    break;
-                }
-                let si = surface_interaction(meshes, ray_o, ray_d, &h);
-                let travelled = (si.p - o).length();
-                ray_o = offset_origin(si.p, si.n, ray_d);
-                ray_t = tmax - travelled;
-                stats.rays += 1;
-                hit = if ray_t > 0.0 {
-                    rs.accel.intersect(ray_o, ray_d, ray_t)
-                } else {
-                    None
-                };
-            }
-        }
+        let mut ray_d = d;
+        let (mut hit, mut ray_o) = camera_hit(rs, o, d, tmax, self.hide_emitters, stats);
         loop {
             let Some(h) = hit else {
                 // Escaped: lights at infinity (hidden from the camera with hide_emitters).
@@ -148,29 +135,16 @@ impl PathTracer {
                     } else {
                         bsdf.eval_pdf_prepared(&si, &prep, wo)
                     };
-                    if f != Spectrum::ZERO && ls.weight != Spectrum::ZERO {
-                        let so = offset_origin(si.p, si.n, ls.wi);
-                        stats.rays += 1;
-                        let blocked = if ls.dist.is_finite() {
-                            let target = if ls.n_geo != Vec3::ZERO {
-                                offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
-                            } else {
-                                si.p + ls.wi * ls.dist
-                            };
-                            let to = target - so;
-                            let len = to.length();
-                            len > 0.0 && rs.accel.occluded(so, to / len, len * (1.0 - 1e-4))
+                    if f != Spectrum::ZERO
+                        && ls.weight != Spectrum::ZERO
+                        && !occluded(rs, &si, &ls, stats)
+                    {
+                        let mis = if ls.delta {
+                            1.0
                         } else {
-                            rs.accel.occluded(so, ls.wi, f32::INFINITY)
+                            mis_weight(ls.pdf, bsdf_pdf)
                         };
-                        if !blocked {
-                            let mis = if ls.delta {
-                                1.0
-                            } else {
-                                mis_weight(ls.pdf, bsdf_pdf)
-                            };
-                            result += throughput * f * ls.weight * mis;
-                        }
+                        result += throughput * f * ls.weight * mis;
                     }
                 }
             }
@@ -200,11 +174,67 @@ impl PathTracer {
             }
             ray_o = offset_origin(si.p, si.n, wo_world);
             ray_d = wo_world;
-            ray_t = f32::INFINITY;
             stats.rays += 1;
-            hit = rs.accel.intersect(ray_o, ray_d, ray_t);
+            hit = rs.accel.intersect(ray_o, ray_d, f32::INFINITY);
         }
         result
+    }
+}
+
+/// The first hit of a camera ray from `o` along `d` within `tmax`; with `hide_emitters` area
+/// emitters are passed through (Mitsuba's `skip_area_emitters`). Returns the hit and the origin
+/// of the ray that found it.
+pub(super) fn camera_hit(
+    rs: &RenderScene,
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+    hide_emitters: bool,
+    stats: &mut TraceStats,
+) -> (Option<crate::geometry::accel::Hit>, Vec3) {
+    let (mut ray_o, mut ray_t) = (o, tmax);
+    stats.rays += 1;
+    let mut hit = rs.accel.intersect(ray_o, d, ray_t);
+    if hide_emitters {
+        while let Some(h) = hit {
+            if !rs.lights.is_emissive(h.mesh) {
+                break;
+            }
+            let si = surface_interaction(&rs.scene.meshes, ray_o, d, &h);
+            let travelled = (si.p - o).length();
+            ray_o = offset_origin(si.p, si.n, d);
+            ray_t = tmax - travelled;
+            stats.rays += 1;
+            hit = if ray_t > 0.0 {
+                rs.accel.intersect(ray_o, d, ray_t)
+            } else {
+                None
+            };
+        }
+    }
+    (hit, ray_o)
+}
+
+/// True if the shadow ray from `si` to the emitter sample `ls` is blocked (one ray counted).
+pub(super) fn occluded(
+    rs: &RenderScene,
+    si: &crate::geometry::intersection::SurfaceInteraction,
+    ls: &crate::light::LightSample,
+    stats: &mut TraceStats,
+) -> bool {
+    let so = offset_origin(si.p, si.n, ls.wi);
+    stats.rays += 1;
+    if ls.dist.is_finite() {
+        let target = if ls.n_geo != Vec3::ZERO {
+            offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
+        } else {
+            si.p + ls.wi * ls.dist
+        };
+        let to = target - so;
+        let len = to.length();
+        len > 0.0 && rs.accel.occluded(so, to / len, len * (1.0 - 1e-4))
+    } else {
+        rs.accel.occluded(so, ls.wi, f32::INFINITY)
     }
 }
 

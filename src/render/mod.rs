@@ -3,6 +3,7 @@
 
 pub mod camera;
 pub mod checkpoint;
+pub mod direct;
 pub mod film;
 pub mod integrator;
 pub mod packet;
@@ -93,13 +94,33 @@ impl RenderScene {
         } else {
             self.integrator.max_depth.to_string()
         };
+        let integrator = match &self.integrator.direct {
+            Some(d) => format!(
+                "direct: emitter_samples {}, bsdf_samples {}, hide_emitters {}",
+                d.emitter_samples, d.bsdf_samples, self.integrator.hide_emitters
+            ),
+            None => format!(
+                "path: max_depth {}, rr_depth {}, hide_emitters {}",
+                max_depth, self.integrator.rr_depth, self.integrator.hide_emitters
+            ),
+        };
+        let sampler = s.integrator.sampler;
+        let sampler = if sampler == crate::scene::SamplerType::Independent {
+            String::new()
+        } else {
+            format!(
+                " ({} sampler: drawn from btfpt's independent sampler, same expected image, different noise)",
+                sampler.name()
+            )
+        };
         format!(
-            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  path: max_depth {}, rr_depth {}, hide_emitters {}",
+            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  {}",
             s.source.display(),
             s.camera.width,
             s.camera.height,
             s.camera.fov_x_deg,
             s.spp,
+            sampler,
             s.meshes.len(),
             self.accel.triangle_count(),
             lo.x,
@@ -111,9 +132,7 @@ impl RenderScene {
             s.bsdfs.len(),
             self.lights.lights.len(),
             self.lights.infinite_count(),
-            max_depth,
-            self.integrator.rr_depth,
-            self.integrator.hide_emitters,
+            integrator,
         )
     }
 }

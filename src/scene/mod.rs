@@ -57,9 +57,49 @@ impl Camera {
     }
 }
 
-/// Settings of the `path` integrator (Mitsuba 3 semantics).
+/// Mitsuba's `direct` integrator: emitter and BSDF samples per camera-ray hit, combined with
+/// the power heuristic.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DirectSettings {
+    /// Samples of the emitter-sampling technique per hit (`emitter_samples`).
+    pub emitter_samples: u32,
+    /// Samples of the BSDF-sampling technique per hit (`bsdf_samples`).
+    pub bsdf_samples: u32,
+}
+
+/// The Mitsuba sampler a scene names. All of them draw from btfpt's independent sampler: the
+/// expected image is the same, only the noise differs; the sample count is the one Mitsuba's
+/// sampler would take (rounded as it rounds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SamplerType {
+    #[default]
+    Independent,
+    Stratified,
+    Multijitter,
+    LdSampler,
+    Orthogonal,
+}
+
+impl SamplerType {
+    /// Mitsuba's plugin name.
+    pub fn name(self) -> &'static str {
+        match self {
+            SamplerType::Independent => "independent",
+            SamplerType::Stratified => "stratified",
+            SamplerType::Multijitter => "multijitter",
+            SamplerType::LdSampler => "ldsampler",
+            SamplerType::Orthogonal => "orthogonal",
+        }
+    }
+}
+
+/// Settings of the `path` (or `direct`) integrator (Mitsuba 3 semantics).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IntegratorSettings {
+    /// Some: Mitsuba's `direct` integrator instead of `path` (max_depth and rr_depth unused).
+    pub direct: Option<DirectSettings>,
+    /// The sampler the scene names (see [`SamplerType`]).
+    pub sampler: SamplerType,
     /// Longest path in vertices: 1 = emitters seen directly, 2 = direct lighting; −1 = unbounded.
     pub max_depth: i32,
     /// Depth at which Russian roulette starts.
@@ -71,6 +111,8 @@ pub struct IntegratorSettings {
 impl Default for IntegratorSettings {
     fn default() -> Self {
         IntegratorSettings {
+            direct: None,
+            sampler: SamplerType::Independent,
             max_depth: -1,
             rr_depth: 5,
             hide_emitters: false,

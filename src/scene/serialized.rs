@@ -6,6 +6,7 @@
 //! count, which `shape_index` selects by.
 
 use super::shapes::LocalMesh;
+use crate::io::bytes::Reader;
 use crate::math::{Vec2, Vec3};
 use crate::{Error, Result};
 use std::io::Read;
@@ -23,7 +24,8 @@ const DOUBLE: u32 = 0x2000;
 #[derive(Debug)]
 pub struct SerializedShape {
     pub mesh: LocalMesh,
-    /// The file asks for face normals (flag 0x0010).
+    /// The file asks for face normals (flag 0x0010); Mitsuba 3 ignores this flag in version 3/4
+    /// files, and so does the scene loader.
     pub face_normals: bool,
     /// Shape name (version 4 files; empty otherwise).
     pub name: String,
@@ -32,148 +34,197 @@ pub struct SerializedShape {
 /// Reads shape `shape_index` of a serialized file.
 pub fn load(path: &Path, shape_index: u32) -> Result<SerializedShape> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse(&bytes, shape_index).map_err(|m| Error::format(path, m))
+    parse(&bytes, path, shape_index)
 }
 
-fn le_u16(b: &[u8], at: usize) -> Option<u16> {
-    Some(u16::from_le_bytes(b.get(at..at + 2)?.try_into().ok()?))
-}
+const KIND: &str = "corrupt Mitsuba serialized mesh";
 
-fn le_u32(b: &[u8], at: usize) -> Option<u32> {
-    Some(u32::from_le_bytes(b.get(at..at + 4)?.try_into().ok()?))
-}
-
-fn le_u64(b: &[u8], at: usize) -> Option<u64> {
-    Some(u64::from_le_bytes(b.get(at..at + 8)?.try_into().ok()?))
-}
-
-/// Parses shape `index` of the file `b`; errors are messages (the caller names the file).
-fn parse(b: &[u8], index: u32) -> std::result::Result<SerializedShape, String> {
-    let header = |at: usize| -> std::result::Result<u16, String> {
-        let magic = le_u16(b, at).ok_or("file too short for a shape header")?;
+/// Parses shape `index` of the file `b` (read from `path`, which errors name).
+fn parse(b: &[u8], path: &Path, index: u32) -> Result<SerializedShape> {
+    let mut r = Reader::new(b, path, KIND);
+    let header = |r: &mut Reader, at: usize| -> Result<u16> {
+        r.seek(at)?;
+        r.set_part("shape header");
+        let magic = r.u16("magic")?;
         if magic != MAGIC {
-            return Err(format!(
-                "not a Mitsuba serialized mesh (magic {magic:#06x} at byte {at}, expected 0x041c)"
+            return Err(Error::format(
+                path,
+                format!(
+                    "not a Mitsuba serialized mesh (magic {magic:#06x} at byte {at}, expected 0x041c)"
+                ),
             ));
         }
-        let version = le_u16(b, at + 2).ok_or("file too short for a shape header")?;
+        let version = r.u16("version")?;
         if version != 3 && version != 4 {
-            return Err(format!(
+            return Err(r.err(format!(
                 "serialized format version {version} is not supported (3 or 4)"
-            ));
+            )));
         }
         Ok(version)
     };
-    let version = header(0)?;
+    let version = header(&mut r, 0)?;
     let offset = if index == 0 {
         0
     } else {
+        r.set_part("shape table");
         let n = b.len();
-        let count = n
+        let at = n
             .checked_sub(4)
-            .and_then(|at| le_u32(b, at))
-            .ok_or("file too short for the shape table")?;
+            .ok_or_else(|| r.err("file too short for the shape table"))?;
+        r.seek(at)?;
+        let count = r.u32("shape count")?;
         if index >= count {
-            return Err(format!(
-                "shape_index {index} is out of range: the file holds {count} shapes"
+            return Err(Error::format(
+                path,
+                format!("shape_index {index} is out of range: the file holds {count} shapes"),
             ));
         }
         let k = (count - index) as usize;
+        let entry = if version == 4 { 8 } else { 4 };
+        let at = k
+            .checked_mul(entry)
+            .and_then(|t| n.checked_sub(4 + t))
+            .ok_or_else(|| r.err("the shape table runs past the start of the file"))?;
+        r.seek(at)?;
         let o = if version == 4 {
-            n.checked_sub(4 + 8 * k).and_then(|at| le_u64(b, at))
+            r.u64("shape offset")?
         } else {
-            n.checked_sub(4 * (k + 1))
-                .and_then(|at| le_u32(b, at))
-                .map(u64::from)
+            r.u32("shape offset")? as u64
         };
-        o.ok_or("shape table runs past the start of the file")? as usize
+        usize::try_from(o).map_err(|_| r.err(format!("shape offset {o} is past the end")))?
     };
-    let version = header(offset)?;
-    let stream = b.get(offset + 4..).ok_or("shape offset beyond the file")?;
-    let mut r = Stream {
-        z: std::io::BufReader::new(flate2::read::ZlibDecoder::new(stream)),
-    };
-    let flags = r.u32()?;
+    let version = header(&mut r, offset)?;
+    let stream = &b[r.pos()..];
+    let mut z = flate2::read::ZlibDecoder::new(stream);
+    // The header fields stream out of the decoder; their counts then bound the payload read.
+    let mut head = Vec::new();
+    let read_exact =
+        |z: &mut flate2::read::ZlibDecoder<&[u8]>, n: u64, out: &mut Vec<u8>| -> Result<()> {
+            let got = z.take(n).read_to_end(out).map_err(|e| {
+                Error::format(
+                    path,
+                    format!("{KIND}: compressed shape data is truncated or corrupt: {e}"),
+                )
+            })?;
+            if (got as u64) < n {
+                return Err(Error::format(
+                    path,
+                    format!("{KIND}: compressed shape data ends early (truncated file?)"),
+                ));
+            }
+            Ok(())
+        };
+    read_exact(&mut z, 4, &mut head)?;
+    let flags = u32::from_le_bytes([head[0], head[1], head[2], head[3]]);
     let name = if version == 4 {
         let mut s = Vec::new();
         loop {
-            let c = r.bytes::<1>()?[0];
-            if c == 0 {
+            let mut c = Vec::with_capacity(1);
+            read_exact(&mut z, 1, &mut c)?;
+            if c[0] == 0 {
                 break;
             }
             if s.len() > 1 << 16 {
-                return Err("shape name is not terminated".into());
+                return Err(Error::format(
+                    path,
+                    format!("{KIND}: shape name is not terminated"),
+                ));
             }
-            s.push(c);
+            s.push(c[0]);
         }
         String::from_utf8_lossy(&s).into_owned()
     } else {
         String::new()
     };
-    let nv = r.u64()?;
-    let nt = r.u64()?;
+    let mut counts = Vec::with_capacity(16);
+    read_exact(&mut z, 16, &mut counts)?;
+    let mut c = Reader::new(&counts, path, KIND);
+    c.set_part("shape counts");
+    let nv = c.u64("vertex count")?;
+    let nt = c.u64("triangle count")?;
     let double = match flags & (SINGLE | DOUBLE) {
         SINGLE => false,
         DOUBLE => true,
-        _ => return Err(format!("flags {flags:#x} give no single/double precision")),
-    };
-    // Guard against absurd counts before allocating (the stream must hold the data anyway).
-    let scalar = if double { 8 } else { 4 };
-    let index_size: u64 = if nv > u32::MAX as u64 { 8 } else { 4 };
-    let need = nv
-        .checked_mul(3 * scalar)
-        .and_then(|v| v.checked_add(nt.checked_mul(3 * index_size)?));
-    match need {
-        Some(n) if n <= 1 << 36 && nv <= u32::MAX as u64 => {}
         _ => {
-            return Err(format!(
-                "implausible sizes: {nv} vertices, {nt} triangles (at most 2^32 vertices)"
+            return Err(Error::format(
+                path,
+                format!("{KIND}: flags {flags:#x} give no single/double precision"),
             ));
         }
-    }
-    let (nv, nt) = (nv as usize, nt as usize);
-    let vec3s = |r: &mut Stream| -> std::result::Result<Vec<Vec3>, String> {
-        let mut v = Vec::with_capacity(nv.min(1 << 24));
-        for _ in 0..nv {
-            let (x, y, z) = (r.real(double)?, r.real(double)?, r.real(double)?);
-            v.push(Vec3::new(x, y, z));
-        }
-        Ok(v)
     };
-    let positions = vec3s(&mut r)?;
+    let scalar: u64 = if double { 8 } else { 4 };
+    let per_vertex = 3
+        + if flags & HAS_NORMALS != 0 { 3 } else { 0 }
+        + if flags & HAS_TEXCOORDS != 0 { 2 } else { 0 }
+        + if flags & HAS_COLORS != 0 { 3 } else { 0 };
+    let index_size: u64 = if nv > u32::MAX as u64 { 8 } else { 4 };
+    let need = nv
+        .checked_mul(per_vertex * scalar)
+        .and_then(|v| v.checked_add(nt.checked_mul(3 * index_size)?));
+    let need = match need {
+        Some(n) if n <= 1 << 36 && nv <= u32::MAX as u64 => n,
+        _ => {
+            return Err(Error::format(
+                path,
+                format!(
+                    "{KIND}: implausible sizes: {nv} vertices, {nt} triangles (at most 2^32 vertices)"
+                ),
+            ));
+        }
+    };
+    let mut payload = Vec::new();
+    read_exact(&mut z, need, &mut payload)?;
+    let mut r = Reader::new(&payload, path, KIND);
+    let size = scalar as u8;
+    let vec3s = |r: &mut Reader, part: &'static str| -> Result<Vec<Vec3>> {
+        r.set_part(part);
+        let v = r.scalars(nv * 3, size, part)?;
+        Ok(v.chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect())
+    };
+    let positions = vec3s(&mut r, "positions")?;
     let normals = if flags & HAS_NORMALS != 0 {
-        vec3s(&mut r)?
+        vec3s(&mut r, "normals")?
     } else {
         Vec::new()
     };
     let uvs = if flags & HAS_TEXCOORDS != 0 {
-        let mut v = Vec::with_capacity(nv.min(1 << 24));
-        for _ in 0..nv {
-            v.push(Vec2::new(r.real(double)?, r.real(double)?));
-        }
-        v
+        r.set_part("uvs");
+        let v = r.scalars(nv * 2, size, "uvs")?;
+        v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect()
     } else {
         Vec::new()
     };
     if flags & HAS_COLORS != 0 {
-        vec3s(&mut r)?; // vertex colours are not used
+        vec3s(&mut r, "colors")?; // vertex colours are not used
     }
-    let mut indices = Vec::with_capacity(nt.min(1 << 24));
+    r.set_part("triangles");
+    let mut indices = Vec::with_capacity(nt as usize);
     for t in 0..nt {
         let mut tri = [0u32; 3];
         for v in &mut tri {
-            let i = r.u32()?;
-            if i as usize >= nv {
-                return Err(format!(
-                    "triangle {t} uses vertex {i}, but there are {nv} vertices"
+            let i = if index_size == 8 {
+                r.u64("index")?
+            } else {
+                r.u32("index")? as u64
+            };
+            if i >= nv {
+                return Err(Error::format(
+                    path,
+                    format!("{KIND}: triangle {t} uses vertex {i}, but there are {nv} vertices"),
                 ));
             }
-            *v = i;
+            *v = i as u32;
         }
         indices.push(tri);
     }
+    r.finish()?;
     if let Some(p) = positions.iter().position(|p| !p.is_finite()) {
-        return Err(format!("vertex {p} has a non-finite position"));
+        return Err(Error::format(
+            path,
+            format!("{KIND}: vertex {p} has a non-finite position"),
+        ));
     }
     Ok(SerializedShape {
         mesh: LocalMesh {
@@ -187,42 +238,15 @@ fn parse(b: &[u8], index: u32) -> std::result::Result<SerializedShape, String> {
     })
 }
 
-/// Little-endian reads from the decompressed shape stream.
-struct Stream<'a> {
-    z: std::io::BufReader<flate2::read::ZlibDecoder<&'a [u8]>>,
-}
-
-impl Stream<'_> {
-    fn bytes<const N: usize>(&mut self) -> std::result::Result<[u8; N], String> {
-        let mut a = [0u8; N];
-        self.z.read_exact(&mut a).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::UnexpectedEof {
-                "compressed shape data ends early (truncated file?)".to_string()
-            } else {
-                format!("cannot decompress the shape data: {e}")
-            }
-        })?;
-        Ok(a)
-    }
-    fn u32(&mut self) -> std::result::Result<u32, String> {
-        Ok(u32::from_le_bytes(self.bytes()?))
-    }
-    fn u64(&mut self) -> std::result::Result<u64, String> {
-        Ok(u64::from_le_bytes(self.bytes()?))
-    }
-    fn real(&mut self, double: bool) -> std::result::Result<f32, String> {
-        Ok(if double {
-            f64::from_le_bytes(self.bytes()?) as f32
-        } else {
-            f32::from_le_bytes(self.bytes()?)
-        })
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use std::io::Write;
+
+    /// The file name errors are reported against.
+    fn pth() -> &'static Path {
+        Path::new("mesh.serialized")
+    }
 
     /// name, extra flags, positions, uvs, triangles.
     type TestShape<'a> = (&'a str, u32, Vec<[f32; 3]>, Vec<[f32; 2]>, Vec<[u32; 3]>);
@@ -286,15 +310,15 @@ mod tests {
     #[test]
     fn reads_shapes_by_index() {
         let b = two_shapes();
-        let a = parse(&b, 0).unwrap();
+        let a = parse(&b, pth(), 0).unwrap();
         assert_eq!((a.name.as_str(), a.face_normals), ("tri", false));
         assert_eq!(a.mesh.positions[1], Vec3::new(1.0, 0.0, 0.0));
         assert_eq!(a.mesh.indices, vec![[0, 1, 2]]);
-        let q = parse(&b, 1).unwrap();
+        let q = parse(&b, pth(), 1).unwrap();
         assert_eq!((q.name.as_str(), q.face_normals), ("quad", true));
         assert_eq!(q.mesh.uvs[2], Vec2::new(1.0, 1.0));
         assert_eq!(q.mesh.indices.len(), 2);
-        let e = parse(&b, 2).unwrap_err();
+        let e = parse(&b, pth(), 2).unwrap_err().to_string();
         assert!(e.contains("holds 2 shapes"), "{e}");
     }
 
@@ -322,15 +346,17 @@ mod tests {
     #[test]
     fn bad_files_are_clear_errors() {
         let b = two_shapes();
-        assert!(parse(&b[..30], 0).unwrap_err().contains("ends early"));
-        assert!(parse(b"ply\n", 0).unwrap_err().contains("magic"));
-        assert!(parse(&[], 0).unwrap_err().contains("too short"));
+        let err = |b: &[u8], i: u32| parse(b, pth(), i).unwrap_err().to_string();
+        assert!(err(&b[..30], 0).contains("truncated"));
+        assert!(err(b"ply\n", 0).contains("magic"));
+        assert!(err(&[], 0).contains("truncated"));
+        assert!(err(&[], 0).contains("mesh.serialized"));
         let mut bad = b.clone();
         let n = bad.len();
         bad[n - 4..].copy_from_slice(&1000u32.to_le_bytes());
-        assert!(parse(&bad, 5).unwrap_err().contains("past the start"));
+        assert!(err(&bad, 5).contains("past the start"));
         // A triangle index beyond the vertices.
         let b = write(&[("x", 0, vec![[0.0; 3]; 3], vec![], vec![[0, 1, 7]])]);
-        assert!(parse(&b, 0).unwrap_err().contains("vertex 7"));
+        assert!(err(&b, 0).contains("vertex 7"));
     }
 }

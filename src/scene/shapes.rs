@@ -14,6 +14,9 @@ pub const SPHERE_SEGMENTS: usize = 256;
 pub const DISK_SEGMENTS: usize = 256;
 /// Disk tessellation: rings in r.
 pub const DISK_RINGS: usize = 16;
+/// Cylinder tessellation: segments in φ (the silhouette is within 7.6·10⁻⁵ radii of the
+/// analytic one; the straight sides are exact).
+pub const CYLINDER_SEGMENTS: usize = 256;
 
 /// An object-space triangle mesh before it is placed in the world.
 #[derive(Clone, Debug, Default)]
@@ -316,6 +319,28 @@ pub fn disk(rings: usize, segments: usize) -> LocalMesh {
         }
     }
     m.normals = vec![Vec3::Z; m.positions.len()];
+    m
+}
+
+/// Mitsuba's `cylinder` in object space: the open tube x² + y² = 1, 0 ≤ z ≤ 1, with its uv
+/// (φ / 2π with φ ∈ [0, 2π) from +x towards +y, z) and the analytic outward normals at the
+/// vertices; `segments` quads around (the seam at u = 1 has its own vertices).
+pub fn cylinder(segments: usize) -> LocalMesh {
+    let mut m = LocalMesh::default();
+    for j in 0..=segments {
+        let u = j as f32 / segments as f32;
+        let (sp, cp) = (2.0 * std::f32::consts::PI * u).sin_cos();
+        for z in [0.0f32, 1.0] {
+            m.positions.push(Vec3::new(cp, sp, z));
+            m.uvs.push(Vec2::new(u, z));
+            m.normals.push(Vec3::new(cp, sp, 0.0));
+        }
+    }
+    for j in 0..segments as u32 {
+        let (a, b, c, d) = (2 * j, 2 * j + 2, 2 * j + 3, 2 * j + 1);
+        m.indices.push([a, b, c]);
+        m.indices.push([a, c, d]);
+    }
     m
 }
 

@@ -1,7 +1,7 @@
-//! `<bsdf>` (every BSDF plugin btfpt implements, measured BTFs via `btf_bsdf`) and `<texture>`,
-//! with Mitsuba's named IOR table.
+//! `<bsdf>` (every BSDF plugin btfpt implements, measured BTFs via `btf_bsdf`) with Mitsuba's
+//! named IOR table, and the texture-or-colour parameters BSDFs take (`texture.rs` builds the
+//! `<texture>`s).
 
-use super::check_finite;
 use super::properties::Props;
 use super::{Builder, N};
 use crate::Result;
@@ -19,11 +19,9 @@ use crate::bsdf::RoughPlastic;
 use crate::bsdf::Texture;
 use crate::bsdf::ThinDielectric;
 use crate::bsdf::TwoSided;
-use crate::math::Mat4;
 use crate::math::Spectrum;
 use crate::math::Vec3;
 use crate::model::BtfModel;
-use std::sync::Arc;
 
 impl<'a, 'x> Builder<'a, 'x> {
     pub(super) fn default_bsdf(&mut self) -> u32 {
@@ -37,13 +35,13 @@ impl<'a, 'x> Builder<'a, 'x> {
 
     /// The index in `Scene::bsdfs` of a `<bsdf>` element (built once per element).
     pub(super) fn bsdf_index(&mut self, node: N<'a>) -> Result<u32> {
-        if let Some(&i) = self.bsdf_memo.get(&node.id()) {
+        if let Some(&i) = self.bsdf_memo.get(&self.x.key(node)) {
             return Ok(i);
         }
         let b = self.build_bsdf(node)?;
         self.bsdfs.push(b);
         let i = (self.bsdfs.len() - 1) as u32;
-        self.bsdf_memo.insert(node.id(), i);
+        self.bsdf_memo.insert(self.x.key(node), i);
         Ok(i)
     }
 
@@ -55,14 +53,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                 format!("expected a <bsdf>, found <{}>", node.tag_name().name()),
             ));
         }
-        if let Some(&i) = self.bsdf_memo.get(&node.id()) {
+        if let Some(&i) = self.bsdf_memo.get(&self.x.key(node)) {
             return Ok(self.bsdfs[i as usize].clone());
         }
-        if !self.busy.insert(node.id()) {
+        if !self.busy.insert(x.key(node)) {
             return Err(x.err(node, "cyclic <ref> between bsdfs"));
         }
         let r = self.build_bsdf_inner(node);
-        self.busy.remove(&node.id());
+        self.busy.remove(&x.key(node));
         r
     }
 
@@ -375,7 +373,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     return Err(p.err("\"uv_scale\" must be positive"));
                 }
                 let (bsdf, used) = crate::scene::btf_bsdf::build_btf(
-                    &x.file,
+                    x.file_of(node),
                     x.line(node),
                     &file,
                     &|f| x.resolve(f),
@@ -397,7 +395,8 @@ impl<'a, 'x> Builder<'a, 'x> {
         Ok(b)
     }
 
-    /// A reflectance-like parameter: constant (rgb/float/spectrum) or nested/referenced bitmap.
+    /// A reflectance-like parameter: constant (rgb/float/spectrum) or a nested/referenced
+    /// `<texture>` (bitmap, checkerboard).
     pub(super) fn texture_param(
         &mut self,
         p: &Props<'a, 'x>,
@@ -417,51 +416,6 @@ impl<'a, 'x> Builder<'a, 'x> {
             return self.texture(c.node);
         }
         Ok(Texture::Constant(p.color(name, default)?))
-    }
-
-    pub(super) fn texture(&mut self, node: N<'a>) -> Result<Texture> {
-        if let Some(t) = self.tex_memo.get(&node.id()) {
-            return Ok(t.clone());
-        }
-        let x = self.x;
-        let p = Props::parse(x, node)?;
-        if p.ty != "bitmap" {
-            return Err(p.err("unsupported texture type (btfpt implements only \"bitmap\")"));
-        }
-        let file = p.string_req("filename")?;
-        let filter = p.string("filter_type", "bilinear")?;
-        if filter != "bilinear" {
-            return Err(p.err(format!(
-                "filter_type \"{filter}\" is not supported (only bilinear)"
-            )));
-        }
-        let wrap = p.string("wrap_mode", "repeat")?;
-        if wrap != "repeat" {
-            return Err(p.err(format!(
-                "wrap_mode \"{wrap}\" is not supported (only repeat)"
-            )));
-        }
-        let raw = p.bool("raw", false)?;
-        if let Some(m) = p.transform_opt("to_uv")?
-            && m != Mat4::IDENTITY
-        {
-            return Err(p.err("a non-identity \"to_uv\" transform is not supported"));
-        }
-        p.finish()?;
-        let path = x.resolve(&file);
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
-        if raw && ext != "exr" {
-            return Err(p.err("raw=\"true\" (no sRGB decoding of 8-bit images) is not supported"));
-        }
-        let img = crate::io::read_image(&path).map_err(|e| p.err(e.to_string()))?;
-        check_finite(&img, &path).map_err(|m| p.err(m))?;
-        let t = Texture::Bitmap(Arc::new(img));
-        self.tex_memo.insert(node.id(), t.clone());
-        Ok(t)
     }
 }
 

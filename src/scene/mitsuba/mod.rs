@@ -14,6 +14,7 @@ mod emitter;
 mod properties;
 mod sensor;
 mod shape;
+mod texture;
 mod transform;
 
 use crate::bsdf::{Bsdf, Texture};
@@ -21,39 +22,70 @@ use crate::model::BtfModel;
 use crate::scene::btf_bsdf::BtfUse;
 use crate::scene::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::{Error, Result};
-use document::XmlDoc;
+use document::{Key, Loaded, XmlDoc};
 use properties::Props;
-use roxmltree::{Node, NodeId};
+use roxmltree::Node;
 use std::collections::{HashMap, HashSet};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Loads a Mitsuba 3 XML scene; `options.defines` override `<default>` values (CLI `-D
 /// name=value`), `options.btf_model` replaces every BTF's `model`.
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    // The root file, then each included file in the order the includes occur. roxmltree
+    // documents borrow their text, so the documents are parsed again whenever a new include
+    // is found (scenes have a handful of includes; parsing is cheap next to loading meshes).
+    let mut texts: Vec<(PathBuf, String)> = vec![(path.to_path_buf(), read_text(path)?)];
+    loop {
+        let need = {
+            let mut docs = Vec::with_capacity(texts.len());
+            for (file, text) in &texts {
+                docs.push(parse_xml(file, text)?);
+            }
+            let files: Vec<PathBuf> = texts.iter().map(|t| t.0.clone()).collect();
+            match XmlDoc::load(&files, docs.iter().collect(), &options.defines)? {
+                Loaded::Need(p) => p,
+                Loaded::Done(x) => {
+                    let mut b = Builder {
+                        x: &x,
+                        btf_model: options.btf_model,
+                        btf_uses: Vec::new(),
+                        bsdfs: Vec::new(),
+                        bsdf_memo: HashMap::new(),
+                        tex_memo: HashMap::new(),
+                        busy: HashSet::new(),
+                        default_bsdf: None,
+                        meshes: Vec::new(),
+                        emitters: Vec::new(),
+                    };
+                    return b.scene(docs[0].root_element());
+                }
+            }
+        };
+        if texts.len() > 4096 {
+            return Err(Error::Invalid(format!(
+                "{}: more than 4096 <include>d files",
+                path.display()
+            )));
+        }
+        let text = read_text(&need)?;
+        texts.push((need, text));
+    }
+}
+
+fn read_text(path: &Path) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| Error::io(path, e))
+}
+
+fn parse_xml<'t>(path: &Path, text: &'t str) -> Result<roxmltree::Document<'t>> {
     let opts = roxmltree::ParsingOptions {
         allow_dtd: true,
         ..Default::default()
     };
-    let doc = roxmltree::Document::parse_with_options(&text, opts).map_err(|e| Error::Scene {
+    roxmltree::Document::parse_with_options(text, opts).map_err(|e| Error::Scene {
         file: path.to_path_buf(),
         line: e.pos().row,
         msg: format!("malformed XML: {e}"),
-    })?;
-    let x = XmlDoc::new(path, &doc, &options.defines)?;
-    let mut b = Builder {
-        x: &x,
-        btf_model: options.btf_model,
-        btf_uses: Vec::new(),
-        bsdfs: Vec::new(),
-        bsdf_memo: HashMap::new(),
-        tex_memo: HashMap::new(),
-        busy: HashSet::new(),
-        default_bsdf: None,
-        meshes: Vec::new(),
-        emitters: Vec::new(),
-    };
-    b.scene(doc.root_element())
+    })
 }
 
 pub(super) struct Builder<'a, 'x> {
@@ -63,10 +95,10 @@ pub(super) struct Builder<'a, 'x> {
     /// The file and model of every `<bsdf type="btf">` built, in order.
     btf_uses: Vec<BtfUse>,
     bsdfs: Vec<Bsdf>,
-    bsdf_memo: HashMap<NodeId, u32>,
-    tex_memo: HashMap<NodeId, Texture>,
+    bsdf_memo: HashMap<Key, u32>,
+    tex_memo: HashMap<Key, Texture>,
     /// Objects being built (reference-cycle detection).
-    busy: HashSet<NodeId>,
+    busy: HashSet<Key>,
     default_bsdf: Option<u32>,
     meshes: Vec<crate::geometry::Mesh>,
     emitters: Vec<Emitter>,
@@ -87,30 +119,30 @@ impl<'a, 'x> Builder<'a, 'x> {
         }
         x.check_attrs(root, &["version", "type", "id"])?;
         let version = x.req_attr(root, "version")?;
-        let major = version
+        match version
             .split('.')
             .next()
-            .and_then(|v| v.trim().parse::<u32>().ok());
-        match major {
-            Some(2..=3) => {}
+            .and_then(|v| v.trim().parse::<u32>().ok())
+        {
+            // 0.x/1.x files are upgraded as Mitsuba 3 does (see document.rs).
+            Some(0..=3) => {}
             _ => {
                 return Err(x.err(
                     root,
-                    format!("unsupported scene version \"{version}\" (btfpt reads Mitsuba 3 scenes, version 2.x or 3.x)"),
+                    format!("unsupported scene version \"{version}\" (btfpt reads Mitsuba scenes up to version 3.x)"),
                 ));
             }
         }
-        let mut camera: Option<(Camera, u32)> = None;
+        let mut camera: Option<(Camera, u32, crate::scene::SamplerType)> = None;
         let mut integrator: Option<IntegratorSettings> = None;
-        for ch in root.children() {
-            if !ch.is_element() {
-                if ch.is_text() && !ch.text().unwrap_or("").trim().is_empty() {
-                    return Err(x.err(ch, "unexpected text content in <scene>"));
-                }
-                continue;
-            }
+        if let Some(t) = root
+            .children()
+            .find(|c| c.is_text() && !c.text().unwrap_or("").trim().is_empty())
+        {
+            return Err(x.err(t, "unexpected text content in <scene>"));
+        }
+        for ch in x.children(root) {
             match ch.tag_name().name() {
-                "default" => {}
                 "integrator" => {
                     if integrator.is_some() {
                         return Err(x.err(ch, "more than one <integrator>"));
@@ -130,6 +162,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 "texture" => {
                     self.texture(ch)?;
                 }
+                // Built where a <ref> names them (Mitsuba instantiates them at the top level
+                // too, but an unreferenced sampler, film or filter changes nothing).
+                "sampler" | "film" | "rfilter" if x.attr(ch, "id").is_some() => {}
                 "emitter" => {
                     let p = Props::parse(x, ch)?;
                     if p.ty == "area" {
@@ -147,11 +182,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
         }
-        let (camera, spp) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let (camera, spp, sampler) =
+            camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let mut integrator = integrator.unwrap_or_default();
+        integrator.sampler = sampler;
         Ok(Scene {
             source: x.file.clone(),
             camera,
-            integrator: integrator.unwrap_or_default(),
+            integrator,
             spp,
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),

@@ -80,17 +80,22 @@ impl<'a, 'x> Props<'a, 'x> {
     /// Parses the children of a plugin element.
     pub fn parse(x: &'x XmlDoc<'a>, node: Node<'a, 'a>) -> Result<Self> {
         let tag = node.tag_name().name().to_string();
-        x.check_attrs(node, &["type", "id", "name"])?;
+        if node.parent_element().is_none() {
+            // The root object of an included object file carries the file's version.
+            x.check_attrs(node, &["type", "id", "name", "version"])?;
+        } else {
+            x.check_attrs(node, &["type", "id", "name"])?;
+        }
         let ty = x.req_attr(node, "type")?.to_string();
         let mut props: Vec<Prop<'a>> = Vec::new();
         let mut children = Vec::new();
-        for ch in node.children() {
-            if !ch.is_element() {
-                if ch.is_text() && !ch.text().unwrap_or("").trim().is_empty() {
-                    return Err(x.err(ch, format!("unexpected text content in <{tag}>")));
-                }
-                continue;
-            }
+        if let Some(t) = node
+            .children()
+            .find(|c| c.is_text() && !c.text().unwrap_or("").trim().is_empty())
+        {
+            return Err(x.err(t, format!("unexpected text content in <{tag}>")));
+        }
+        for ch in x.children(node) {
             let ctag = ch.tag_name().name();
             if OBJECT_TAGS.contains(&ctag) || ctag == "ref" {
                 let target = x.deref(ch)?;
@@ -108,9 +113,6 @@ impl<'a, 'x> Props<'a, 'x> {
                     used: Cell::new(false),
                 });
                 continue;
-            }
-            if ctag == "default" {
-                continue; // handled by the substitution pass
             }
             let value = match ctag {
                 "float" => {
@@ -183,9 +185,6 @@ impl<'a, 'x> Props<'a, 'x> {
                 }
                 "translate" | "rotate" | "scale" | "matrix" | "lookat" => {
                     return Err(x.err(ch, format!("<{ctag}> can only occur inside a <transform>")));
-                }
-                "include" | "alias" | "path" => {
-                    return Err(x.err(ch, format!("<{ctag}> is not supported by btfpt")));
                 }
                 other => return Err(x.err(ch, format!("unexpected element <{other}> in <{tag}>"))),
             };

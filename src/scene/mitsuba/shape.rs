@@ -1,4 +1,5 @@
-//! `<shape>`: meshes from files (obj, ply) and Mitsuba's built-in shapes, with their bsdf and
+//! `<shape>`: meshes from files (obj, ply, serialized) and Mitsuba's built-in shapes (the
+//! cylinder as a 256-segment mesh with Mitsuba's uv and analytic vertex normals), with their bsdf and
 //! area emitter.
 
 use super::properties::Props;
@@ -43,6 +44,56 @@ impl<'a, 'x> Builder<'a, 'x> {
                     crate::scene::ply::load(&path, flip_uv).map_err(wrap)?
                 }
             }
+            "serialized" => {
+                let file = p.string_req("filename")?;
+                let path = x.resolve(&file);
+                mesh_file = Some(path.clone());
+                let index = p.int("shape_index", 0)?;
+                let index = u32::try_from(index)
+                    .map_err(|_| p.err(format!("invalid shape_index {index}")))?;
+                let sh = crate::scene::serialized::load(&path, index).map_err(wrap)?;
+                // Mitsuba 3 ignores the face-normals flag of version 3/4 files (only its v5
+                // loader applies it): the property alone decides, as in its load_legacy.
+                opts.face_normals = p.bool("face_normals", false)?;
+                opts.recompute_normals = true;
+                let label = if sh.name.is_empty() {
+                    format!("{file}[{index}]")
+                } else {
+                    format!("{file}[{index}] {}", sh.name)
+                };
+                name.get_or_insert(label);
+                sh.mesh
+            }
+            "cylinder" => {
+                let radius = p.float("radius", 1.0)?;
+                let p0 = p.vec3_opt("p0")?.unwrap_or(Vec3::ZERO);
+                let p1 = p.vec3_opt("p1")?.unwrap_or(Vec3::Z);
+                let d = p1 - p0;
+                let length = d.length();
+                if radius <= 0.0 || length <= 0.0 {
+                    return Err(p.err("the cylinder needs a positive radius and p0 != p1"));
+                }
+                // Mitsuba: to_world · translate(p0) · to_frame(Frame(d / |d|)) · scale(r, r, |d|).
+                let f = crate::math::Frame::from_normal(d / length);
+                let frame = Mat4::from_cols(
+                    f.s.extend(0.0),
+                    f.t.extend(0.0),
+                    f.n.extend(0.0),
+                    glam::Vec4::W,
+                );
+                xf = xf
+                    * Mat4::from_translation(p0)
+                    * frame
+                    * Mat4::from_scale(Vec3::new(radius, radius, length));
+                let l = Mat3::from_mat4(xf);
+                if (l.x_axis.length() - l.y_axis.length()).abs() > 1e-4 * l.x_axis.length()
+                    || l.x_axis.dot(l.y_axis).abs() > 1e-4 * l.x_axis.length_squared()
+                {
+                    return Err(p.err("to_world must not contain shear or non-uniform scaling along x and y for a cylinder (Mitsuba's is analytic)"));
+                }
+                opts.keep_orientation = true;
+                shapes::cylinder(shapes::CYLINDER_SEGMENTS)
+            }
             "rectangle" => {
                 let l = Mat3::from_mat4(xf);
                 if l.x_axis.normalize().dot(l.y_axis.normalize()).abs() > 1e-4 {
@@ -81,7 +132,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
             _ => {
                 return Err(p.err(
-                    "unsupported shape type (btfpt implements obj, ply, rectangle, cube, sphere, disk)",
+                    "unsupported shape type (btfpt implements obj, ply, serialized, rectangle, cube, sphere, disk, cylinder)",
                 ));
             }
         };
