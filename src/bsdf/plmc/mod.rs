@@ -30,7 +30,8 @@
 //! data.
 //!
 //! Files: `material.rs` (the evaluation layout built from a model), `kernel.rs` (the generic
-//! 4-wide kernel and the dispatch), `avx512.rs` (the 16-lane kernel), `f4.rs` (the 4-lane
+//! 4-wide kernel and the dispatch), `avx512.rs` (the 16-lane kernel), `batch.rs` (16 queries per
+//! pass, one per lane: the packet integrator's batched emitter evaluations), `f4.rs` (the 4-lane
 //! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state).
 //!
 
