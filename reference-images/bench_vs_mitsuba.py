@@ -2,6 +2,7 @@
 """btfpt vs Mitsuba 3 (llvm_ad_rgb) on the same XML, side by side in one run.
 
 usage: bench_vs_mitsuba.py SCENE.xml SPP [--runs 3] [--threads 2] [--btfpt target/release/btfpt]
+       [--btfpt-arg=--integrator --btfpt-arg=packet]
        (or reference-images/bench_vs_mitsuba.sh SCENE.xml SPP, which builds btfpt first)
 
 Runs are interleaved (btfpt, Mitsuba, btfpt, Mitsuba, ...) so both see the same machine load.
@@ -57,6 +58,8 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--btfpt", type=Path, default=ROOT / "target" / "release" / "btfpt")
     ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
+    ap.add_argument("--btfpt-arg", dest="btfpt_args", action="append", default=[], metavar="ARG",
+                    help="extra argument for btfpt render (repeatable), e.g. --btfpt-arg=--integrator --btfpt-arg=packet")
     a = ap.parse_args(argv)
     if a.spp < 1 or a.runs < 1 or a.threads < 1:
         ap.error("SPP, --runs and --threads must be positive")
@@ -91,6 +94,7 @@ def main(argv=None) -> int:
                    "--threads", str(a.threads), "-o", str(out)]
             for d in a.defines:
                 cmd += ["-D", d]
+            cmd += a.btfpt_args
             ru = resource.getrusage(resource.RUSAGE_CHILDREN)
             t = time.perf_counter()
             p = subprocess.run(cmd, capture_output=True, text=True)
