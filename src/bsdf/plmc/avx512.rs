@@ -117,6 +117,56 @@ pub(super) fn exp2(x: __m512) -> __m512 {
     _mm512_scalef_ps(_mm512_fmadd_ps(q, f2, p01), r)
 }
 
+/// The lobes `[ρ, Dx, Dy, Dz, n]` at the light direction `w` (x, y, z lanes): Y = ρ · b^n with
+/// b = D·w, 0 where b ≤ 0 or Y < FLUSH (see `eval_views`). Shared by the single-query and the
+/// 16-query kernel, so their lanes agree to the bit.
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[inline]
+pub(super) fn lobe_value(l: [__m512; 5], w: [__m512; 3]) -> __m512 {
+    let [rho, dx, dy, dz, n] = l;
+    let b = _mm512_fmadd_ps(dz, w[2], _mm512_fmadd_ps(dy, w[1], _mm512_mul_ps(dx, w[0])));
+    let lg = log2(_mm512_max_ps(b, splat(1e-30)));
+    let pw = exp2(_mm512_max_ps(_mm512_mul_ps(n, lg), splat(-100.0)));
+    let y = _mm512_mul_ps(rho, pw);
+    let zero = _mm512_setzero_ps();
+    let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
+        & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(y, splat(FLUSH));
+    _mm512_maskz_mov_ps(keep, y)
+}
+
+/// The mapping of lobe values `y`: clamp to `y_max`, the polynomial `a_0..a_4` (Estrin), clamp
+/// to `out_max`, then to linear: `srgb_to_linear(max(0, ·))` as `srgb_to_linear_f4` for a model
+/// fitted in sRGB, else `max(0, ·)`.
+#[target_feature(enable = "avx512f,avx2,fma")]
+#[inline]
+pub(super) fn map_decode(
+    y: __m512,
+    y_max: __m512,
+    a: &[__m512; 5],
+    out_max: __m512,
+    srgb: bool,
+) -> __m512 {
+    let zero = _mm512_setzero_ps();
+    let x = _mm512_min_ps(y, y_max);
+    let x2 = _mm512_mul_ps(x, x);
+    let lo = _mm512_fmadd_ps(a[1], x, a[0]);
+    let hi = _mm512_fmadd_ps(a[4], x2, _mm512_fmadd_ps(a[3], x, a[2]));
+    let y = _mm512_min_ps(_mm512_fmadd_ps(hi, x2, lo), out_max);
+    if srgb {
+        let v = _mm512_max_ps(y, zero);
+        let lin = _mm512_mul_ps(v, splat(1.0 / 12.92));
+        let base = _mm512_max_ps(
+            _mm512_mul_ps(_mm512_add_ps(v, splat(0.055)), splat(1.0 / 1.055)),
+            splat(1e-30),
+        );
+        let pow = exp2(_mm512_mul_ps(splat(2.4), log2(base)));
+        let small = _mm512_cmp_ps_mask::<_CMP_LE_OS>(v, splat(0.04045));
+        _mm512_mask_blend_ps(small, pow, lin)
+    } else {
+        _mm512_max_ps(y, zero)
+    }
+}
+
 /// Four f32 at `p` (16-byte aligned) in the low block of a register, the rest 0.
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
@@ -225,38 +275,14 @@ pub fn eval(
             ym(2),
         );
 
-        // The lobes at wo: Y = ρ · b^n, 0 where b ≤ 0 or Y < FLUSH (see `eval_views`).
-        let b = _mm512_fmadd_ps(
-            dz,
-            splat(wo[2]),
-            _mm512_fmadd_ps(dy, splat(wo[1]), _mm512_mul_ps(dx, splat(wo[0]))),
+        let w = [splat(wo[0]), splat(wo[1]), splat(wo[2])];
+        let y = map_decode(
+            lobe_value([rho, dx, dy, dz, n], w),
+            y_max,
+            &a,
+            out_max,
+            t.srgb,
         );
-        let lg = log2(_mm512_max_ps(b, splat(1e-30)));
-        let pw = exp2(_mm512_max_ps(_mm512_mul_ps(n, lg), splat(-100.0)));
-        let y = _mm512_mul_ps(rho, pw);
-        let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
-            & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(y, splat(FLUSH));
-        let y = _mm512_maskz_mov_ps(keep, y);
-        // The polynomial (Estrin), with the two range clamps.
-        let x = _mm512_min_ps(y, y_max);
-        let x2 = _mm512_mul_ps(x, x);
-        let lo = _mm512_fmadd_ps(a[1], x, a[0]);
-        let hi = _mm512_fmadd_ps(a[4], x2, _mm512_fmadd_ps(a[3], x, a[2]));
-        let y = _mm512_min_ps(_mm512_fmadd_ps(hi, x2, lo), out_max);
-        let y = if t.srgb {
-            // srgb_to_linear(max(0, y)) as `srgb_to_linear_f4`.
-            let v = _mm512_max_ps(y, zero);
-            let lin = _mm512_mul_ps(v, splat(1.0 / 12.92));
-            let base = _mm512_max_ps(
-                _mm512_mul_ps(_mm512_add_ps(v, splat(0.055)), splat(1.0 / 1.055)),
-                splat(1e-30),
-            );
-            let pow = exp2(_mm512_mul_ps(splat(2.4), log2(base)));
-            let small = _mm512_cmp_ps_mask::<_CMP_LE_OS>(v, splat(0.04045));
-            _mm512_mask_blend_ps(small, pow, lin)
-        } else {
-            _mm512_max_ps(y, zero)
-        };
         // Blend the views: vw0·y0, + vw1·y1, + vw2·y2 (the generic kernel's order).
         let y0 = _mm512_castps512_ps128(y);
         let y1 = _mm512_extractf32x4_ps::<1>(y);

@@ -10,8 +10,7 @@
 //! the same order, the same clamps with the same operand order, its log2/exp2): each lane's
 //! result is the single-query kernel's to the last bit (tested in `tests.rs`).
 
-use super::FLUSH;
-use super::avx512::{Avx512, Tables, exp2, log2, splat};
+use super::avx512::{Avx512, Tables, lobe_value, map_decode, splat};
 use core::arch::x86_64::*;
 
 use super::kernel::{BATCH, BatchQuery as Query};
@@ -136,38 +135,13 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         for a in 0..3 {
             let v = v[a];
             for c in 0..3 {
-                let [rho, dx, dy, dz, nn] = lobes[a][c];
-                let b = _mm512_fmadd_ps(dz, wz, _mm512_fmadd_ps(dy, wy, _mm512_mul_ps(dx, wx)));
-                let lg = log2(_mm512_max_ps(b, splat(1e-30)));
-                let pw = exp2(_mm512_max_ps(_mm512_mul_ps(nn, lg), splat(-100.0)));
-                let yy = _mm512_mul_ps(rho, pw);
-                let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
-                    & _mm512_cmp_ps_mask::<_CMP_GT_OQ>(yy, splat(FLUSH));
-                let yy = _mm512_maskz_mov_ps(keep, yy);
                 let cf = [0, 1, 2, 3, 4].map(|j| coef[a][3 * j + c]);
-                let out_max = bounds[4 * a + c];
                 let y_max = gf(
                     ymax,
                     _mm512_add_epi32(_mm512_slli_epi32::<2>(v), ci(c as i32)),
                 );
-                let x = _mm512_min_ps(yy, y_max);
-                let x2 = _mm512_mul_ps(x, x);
-                let lo = _mm512_fmadd_ps(cf[1], x, cf[0]);
-                let hi = _mm512_fmadd_ps(cf[4], x2, _mm512_fmadd_ps(cf[3], x, cf[2]));
-                let yy = _mm512_min_ps(_mm512_fmadd_ps(hi, x2, lo), out_max);
-                y[a][c] = if t.srgb {
-                    let v = _mm512_max_ps(yy, zero);
-                    let lin = _mm512_mul_ps(v, splat(1.0 / 12.92));
-                    let base = _mm512_max_ps(
-                        _mm512_mul_ps(_mm512_add_ps(v, splat(0.055)), splat(1.0 / 1.055)),
-                        splat(1e-30),
-                    );
-                    let pow = exp2(_mm512_mul_ps(splat(2.4), log2(base)));
-                    let small = _mm512_cmp_ps_mask::<_CMP_LE_OS>(v, splat(0.04045));
-                    _mm512_mask_blend_ps(small, pow, lin)
-                } else {
-                    _mm512_max_ps(yy, zero)
-                };
+                let yy = lobe_value(lobes[a][c], [wx, wy, wz]);
+                y[a][c] = map_decode(yy, y_max, &cf, bounds[4 * a + c], t.srgb);
             }
         }
         // Blend the views: vw0·y0, + vw1·y1, + vw2·y2 (the single-query kernel's order).
