@@ -215,6 +215,28 @@ pub(super) fn camera_hit(
     (hit, ray_o)
 }
 
+/// The shadow segment from `si` to the emitter sample `ls`: (origin, unit direction, extent),
+/// both ends offset off their surfaces and the extent shortened by 1e-4 (∞ toward lights at
+/// infinity); None for a zero-length segment, which nothing can block. The scalar and the packet
+/// integrator trace exactly this ray.
+pub(super) fn shadow_segment(
+    si: &crate::geometry::intersection::SurfaceInteraction,
+    ls: &crate::light::LightSample,
+) -> Option<(Vec3, Vec3, f32)> {
+    let so = offset_origin(si.p, si.n, ls.wi);
+    if !ls.dist.is_finite() {
+        return Some((so, ls.wi, f32::INFINITY));
+    }
+    let target = if ls.n_geo != Vec3::ZERO {
+        offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
+    } else {
+        si.p + ls.wi * ls.dist
+    };
+    let to = target - so;
+    let len = to.length();
+    (len > 0.0).then(|| (so, to / len, len * (1.0 - 1e-4)))
+}
+
 /// True if the shadow ray from `si` to the emitter sample `ls` is blocked (one ray counted).
 pub(super) fn occluded(
     rs: &RenderScene,
@@ -222,20 +244,8 @@ pub(super) fn occluded(
     ls: &crate::light::LightSample,
     stats: &mut TraceStats,
 ) -> bool {
-    let so = offset_origin(si.p, si.n, ls.wi);
     stats.rays += 1;
-    if ls.dist.is_finite() {
-        let target = if ls.n_geo != Vec3::ZERO {
-            offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
-        } else {
-            si.p + ls.wi * ls.dist
-        };
-        let to = target - so;
-        let len = to.length();
-        len > 0.0 && rs.accel.occluded(so, to / len, len * (1.0 - 1e-4))
-    } else {
-        rs.accel.occluded(so, ls.wi, f32::INFINITY)
-    }
+    shadow_segment(si, ls).is_some_and(|(o, d, t)| rs.accel.occluded(o, d, t))
 }
 
 /// Power heuristic with β = 2; 0 where undefined (Mitsuba's `mis_weight`).

@@ -22,7 +22,7 @@ use crate::geometry::shading::surface_interaction;
 use crate::light::LightSample;
 use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use crate::render::RenderScene;
-use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
+use crate::render::integrator::{PathTracer, TraceStats, mis_weight, shadow_segment};
 
 /// How the pool is run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -420,7 +420,6 @@ fn next_event(
     if f == Spectrum::ZERO || ls.weight == Spectrum::ZERO {
         return;
     }
-    let so = offset_origin(si.p, si.n, ls.wi);
     stats.rays += 1;
     let mis = if ls.delta {
         1.0
@@ -429,26 +428,15 @@ fn next_event(
     };
     pool.shadow_c
         .set(i, pool.throughput.get(i) * f * ls.weight * mis);
-    pool.shadow_o.set(i, so);
-    pool.shadow[i] = Shadow::Test;
-    if ls.dist.is_finite() {
-        let target = if ls.n_geo != Vec3::ZERO {
-            offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
-        } else {
-            si.p + ls.wi * ls.dist
-        };
-        let to = target - so;
-        let len = to.length();
-        if len > 0.0 {
-            pool.shadow_d.set(i, to / len);
-            pool.shadow_t[i] = len * (1.0 - 1e-4);
-        } else {
-            pool.shadow[i] = Shadow::Unoccluded;
+    pool.shadow[i] = match shadow_segment(si, ls) {
+        Some((o, d, t)) => {
+            pool.shadow_o.set(i, o);
+            pool.shadow_d.set(i, d);
+            pool.shadow_t[i] = t;
+            Shadow::Test
         }
-    } else {
-        pool.shadow_d.set(i, ls.wi);
-        pool.shadow_t[i] = f32::INFINITY;
-    }
+        None => Shadow::Unoccluded,
+    };
 }
 
 /// The loop body after BSDF sampling (`sampled`, from the scalar code or a batched kernel):
