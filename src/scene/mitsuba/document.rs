@@ -205,30 +205,7 @@ impl<'a> XmlDoc<'a> {
         let legacy = self.majors[d] < 2;
         // Longest names first, so that `$ab` is not replaced by the value of `$a` + "b".
         w.params.sort_by_key(|p| std::cmp::Reverse(p.0.len()));
-        let mut values = Vec::new();
-        for a in node.attributes() {
-            let mut v = a.value().to_string();
-            if v.contains('$') {
-                for p in w.params.iter_mut() {
-                    let pat = format!("${}", p.0);
-                    if v.contains(&pat) {
-                        v = v.replace(&pat, &p.1);
-                        p.2 = true;
-                    }
-                }
-                if v.contains('$') {
-                    return Err(self.err(
-                        node,
-                        format!(
-                            "undefined parameter(s) in attribute {}=\"{}\"",
-                            a.name(),
-                            a.value()
-                        ),
-                    ));
-                }
-            }
-            values.push((a.name().to_string(), v));
-        }
+        let mut values = self.substitute(w, node)?;
         // Mitsuba 0.6 files: property names (of every property and nested object of an
         // object) go from camelCase to snake_case; diffuse's diffuse_reflectance → reflectance.
         if legacy
@@ -378,7 +355,7 @@ impl<'a> XmlDoc<'a> {
         Ok(None)
     }
 
-    /// `$name` substitution of one element's attributes (transform operations).
+    /// `$name` substitution of one element's attributes (every element, transform operations too).
     fn substitute(&self, w: &mut Walk, node: Node) -> Result<Vec<(String, String)>> {
         let mut values = Vec::new();
         for a in node.attributes() {
