@@ -43,6 +43,48 @@ fn dist2_padded(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum()
 }
 
+/// Centres per block of the full assignment scan (one SIMD lane each).
+const GROUP: usize = 8;
+
+/// The centres (`k × dim`, padded rows) regrouped for [`dist2_group`]: blocks of [`GROUP`]
+/// centres, feature-major inside a block (`[block][feature][centre]`), the missing centres of
+/// the last block zero (never read as results).
+fn group_centres(centers: &[f32], k: usize, dim: usize, out: &mut [f32]) {
+    for (b, block) in out.chunks_exact_mut(dim * GROUP).enumerate() {
+        for j in 0..GROUP {
+            let c = b * GROUP + j;
+            for f in 0..dim {
+                block[f * GROUP + j] = if c < k { centers[c * dim + f] } else { 0.0 };
+            }
+        }
+    }
+}
+
+/// Squared distances of the padded point `p` to the [`GROUP`] centres of one block of
+/// [`group_centres`], one centre per lane. Each lane repeats [`dist2_padded`]'s operations in its
+/// order (per-feature-lane sums over the chunks, then those sums added left to right), so the
+/// distances are bit-identical to it and the assignment to the plain scan's.
+#[inline(always)]
+fn dist2_group(p: &[f32], block: &[f32]) -> [f32; GROUP] {
+    let mut acc = [[0.0f32; GROUP]; LANES];
+    for (chunk, rows) in p.chunks_exact(LANES).zip(block.chunks_exact(LANES * GROUP)) {
+        for (l, row) in rows.chunks_exact(GROUP).enumerate() {
+            let x = chunk[l];
+            for (a, &c) in acc[l].iter_mut().zip(row) {
+                let d = x - c;
+                *a += d * d;
+            }
+        }
+    }
+    let mut out = acc[0];
+    for row in &acc[1..] {
+        for (o, &v) in out.iter_mut().zip(row) {
+            *o += v;
+        }
+    }
+    out
+}
+
 /// Clusters `data` (`n × dim`, row-major) into at most `k` clusters. Points with identical
 /// features never seed two clusters, so constant data give one cluster and `k > n` is fine.
 /// Empty clusters during iteration are re-seeded at the points farthest from their centres.
@@ -139,6 +181,7 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
     let mut counts = vec![0usize; k];
     let mut half_sep = vec![0.0f32; k];
     let mut moved = vec![0.0f32; k];
+    let mut grouped = vec![0.0f32; k.div_ceil(GROUP) * GROUP * dim];
     let mut iterations = 0;
     // The first iteration only moves the centres: the seeding made its assignment and bounds.
     let mut first_pass = true;
@@ -164,6 +207,9 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
             }
             half_sep[a] = 0.5 * m.sqrt();
         }
+        if !first_pass {
+            group_centres(&centers, k, dim, &mut grouped);
+        }
         for i in 0..n * usize::from(!first_pass) {
             let a = assign[i] as usize;
             let bound = half_sep[a].max(lower[i]);
@@ -176,14 +222,21 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
                 continue;
             }
             let (mut best, mut best_d, mut second_d) = (a, f32::INFINITY, f32::INFINITY);
-            for c in 0..k {
-                let d = dist2(p, &centers[c * dim..(c + 1) * dim]);
-                if d < best_d || (d == best_d && c < best) {
-                    second_d = best_d;
-                    best_d = d;
-                    best = c;
-                } else if d < second_d {
-                    second_d = d;
+            for (g, block) in grouped.chunks_exact(dim * GROUP).enumerate() {
+                let d = dist2_group(p, block);
+                // No centre of the group can change the nearest two: skip the scalar scan.
+                if d.iter().all(|&v| v >= second_d) {
+                    continue;
+                }
+                for (j, &d) in d.iter().enumerate().take(k - g * GROUP) {
+                    let c = g * GROUP + j;
+                    if d < best_d || (d == best_d && c < best) {
+                        second_d = best_d;
+                        best_d = d;
+                        best = c;
+                    } else if d < second_d {
+                        second_d = d;
+                    }
                 }
             }
             if best != a {
