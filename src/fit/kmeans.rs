@@ -1,5 +1,8 @@
 //! K-means with k-means++ seeding (seeded, deterministic) and Hamerly's bound-based acceleration
-//! of Lloyd iterations (the same assignments as plain Lloyd, most distance scans skipped).
+//! of Lloyd iterations (the same assignments as plain Lloyd, most distance scans skipped). A point
+//! whose bounds fail scans only the centres nearer its own centre than twice its distance (each
+//! centre's neighbours sorted by distance; the sorted-list form of Newling & Fleuret's Exponion,
+//! 2016), not all K.
 //!
 //! Points and centres are stored padded to a multiple of [`LANES`] features with zeros, so every
 //! distance is a fixed-width, lane-split loop that vectorises. Iterations stop when fewer than
@@ -43,46 +46,40 @@ fn dist2_padded(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum()
 }
 
-/// Centres per block of the full assignment scan (one SIMD lane each).
-const GROUP: usize = 8;
-
-/// The centres (`k × dim`, padded rows) regrouped for [`dist2_group`]: blocks of [`GROUP`]
-/// centres, feature-major inside a block (`[block][feature][centre]`), the missing centres of
-/// the last block zero (never read as results).
-fn group_centres(centers: &[f32], k: usize, dim: usize, out: &mut [f32]) {
-    for (b, block) in out.chunks_exact_mut(dim * GROUP).enumerate() {
-        for j in 0..GROUP {
-            let c = b * GROUP + j;
-            for f in 0..dim {
-                block[f * GROUP + j] = if c < k { centers[c * dim + f] } else { 0.0 };
-            }
+/// For every centre `a` the other centres sorted by their distance from it (ties by index) into
+/// `near[a·(k−1)..]`, with those distances in `near_d`; `cc` is k×k scratch.
+fn neighbours(
+    centers: &[f32],
+    k: usize,
+    dim: usize,
+    cc: &mut [f32],
+    near: &mut [u32],
+    near_d: &mut [f32],
+) {
+    let centre = |c: usize| &centers[c * dim..(c + 1) * dim];
+    for a in 0..k {
+        cc[a * k + a] = 0.0;
+        for b in a + 1..k {
+            let d = dist2_padded(centre(a), centre(b)).sqrt();
+            cc[a * k + b] = d;
+            cc[b * k + a] = d;
         }
     }
-}
-
-/// Squared distances of the padded point `p` to the [`GROUP`] centres of one block of
-/// [`group_centres`], one centre per lane. Each lane repeats [`dist2_padded`]'s operations in its
-/// order (per-feature-lane sums over the chunks, then those sums added left to right), so the
-/// distances are bit-identical to it and the assignment to the plain scan's.
-#[inline(always)]
-fn dist2_group(p: &[f32], block: &[f32]) -> [f32; GROUP] {
-    let mut acc = [[0.0f32; GROUP]; LANES];
-    for (chunk, rows) in p.chunks_exact(LANES).zip(block.chunks_exact(LANES * GROUP)) {
-        for (l, row) in rows.chunks_exact(GROUP).enumerate() {
-            let x = chunk[l];
-            for (a, &c) in acc[l].iter_mut().zip(row) {
-                let d = x - c;
-                *a += d * d;
-            }
+    for a in 0..k {
+        let row = &mut near[a * (k - 1)..(a + 1) * (k - 1)];
+        for (j, r) in (0..k).filter(|&b| b != a).zip(row.iter_mut()) {
+            *r = j as u32;
+        }
+        let dist = &cc[a * k..(a + 1) * k];
+        row.sort_unstable_by(|&x, &y| {
+            dist[x as usize]
+                .total_cmp(&dist[y as usize])
+                .then(x.cmp(&y))
+        });
+        for (d, &b) in near_d[a * (k - 1)..].iter_mut().zip(row.iter()) {
+            *d = dist[b as usize];
         }
     }
-    let mut out = acc[0];
-    for row in &acc[1..] {
-        for (o, &v) in out.iter_mut().zip(row) {
-            *o += v;
-        }
-    }
-    out
 }
 
 /// Clusters `data` (`n × dim`, row-major) into at most `k` clusters. Points with identical
@@ -181,7 +178,9 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
     let mut counts = vec![0usize; k];
     let mut half_sep = vec![0.0f32; k];
     let mut moved = vec![0.0f32; k];
-    let mut grouped = vec![0.0f32; k.div_ceil(GROUP) * GROUP * dim];
+    let mut cc = vec![0.0f32; k * k];
+    let mut near = vec![0u32; k * k.saturating_sub(1)];
+    let mut near_d = vec![0.0f32; near.len()];
     let mut iterations = 0;
     // The first iteration only moves the centres: the seeding made its assignment and bounds.
     let mut first_pass = true;
@@ -193,22 +192,13 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
         iterations += 1;
         changed = false;
         let mut reassigned = 0usize;
-        // Half the distance from each centre to its nearest other centre (not needed by the
-        // first pass, whose assignment the seeding already made).
-        for a in 0..k * usize::from(!first_pass) {
-            let mut m = f32::INFINITY;
-            for b in 0..k {
-                if a != b {
-                    m = m.min(dist2(
-                        &centers[a * dim..(a + 1) * dim],
-                        &centers[b * dim..(b + 1) * dim],
-                    ));
-                }
-            }
-            half_sep[a] = 0.5 * m.sqrt();
-        }
+        // Each centre's other centres by distance (ties by index), and half the distance to the
+        // nearest of them (not needed by the first pass, whose assignment the seeding made).
         if !first_pass {
-            group_centres(&centers, k, dim, &mut grouped);
+            neighbours(&centers, k, dim, &mut cc, &mut near, &mut near_d);
+            for a in 0..k {
+                half_sep[a] = near_d.get(a * (k - 1)).map_or(f32::INFINITY, |d| 0.5 * d);
+            }
         }
         for i in 0..n * usize::from(!first_pass) {
             let a = assign[i] as usize;
@@ -217,26 +207,31 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
                 continue;
             }
             let p = point(i);
-            upper[i] = dist2(p, &centers[a * dim..(a + 1) * dim]).sqrt();
-            if upper[i] <= bound {
+            let own = dist2(p, &centers[a * dim..(a + 1) * dim]);
+            let u = own.sqrt();
+            upper[i] = u;
+            if u <= bound {
                 continue;
             }
-            let (mut best, mut best_d, mut second_d) = (a, f32::INFINITY, f32::INFINITY);
-            for (g, block) in grouped.chunks_exact(dim * GROUP).enumerate() {
-                let d = dist2_group(p, block);
-                // No centre of the group can change the nearest two: skip the scalar scan.
-                if d.iter().all(|&v| v >= second_d) {
-                    continue;
+            // Only centres c with |a − c| < 2u can be nearer than a (triangle inequality:
+            // |p − c| ≥ |a − c| − u ≥ u): scan a's neighbours outwards up to that radius; every
+            // centre beyond it is at least (its distance from a) − u away.
+            let (mut best, mut best_d, mut second_d) = (a, own, f32::INFINITY);
+            let mut beyond = f32::INFINITY;
+            let row = a * (k - 1)..(a + 1) * (k - 1);
+            for (&c, &dc) in near[row.clone()].iter().zip(&near_d[row]) {
+                if dc >= 2.0 * u {
+                    beyond = dc - u;
+                    break;
                 }
-                for (j, &d) in d.iter().enumerate().take(k - g * GROUP) {
-                    let c = g * GROUP + j;
-                    if d < best_d || (d == best_d && c < best) {
-                        second_d = best_d;
-                        best_d = d;
-                        best = c;
-                    } else if d < second_d {
-                        second_d = d;
-                    }
+                let c = c as usize;
+                let d = dist2(p, &centers[c * dim..(c + 1) * dim]);
+                if d < best_d || (d == best_d && c < best) {
+                    second_d = best_d;
+                    best_d = d;
+                    best = c;
+                } else if d < second_d {
+                    second_d = d;
                 }
             }
             if best != a {
@@ -245,7 +240,7 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
                 reassigned += 1;
             }
             upper[i] = best_d.sqrt();
-            lower[i] = second_d.sqrt();
+            lower[i] = second_d.sqrt().min(beyond);
         }
         // Nearly stable: stop here, where every point is at its nearest centre (the means of the
         // members moved by less than the few reassignments; callers use the assignment).
