@@ -370,6 +370,29 @@ mod tests {
     }
 
     #[test]
+    fn pruned_scans_find_the_nearest_centre_in_many_dimensions() {
+        // The fit's shape: 20 features, K = 256, points on few blobs plus spread, so most scans
+        // stop early at the 2u radius; every point must still end at its nearest centre.
+        let mut rng = Pcg32::new(11, 1);
+        let dim = 20;
+        let blobs: Vec<f32> = (0..12 * dim).map(|_| rng.next_f32()).collect();
+        let data: Vec<f32> = (0..3000 * dim)
+            .map(|i| blobs[(i / dim % 12) * dim + i % dim] + 0.2 * (rng.next_f32() - 0.5))
+            .collect();
+        let r = kmeans(&data, dim, 256, 5, 60);
+        assert_eq!(r.k, 256);
+        assert!(r.iterations < 60, "stopped by the cap, not by convergence");
+        for i in 0..3000 {
+            let p = &data[i * dim..(i + 1) * dim];
+            let own = dist2(p, &r.centers[r.assign[i] as usize * dim..][..dim]);
+            for c in 0..r.k {
+                let o = dist2(p, &r.centers[c * dim..(c + 1) * dim]);
+                assert!(own <= o * (1.0 + 1e-5), "point {i}: own {own}, centre {c} {o}");
+            }
+        }
+    }
+
+    #[test]
     fn degenerate_inputs() {
         let constant = vec![0.5f32; 40];
         let r = kmeans(&constant, 4, 256, 1, 10);
