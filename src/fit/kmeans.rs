@@ -1,5 +1,8 @@
 //! K-means with k-means++ seeding (seeded, deterministic) and Hamerly's bound-based acceleration
-//! of Lloyd iterations (the same assignments as plain Lloyd, most distance scans skipped).
+//! of Lloyd iterations (the same assignments as plain Lloyd, most distance scans skipped). A point
+//! whose bounds fail scans only the centres nearer its own centre than twice its distance (each
+//! centre's neighbours sorted by distance; the sorted-list form of Newling & Fleuret's Exponion,
+//! 2016), not all K.
 //!
 //! Points and centres are stored padded to a multiple of [`LANES`] features with zeros, so every
 //! distance is a fixed-width, lane-split loop that vectorises. Iterations stop when fewer than
@@ -41,6 +44,42 @@ fn dist2_padded(a: &[f32], b: &[f32]) -> f32 {
         }
     }
     acc.iter().sum()
+}
+
+/// For every centre `a` the other centres sorted by their distance from it (ties by index) into
+/// `near[a·(k−1)..]`, with those distances in `near_d`; `cc` is k×k scratch.
+fn neighbours(
+    centers: &[f32],
+    k: usize,
+    dim: usize,
+    cc: &mut [f32],
+    near: &mut [u32],
+    near_d: &mut [f32],
+) {
+    let centre = |c: usize| &centers[c * dim..(c + 1) * dim];
+    for a in 0..k {
+        cc[a * k + a] = 0.0;
+        for b in a + 1..k {
+            let d = dist2_padded(centre(a), centre(b)).sqrt();
+            cc[a * k + b] = d;
+            cc[b * k + a] = d;
+        }
+    }
+    for a in 0..k {
+        let row = &mut near[a * (k - 1)..(a + 1) * (k - 1)];
+        for (j, r) in (0..k).filter(|&b| b != a).zip(row.iter_mut()) {
+            *r = j as u32;
+        }
+        let dist = &cc[a * k..(a + 1) * k];
+        row.sort_unstable_by(|&x, &y| {
+            dist[x as usize]
+                .total_cmp(&dist[y as usize])
+                .then(x.cmp(&y))
+        });
+        for (d, &b) in near_d[a * (k - 1)..].iter_mut().zip(row.iter()) {
+            *d = dist[b as usize];
+        }
+    }
 }
 
 /// Clusters `data` (`n × dim`, row-major) into at most `k` clusters. Points with identical
@@ -139,6 +178,9 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
     let mut counts = vec![0usize; k];
     let mut half_sep = vec![0.0f32; k];
     let mut moved = vec![0.0f32; k];
+    let mut cc = vec![0.0f32; k * k];
+    let mut near = vec![0u32; k * k.saturating_sub(1)];
+    let mut near_d = vec![0.0f32; near.len()];
     let mut iterations = 0;
     // The first iteration only moves the centres: the seeding made its assignment and bounds.
     let mut first_pass = true;
@@ -150,19 +192,13 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
         iterations += 1;
         changed = false;
         let mut reassigned = 0usize;
-        // Half the distance from each centre to its nearest other centre (not needed by the
-        // first pass, whose assignment the seeding already made).
-        for a in 0..k * usize::from(!first_pass) {
-            let mut m = f32::INFINITY;
-            for b in 0..k {
-                if a != b {
-                    m = m.min(dist2(
-                        &centers[a * dim..(a + 1) * dim],
-                        &centers[b * dim..(b + 1) * dim],
-                    ));
-                }
+        // Each centre's other centres by distance (ties by index), and half the distance to the
+        // nearest of them (not needed by the first pass, whose assignment the seeding made).
+        if !first_pass {
+            neighbours(&centers, k, dim, &mut cc, &mut near, &mut near_d);
+            for a in 0..k {
+                half_sep[a] = near_d.get(a * (k - 1)).map_or(f32::INFINITY, |d| 0.5 * d);
             }
-            half_sep[a] = 0.5 * m.sqrt();
         }
         for i in 0..n * usize::from(!first_pass) {
             let a = assign[i] as usize;
@@ -171,12 +207,24 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
                 continue;
             }
             let p = point(i);
-            upper[i] = dist2(p, &centers[a * dim..(a + 1) * dim]).sqrt();
-            if upper[i] <= bound {
+            let own = dist2(p, &centers[a * dim..(a + 1) * dim]);
+            let u = own.sqrt();
+            upper[i] = u;
+            if u <= bound {
                 continue;
             }
-            let (mut best, mut best_d, mut second_d) = (a, f32::INFINITY, f32::INFINITY);
-            for c in 0..k {
+            // Only centres c with |a − c| < 2u can be nearer than a (triangle inequality:
+            // |p − c| ≥ |a − c| − u ≥ u): scan a's neighbours outwards up to that radius; every
+            // centre beyond it is at least (its distance from a) − u away.
+            let (mut best, mut best_d, mut second_d) = (a, own, f32::INFINITY);
+            let mut beyond = f32::INFINITY;
+            let row = a * (k - 1)..(a + 1) * (k - 1);
+            for (&c, &dc) in near[row.clone()].iter().zip(&near_d[row]) {
+                if dc >= 2.0 * u {
+                    beyond = dc - u;
+                    break;
+                }
+                let c = c as usize;
                 let d = dist2(p, &centers[c * dim..(c + 1) * dim]);
                 if d < best_d || (d == best_d && c < best) {
                     second_d = best_d;
@@ -192,7 +240,7 @@ fn kmeans_impl(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -
                 reassigned += 1;
             }
             upper[i] = best_d.sqrt();
-            lower[i] = second_d.sqrt();
+            lower[i] = second_d.sqrt().min(beyond);
         }
         // Nearly stable: stop here, where every point is at its nearest centre (the means of the
         // members moved by less than the few reassignments; callers use the assignment).
@@ -317,6 +365,29 @@ mod tests {
                     "point {i} own {own} other {c} {o} iters {}",
                     r.iterations
                 );
+            }
+        }
+    }
+
+    #[test]
+    fn pruned_scans_find_the_nearest_centre_in_many_dimensions() {
+        // The fit's shape: 20 features, K = 256, points on few blobs plus spread, so most scans
+        // stop early at the 2u radius; every point must still end at its nearest centre.
+        let mut rng = Pcg32::new(11, 1);
+        let dim = 20;
+        let blobs: Vec<f32> = (0..12 * dim).map(|_| rng.next_f32()).collect();
+        let data: Vec<f32> = (0..3000 * dim)
+            .map(|i| blobs[(i / dim % 12) * dim + i % dim] + 0.2 * (rng.next_f32() - 0.5))
+            .collect();
+        let r = kmeans(&data, dim, 256, 5, 60);
+        assert_eq!(r.k, 256);
+        assert!(r.iterations < 60, "stopped by the cap, not by convergence");
+        for i in 0..3000 {
+            let p = &data[i * dim..(i + 1) * dim];
+            let own = dist2(p, &r.centers[r.assign[i] as usize * dim..][..dim]);
+            for c in 0..r.k {
+                let o = dist2(p, &r.centers[c * dim..(c + 1) * dim]);
+                assert!(own <= o * (1.0 + 1e-5), "point {i}: own {own}, centre {c} {o}");
             }
         }
     }

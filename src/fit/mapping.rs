@@ -18,6 +18,56 @@ pub struct Scratch {
     orig: Vec<f32>,
     keys: Vec<u32>,
     tmp: Vec<u32>,
+    pair_keys: Vec<u64>,
+    pair_tmp: Vec<u64>,
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+}
+
+impl Scratch {
+    /// The pairs (`x[i]`, `y(i)`) sorted by x ascending in `f32::total_cmp` order, ties in index
+    /// order (a stable LSD radix sort on the x key with the index as payload: the order, and
+    /// so every sum over the pairs, is fixed), as the slices (xs, ys).
+    pub fn sort_pairs(&mut self, x: &[f32], y: impl Fn(usize) -> f32) -> (&[f32], &[f32]) {
+        let n = x.len();
+        self.pair_keys.clear();
+        self.pair_keys.extend(
+            x.iter()
+                .enumerate()
+                .map(|(i, &v)| ((key(v) as u64) << 32) | i as u64),
+        );
+        self.pair_tmp.clear();
+        self.pair_tmp.resize(n, 0);
+        for pass in 0..4 {
+            let shift = 32 + 8 * pass;
+            let mut count = [0usize; 256];
+            for &k in &self.pair_keys {
+                count[((k >> shift) & 0xff) as usize] += 1;
+            }
+            if count.contains(&n) {
+                continue; // every key shares this byte: the pass would not move anything
+            }
+            let mut sum = 0;
+            for c in count.iter_mut() {
+                let m = *c;
+                *c = sum;
+                sum += m;
+            }
+            for &k in &self.pair_keys {
+                let b = ((k >> shift) & 0xff) as usize;
+                self.pair_tmp[count[b]] = k;
+                count[b] += 1;
+            }
+            std::mem::swap(&mut self.pair_keys, &mut self.pair_tmp);
+        }
+        self.xs.clear();
+        self.ys.clear();
+        for &k in &self.pair_keys {
+            self.xs.push(unkey((k >> 32) as u32));
+            self.ys.push(y((k & 0xffff_ffff) as usize));
+        }
+        (&self.xs, &self.ys)
+    }
 }
 
 /// Order-preserving map of f32 bits to u32 (the IEEE total order, as `f32::total_cmp`).
@@ -107,20 +157,6 @@ pub fn fit_mapping(model: &[f32], orig: &[f32], s: &mut Scratch) -> Poly {
     fit_pairs(m, o)
 }
 
-/// [`fit_mapping`] with the original image already sorted ascending (it is shared by the PLM and
-/// PLM-C fits of one image, so it is sorted once), conditioned on the domain [0, max(model, `floor`)]
-/// (see [`fit_pairs_in`]; `floor` is the largest model value of the view and channel).
-pub fn fit_mapping_sorted(model: &[f32], orig_sorted: &[f32], floor: f32, s: &mut Scratch) -> Poly {
-    debug_assert_eq!(model.len(), orig_sorted.len());
-    if model.is_empty() {
-        return IDENTITY;
-    }
-    s.model.clear();
-    s.model.extend_from_slice(model);
-    radix_sort(&mut s.model, &mut s.keys, &mut s.tmp);
-    fit_pairs_in(&s.model, orig_sorted, floor)
-}
-
 /// Least-squares polynomial through sorted (x, y) pairs, degree ≤ 4, monotone over the x range;
 /// the domain the mapping is conditioned on is `[0, max(|x|, floor)]` (see [`fit_pairs_in`]).
 pub fn fit_pairs(x: &[f32], y: &[f32]) -> Poly {
@@ -144,7 +180,10 @@ const MAX_GROWTH: f64 = 64.0;
 /// The result is snapped to the file's quantised encoding ([`PackedPoly`](crate::model::polynomial::PackedPoly)) when that costs less than
 /// [`SNAP_TOLERANCE`] of the output scale on the image's range of model values.
 pub fn fit_pairs_in(x: &[f32], y: &[f32], floor: f32) -> Poly {
-    fit_pairs_weighted(x, y, None, floor)
+    let n = x.len().min(y.len());
+    let (x, y) = (&x[..n], &y[..n]);
+    let s = PairStats::new(x, y, floor);
+    s.solve(&moments(x, y, &s))
 }
 
 /// Residual floor of [`fit_pairs_l1`]'s reweighting, relative to max|y| (weights ≤ 1/floor).
@@ -154,89 +193,250 @@ const L1_EPS: f64 = 1e-3;
 /// judged by; [`fit_pairs_in`] minimises the squared error), by `rounds` of iteratively
 /// reweighted least squares (weights 1/max(|residual|, ε)) from the least-squares mapping, under
 /// the same degree, monotonicity and growth rules. Returns the round with the lowest absolute
-/// error (outputs clamped at 0 as the model clamps them), never worse than the least-squares one.
-pub fn fit_pairs_l1(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> Poly {
+/// error (outputs clamped at 0 as the model clamps them), never worse than the least-squares one,
+/// and that error Σ|max(p(x), 0) − y|.
+///
+/// One pass over the pairs per round: the residuals of the current mapping give both its
+/// absolute error and the next round's weights, and pairs of equal x (a clustered model image has
+/// at most K distinct values) are summed into their run before the moments are formed.
+pub fn fit_pairs_l1(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the running CPU supports AVX2 (checked just above).
+        return unsafe { fit_pairs_l1_avx2(x, y, floor, rounds) };
+    }
+    fit_pairs_l1_impl(x, y, floor, rounds)
+}
+
+/// [`fit_pairs_l1`] compiled for AVX2 (the lane-split run sums are 8 wide; same results).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn fit_pairs_l1_avx2(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) {
+    fit_pairs_l1_impl(x, y, floor, rounds)
+}
+
+#[inline(always)]
+fn fit_pairs_l1_impl(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) {
     let n = x.len().min(y.len());
     let (x, y) = (&x[..n], &y[..n]);
-    let abs_err = |a: &Poly| {
-        x.iter()
-            .zip(y)
-            .map(|(&m, &o)| (eval(a, m).max(0.0) - o).abs() as f64)
-            .sum::<f64>()
-    };
-    let mut best = fit_pairs_in(x, y, floor);
-    let mut best_e = abs_err(&best);
-    let eps = (L1_EPS * y.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()))).max(1e-12);
-    let mut cur = best;
-    let mut w = vec![0.0f32; n];
+    let stats = PairStats::new(x, y, floor);
+    let lsq = stats.solve(&moments(x, y, &stats));
+    let eps = (L1_EPS * stats.y_abs).max(1e-12) as f32;
+    let mut best = lsq;
+    let mut best_e = f64::INFINITY;
+    let mut cur = lsq;
     for _ in 0..rounds {
-        for ((wi, &m), &o) in w.iter_mut().zip(x).zip(y) {
-            *wi = (1.0 / ((eval(&cur, m).max(0.0) - o).abs() as f64).max(eps)) as f32;
-        }
-        cur = fit_pairs_weighted(x, y, Some(&w), floor);
-        let e = abs_err(&cur);
+        let (e, m) = residual_moments(x, y, &stats, &cur, eps);
         if e < best_e {
             (best, best_e) = (cur, e);
         }
+        cur = stats.solve(&m);
     }
-    best
+    let e = abs_error(x, y, &cur);
+    if e < best_e {
+        (best, best_e) = (cur, e);
+    }
+    (best, best_e)
 }
 
-/// [`fit_pairs_in`] with optional per-pair weights (weighted least squares).
-fn fit_pairs_weighted(x: &[f32], y: &[f32], w: Option<&[f32]>, floor: f32) -> Poly {
-    let n = x.len().min(y.len());
-    let (x, y) = (&x[..n], &y[..n]);
-    let mean_y = y.iter().map(|&v| v as f64).sum::<f64>() / n.max(1) as f64;
-    let constant = [mean_y as f32, 0.0, 0.0, 0.0, 0.0];
-    let lo = x.iter().copied().fold(f32::INFINITY, f32::min) as f64;
-    let hi = x.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
-    let y_abs = y.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()));
-    if n == 0 || !lo.is_finite() || !hi.is_finite() || !mean_y.is_finite() {
-        return constant;
+/// Lanes of the per-run sums (independent accumulators, so the loops vectorise).
+const RUN_LANES: usize = 8;
+
+/// Over one run's values `ys` at model output `v`: (Σ r, Σ w, Σ w·y) with r = |v − y| and
+/// w = 1/max(r, `eps`); `eps` = ∞ gives (Σ r, ·, ·) alone. Lane-split f64 sums of f32 terms.
+#[inline(always)]
+fn run_sums(ys: &[f32], v: f32, eps: f32) -> (f64, f64, f64) {
+    let mut out = [0.0f64; 3];
+    let chunks = ys.chunks_exact(RUN_LANES);
+    let tail = chunks.remainder();
+    if ys.len() >= RUN_LANES {
+        let mut acc = [[0.0f64; RUN_LANES]; 3];
+        for c in chunks {
+            for l in 0..RUN_LANES {
+                let r = (v - c[l]).abs();
+                let w = 1.0 / r.max(eps);
+                acc[0][l] += r as f64;
+                acc[1][l] += w as f64;
+                acc[2][l] += w as f64 * c[l] as f64;
+            }
+        }
+        for (o, a) in out.iter_mut().zip(&acc) {
+            *o = a.iter().sum();
+        }
     }
-    // Distinct x values (the pairs are sorted): a polynomial of degree ≥ distinct is not determined.
-    let distinct = 1 + x.windows(2).filter(|w| w[1] != w[0]).take(4).count();
-    let max_degree = (distinct - 1).min(4);
-    let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
-    if max_degree == 0 || half <= 1e-7 * hi.abs().max(lo.abs()) || y_abs == 0.0 {
-        return constant;
+    for &o in tail {
+        let r = (v - o).abs();
+        let w = 1.0 / r.max(eps);
+        out[0] += r as f64;
+        out[1] += w as f64;
+        out[2] += w as f64 * o as f64;
     }
-    let domain = hi.abs().max(lo.abs()).max(floor as f64);
-    let mut mom = [0.0f64; 9];
-    let mut rhs = [0.0f64; 5];
-    for (i, (&xi, &yi)) in x.iter().zip(y).enumerate() {
-        let t = (xi as f64 - centre) / half;
-        let mut p = w.map_or(1.0, |w| w[i] as f64);
-        for (k, m) in mom.iter_mut().enumerate() {
-            *m += p;
+    (out[0], out[1], out[2])
+}
+
+/// Σ|max(p(x), 0) − y| over sorted pairs, the polynomial evaluated once per run of equal x.
+#[inline(always)]
+pub fn abs_error(x: &[f32], y: &[f32], a: &Poly) -> f64 {
+    let (mut e, mut lo) = (0.0f64, 0);
+    while lo < x.len() {
+        let hi = run_end(x, lo);
+        e += run_sums(&y[lo..hi], eval(a, x[lo]).max(0.0), f32::INFINITY).0;
+        lo = hi;
+    }
+    e
+}
+
+/// The end of the run of values equal to `x[lo]` that starts at `lo` in the sorted `x`.
+#[inline(always)]
+fn run_end(x: &[f32], lo: usize) -> usize {
+    let v = x[lo];
+    let mut hi = lo + 1;
+    while hi < x.len() && x[hi] == v {
+        hi += 1;
+    }
+    hi
+}
+
+/// What the normal equations of one set of sorted pairs need besides the moments: the
+/// normalisation t = (x − centre)/half, the degree limit and the bounds of the result.
+struct PairStats {
+    centre: f64,
+    inv_half: f64,
+    half: f64,
+    /// The mapping when no polynomial of degree ≥ 1 is determined: the mean of y.
+    constant: Poly,
+    /// min(4, distinct x − 1); 0 = constant.
+    max_degree: usize,
+    /// max|y| (the output scale of the growth bound).
+    y_abs: f64,
+    /// The domain the mapping is conditioned on, max(|x|, floor).
+    domain: f64,
+    /// max|x| (the image's own range, for snapping).
+    x_abs: f64,
+}
+
+impl PairStats {
+    fn new(x: &[f32], y: &[f32], floor: f32) -> Self {
+        let n = x.len();
+        let mean_y = y.iter().map(|&v| v as f64).sum::<f64>() / n.max(1) as f64;
+        let constant = [mean_y as f32, 0.0, 0.0, 0.0, 0.0];
+        let lo = x.iter().copied().fold(f32::INFINITY, f32::min) as f64;
+        let hi = x.iter().copied().fold(f32::NEG_INFINITY, f32::max) as f64;
+        let y_abs = y.iter().fold(0.0f64, |m, &v| m.max((v as f64).abs()));
+        let (centre, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let mut max_degree = 0;
+        if n > 0 && lo.is_finite() && hi.is_finite() && mean_y.is_finite() {
+            // Distinct x values (the pairs are sorted): a polynomial of degree ≥ distinct is not
+            // determined.
+            let distinct = 1 + x.windows(2).filter(|w| w[1] != w[0]).take(4).count();
+            max_degree = (distinct - 1).min(4);
+            if half <= 1e-7 * hi.abs().max(lo.abs()) || y_abs == 0.0 {
+                max_degree = 0;
+            }
+        }
+        let x_abs = hi.abs().max(lo.abs());
+        PairStats {
+            centre,
+            inv_half: 1.0 / half,
+            half,
+            constant,
+            max_degree,
+            y_abs,
+            domain: x_abs.max(floor as f64),
+            x_abs,
+        }
+    }
+
+    /// The highest admissible degree's mapping from the (weighted) moments: monotone on the x
+    /// range, within the growth bound on the domain, snapped to the file's encoding when that is
+    /// harmless; the constant when no degree is.
+    fn solve(&self, m: &Moments) -> Poly {
+        if self.max_degree == 0 {
+            return self.constant;
+        }
+        for degree in (1..=self.max_degree).rev() {
+            let Some(b) = solve_moments(&m.mom, &m.rhs, degree + 1) else {
+                continue;
+            };
+            if degree > 1 && !monotone(&b, degree, -1.0, 1.0) {
+                continue;
+            }
+            let a = to_power_basis(&b, degree, self.centre, self.half);
+            let bounded = |a: &Poly| {
+                let growth: f64 = (0..5)
+                    .map(|j| (a[j] as f64).abs() * self.domain.powi(j as i32))
+                    .sum();
+                a.iter().all(|v| v.is_finite()) && growth <= MAX_GROWTH * self.y_abs
+            };
+            if bounded(&a) {
+                // The snapped mapping must keep the growth bound too (quantisation noise in high
+                // coefficients of a tiny domain is amplified on the view's domain).
+                let snapped = snap(&a, self.x_abs as f32, self.y_abs as f32);
+                return if bounded(&snapped) { snapped } else { a };
+            }
+        }
+        self.constant
+    }
+}
+
+/// Power moments Σ w·t^k (k ≤ 8) and Σ w·y·t^k (k ≤ 4) of the normal equations in t.
+#[derive(Default)]
+struct Moments {
+    mom: [f64; 9],
+    rhs: [f64; 5],
+}
+
+impl Moments {
+    /// Adds a run at `t` of summed weight `w` and summed weighted value `wy`.
+    #[inline(always)]
+    fn add(&mut self, t: f64, w: f64, wy: f64) {
+        let (mut p, mut q) = (w, wy);
+        for k in 0..9 {
+            self.mom[k] += p;
             if k < 5 {
-                rhs[k] += p * yi as f64;
+                self.rhs[k] += q;
             }
             p *= t;
+            q *= t;
         }
     }
-    for degree in (1..=max_degree).rev() {
-        let Some(b) = solve_moments(&mom, &rhs, degree + 1) else {
-            continue;
-        };
-        if degree > 1 && !monotone(&b, degree, -1.0, 1.0) {
-            continue;
-        }
-        let a = to_power_basis(&b, degree, centre, half);
-        let bounded = |a: &Poly| {
-            let growth: f64 = (0..5)
-                .map(|j| (a[j] as f64).abs() * domain.powi(j as i32))
-                .sum();
-            a.iter().all(|v| v.is_finite()) && growth <= MAX_GROWTH * y_abs
-        };
-        if bounded(&a) {
-            // The snapped mapping must keep the growth bound too (quantisation noise in high
-            // coefficients of a tiny domain is amplified on the view's domain).
-            let snapped = snap(&a, hi.abs().max(lo.abs()) as f32, y_abs as f32);
-            return if bounded(&snapped) { snapped } else { a };
-        }
+}
+
+/// The unweighted moments of sorted pairs.
+#[inline(always)]
+fn moments(x: &[f32], y: &[f32], s: &PairStats) -> Moments {
+    let mut m = Moments::default();
+    if s.max_degree == 0 {
+        return m;
     }
-    constant
+    let mut lo = 0;
+    while lo < x.len() {
+        let hi = run_end(x, lo);
+        let t = (x[lo] as f64 - s.centre) * s.inv_half;
+        let sy = y[lo..hi].iter().map(|&v| v as f64).sum::<f64>();
+        m.add(t, (hi - lo) as f64, sy);
+        lo = hi;
+    }
+    m
+}
+
+/// One IRLS step's pass: the absolute error of `a` on the pairs and the moments weighted by
+/// 1/max(|residual of a|, `eps`).
+#[inline(always)]
+fn residual_moments(x: &[f32], y: &[f32], s: &PairStats, a: &Poly, eps: f32) -> (f64, Moments) {
+    let mut m = Moments::default();
+    let (mut e, mut lo) = (0.0f64, 0);
+    while lo < x.len() {
+        let hi = run_end(x, lo);
+        let xv = x[lo];
+        let (r, sw, swy) = run_sums(&y[lo..hi], eval(a, xv).max(0.0), eps);
+        e += r;
+        if s.max_degree > 0 {
+            m.add((xv as f64 - s.centre) * s.inv_half, sw, swy);
+        }
+        lo = hi;
+    }
+    (e, m)
 }
 
 /// p(x) = Σ_j b_j ((x − c)/h)^j expanded into powers of x (f64, rounded once to f32).
@@ -357,7 +557,9 @@ mod tests {
                 .sum::<f64>()
         };
         let lsq = fit_pairs_in(&x, &y, 0.0);
-        let l1 = fit_pairs_l1(&x, &y, 0.0, 6);
+        let (l1, l1_err) = fit_pairs_l1(&x, &y, 0.0, 6);
+        // The error it reports is the absolute error of the mapping it returns.
+        assert!((l1_err - abs_err(&l1)).abs() <= 1e-9 * l1_err, "{l1_err}");
         assert!(
             abs_err(&l1) < 0.8 * abs_err(&lsq),
             "{} {}",
@@ -368,8 +570,29 @@ mod tests {
             assert!((eval(&l1, v) - (0.1 + 0.6 * v)).abs() < 0.01, "{v}: {l1:?}");
         }
         // Zero rounds is the least-squares mapping; constant data stay constant.
-        assert_eq!(fit_pairs_l1(&x, &y, 0.0, 0), lsq);
-        assert_eq!(fit_pairs_l1(&x, &[0.25; 2000], 0.0, 4)[1..], [0.0; 4]);
+        assert_eq!(fit_pairs_l1(&x, &y, 0.0, 0).0, lsq);
+        assert_eq!(fit_pairs_l1(&x, &[0.25; 2000], 0.0, 4).0[1..], [0.0; 4]);
+        // A clustered image (few distinct x, each a long run): the runs are summed before the
+        // moments, which must give the mapping of the pairs taken one by one (here: the same
+        // line through the run means, to rounding).
+        let xc: Vec<f32> = (0..n).map(|i| (i % 7) as f32 / 7.0).collect();
+        let mut pairs: Vec<(f32, f32)> = xc
+            .iter()
+            .map(|&v| (v, 0.2 + 0.5 * v + 0.01 * (rng.next_f32() - 0.5)))
+            .collect();
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (xs, ys): (Vec<f32>, Vec<f32>) = pairs.into_iter().unzip();
+        let a = fit_pairs_in(&xs, &ys, 0.0);
+        for j in 0..7 {
+            let v = j as f32 / 7.0;
+            let run: Vec<f32> = (0..n).filter(|&i| xs[i] == v).map(|i| ys[i]).collect();
+            let mean = run.iter().sum::<f32>() / run.len() as f32;
+            assert!(
+                (eval(&a, v) - mean).abs() < 2e-3,
+                "{v}: {} vs {mean}",
+                eval(&a, v)
+            );
+        }
     }
 
     #[test]

@@ -61,7 +61,7 @@ fn curve(fitter: &LobeFitter, lobe: &Lobe, map: Option<&[Poly]>, srgb: bool, out
 }
 
 /// L1 distance of two curves (lane-split so it vectorises).
-#[inline]
+#[inline(always)]
 fn l1(a: &[f32], b: &[f32]) -> f32 {
     const LANES: usize = 8;
     let mut acc = [0.0f32; LANES];
@@ -74,6 +74,58 @@ fn l1(a: &[f32], b: &[f32]) -> f32 {
     }
     let tail: f32 = ra.iter().zip(rb).map(|(x, y)| (x - y).abs()).sum();
     acc.iter().sum::<f32>() + tail
+}
+
+/// The candidate cluster whose curve (`curves`, `nl` values each) is nearest to `y` in L1, if
+/// nearer than `own_err` (the error at the current cluster `own`); else (`own`, `own_err`).
+/// Dispatches to an AVX2 build where the CPU has it (the same lane-split sums: same results).
+#[inline]
+fn nearest_curve(
+    y: &[f32],
+    curves: &[f32],
+    nl: usize,
+    cand: &[u32],
+    own: u32,
+    own_err: f32,
+) -> (u32, f32) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the running CPU supports AVX2 (checked just above).
+        return unsafe { nearest_curve_avx2(y, curves, nl, cand, own, own_err) };
+    }
+    nearest_curve_impl(y, curves, nl, cand, own, own_err)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn nearest_curve_avx2(
+    y: &[f32],
+    curves: &[f32],
+    nl: usize,
+    cand: &[u32],
+    own: u32,
+    own_err: f32,
+) -> (u32, f32) {
+    nearest_curve_impl(y, curves, nl, cand, own, own_err)
+}
+
+#[inline(always)]
+fn nearest_curve_impl(
+    y: &[f32],
+    curves: &[f32],
+    nl: usize,
+    cand: &[u32],
+    own: u32,
+    own_err: f32,
+) -> (u32, f32) {
+    let (mut best, mut best_e) = (own, own_err);
+    for &b in cand.iter().filter(|&&b| b != own) {
+        let e = l1(y, &curves[b as usize * nl..][..nl]);
+        if e < best_e {
+            (best, best_e) = (b, e);
+        }
+    }
+    (best, best_e)
 }
 
 /// Refines `lobes` (one per cluster) and `assign` (cluster per texel) against the texels' light
@@ -155,14 +207,14 @@ pub fn refine(
             .with_min_len(64)
             .map(|t| {
                 let a = assign[t] as usize;
-                let (mut best, mut best_e) = (a as u32, err[t]);
-                for &b in &cand[a * m..(a + 1) * m] {
-                    let e = l1(row(t), &curves[b as usize * nl..][..nl]);
-                    if e < best_e {
-                        (best, best_e) = (b, e);
-                    }
-                }
-                (best, best_e)
+                nearest_curve(
+                    row(t),
+                    &curves,
+                    nl,
+                    &cand[a * m..(a + 1) * m],
+                    a as u32,
+                    err[t],
+                )
             })
             .collect();
         let mut moved = 0;

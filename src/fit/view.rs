@@ -381,13 +381,16 @@ fn channel_curves(data: &[f32], texels: usize, c: usize, out: &mut [f32]) {
 /// The original images sorted ascending, `[light][channel][rank]` (`texels` values each).
 fn sorted_planes(data: &[f32], texels: usize, lights: usize) -> Vec<f32> {
     let mut out = vec![0.0f32; lights * 3 * texels];
-    out.par_chunks_mut(texels).enumerate().for_each(|(i, dst)| {
-        let (l, c) = (i / 3, i % 3);
-        for (t, d) in dst.iter_mut().enumerate() {
-            *d = data[(l * texels + t) * 3 + c];
-        }
-        dst.sort_unstable_by(f32::total_cmp);
-    });
+    out.par_chunks_mut(texels).enumerate().for_each_init(
+        || (Vec::new(), Vec::new()),
+        |(keys, tmp), (i, dst)| {
+            let (l, c) = (i / 3, i % 3);
+            for (t, d) in dst.iter_mut().enumerate() {
+                *d = data[(l * texels + t) * 3 + c];
+            }
+            mapping::radix_sort(dst, keys, tmp);
+        },
+    );
     out
 }
 
@@ -456,46 +459,21 @@ fn fit_polys(
     }
     let fits: Vec<(Poly, bool)> = (0..lights.len() * 3)
         .into_par_iter()
-        .map_init(
-            || {
-                (
-                    mapping::Scratch::default(),
-                    Vec::new(),
-                    Vec::new(),
-                    Vec::new(),
-                )
-            },
-            |(s, pairs, xs, ys), i| {
-                let (l, c) = (i / 3, i % 3);
-                let img = &images[i * texels..(i + 1) * texels];
-                let f = floor[c];
-                let matched =
-                    mapping::fit_mapping_sorted(img, &sorted[i * texels..(i + 1) * texels], f, s);
-                pairs.clear();
-                pairs.extend(
-                    img.iter()
-                        .enumerate()
-                        .map(|(t, &m)| (m, data[(l * texels + t) * 3 + c])),
-                );
-                pairs.sort_unstable_by(|a: &(f32, f32), b| a.0.total_cmp(&b.0));
-                xs.clear();
-                ys.clear();
-                xs.extend(pairs.iter().map(|p| p.0));
-                ys.extend(pairs.iter().map(|p| p.1));
-                let regressed = mapping::fit_pairs_l1(xs, ys, f, L1_ROUNDS);
-                let mae = |a: &Poly| {
-                    pairs
-                        .iter()
-                        .map(|&(m, o)| (polynomial::eval(a, m).max(0.0) - o).abs() as f64)
-                        .sum::<f64>()
-                };
-                if mae(&regressed) < mae(&matched) {
-                    (regressed, true)
-                } else {
-                    (matched, false)
-                }
-            },
-        )
+        .map_init(mapping::Scratch::default, |s, i| {
+            let (l, c) = (i / 3, i % 3);
+            let img = &images[i * texels..(i + 1) * texels];
+            let f = floor[c];
+            // The pairs (model, original) by model value; their model values are the sorted
+            // model image the histogram matching pairs rank by rank with the sorted original.
+            let (xs, ys) = s.sort_pairs(img, |t| data[(l * texels + t) * 3 + c]);
+            let matched = mapping::fit_pairs_in(xs, &sorted[i * texels..(i + 1) * texels], f);
+            let (regressed, e_regressed) = mapping::fit_pairs_l1(xs, ys, f, L1_ROUNDS);
+            if e_regressed < mapping::abs_error(xs, ys, &matched) {
+                (regressed, true)
+            } else {
+                (matched, false)
+            }
+        })
         .collect();
     let regression = fits.iter().filter(|f| f.1).count();
     stats.regression_polys += regression;
