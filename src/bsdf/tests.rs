@@ -29,6 +29,7 @@ fn diffuse(r: f32) -> Bsdf {
 /// Rough conductor with a perfectly reflecting Fresnel term (Mitsuba `material="none"`).
 fn rough_mirror(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
+        distribution: MicrofacetType::Ggx,
         alpha_u,
         alpha_v,
         eta: Spectrum::ZERO,
@@ -41,6 +42,7 @@ fn rough_mirror(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
 /// Rough gold-like conductor (Mitsuba's Au RGB values, roughly).
 fn rough_gold(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
+        distribution: MicrofacetType::Ggx,
         alpha_u,
         alpha_v,
         eta: Spectrum::new(0.143, 0.374, 1.442),
@@ -183,6 +185,7 @@ fn chi2_plastic_diffuse_lobe() {
 
 fn rough_plastic(alpha: f32, nonlinear: bool, vis: bool) -> Bsdf {
     Bsdf::RoughPlastic(RoughPlastic::new(
+        MicrofacetType::Ggx,
         alpha,
         1.49,
         Texture::Constant(Spectrum::new(0.2, 0.5, 0.8)),
@@ -194,6 +197,7 @@ fn rough_plastic(alpha: f32, nonlinear: bool, vis: bool) -> Bsdf {
 
 fn rough_dielectric(alpha_u: f32, alpha_v: f32, eta: f32, vis: bool) -> Bsdf {
     Bsdf::RoughDielectric(RoughDielectric {
+        distribution: MicrofacetType::Ggx,
         alpha_u: Texture::Constant(Spectrum::splat(alpha_u)),
         alpha_v: Texture::Constant(Spectrum::splat(alpha_v)),
         eta,
@@ -316,8 +320,16 @@ fn roughplastic_tables_match_direct_integration() {
     // sphere, independent of the visible-normal quadrature.
     let alpha = 0.3f32;
     let eta = 1.5f32;
-    let rp = RoughPlastic::new(alpha, eta, white(), white(), false, true);
-    let d = microfacet::Ggx::new(alpha, alpha, true);
+    let rp = RoughPlastic::new(
+        MicrofacetType::Ggx,
+        alpha,
+        eta,
+        white(),
+        white(),
+        false,
+        true,
+    );
+    let d = microfacet::Microfacet::new(MicrofacetType::Ggx, alpha, alpha, true);
     let n = 600;
     for cos_i in [0.15f32, 0.5, 0.95] {
         let wi = Vec3::new((1.0 - cos_i * cos_i).sqrt(), 0.0, cos_i);
@@ -738,6 +750,7 @@ fn specular_reflectance_texture_scales_and_flags_spatial_variation() {
     img.set(0, 0, [0.5, 0.25, 1.0]);
     let tex = Texture::Bitmap(Arc::new(img));
     let b = Bsdf::RoughConductor(RoughConductor {
+        distribution: MicrofacetType::Ggx,
         alpha_u: 0.3,
         alpha_v: 0.3,
         eta: Spectrum::ZERO,

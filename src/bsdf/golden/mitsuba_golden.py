@@ -26,10 +26,13 @@ def rgb(v):
     return {"type": "rgb", "value": v}
 
 
-def rough(au, av, vis):
-    return {"type": "roughconductor", "distribution": "ggx", "alpha_u": au, "alpha_v": av,
-            "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K), "sample_visible": vis,
-            "specular_reflectance": rgb([0.9, 0.8, 0.7])}
+def rough(au, av, vis, distribution="ggx"):
+    d = {"type": "roughconductor", "alpha_u": au, "alpha_v": av,
+         "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K), "sample_visible": vis,
+         "specular_reflectance": rgb([0.9, 0.8, 0.7])}
+    if distribution is not None:
+        d["distribution"] = distribution
+    return d
 
 
 # Names must match golden.rs.
@@ -78,6 +81,26 @@ CONFIGS = {
                         "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}},
     "normalmap_rough": {"type": "normalmap", "normalmap": rgb([0.2, 0.6, 0.8]),
                         "a": rough(0.3, 0.1, True)},
+    # Beckmann, Mitsuba's default distribution: left unnamed except where it is spelt out.
+    "beckmann_rough_iso_vis": rough(0.3, 0.3, True, None),
+    "beckmann_rough_aniso_vis": rough(0.5, 0.1, True, "beckmann"),
+    "beckmann_rough_aniso_novis": rough(0.12, 0.45, False, None),
+    "beckmann_rough_iso_novis": rough(0.2, 0.2, False, None),
+    "beckmann_rough_smooth_vis": rough(0.03, 0.03, True, None),
+    "beckmann_roughplastic": {"type": "roughplastic", "alpha": 0.2,
+                              "diffuse_reflectance": rgb([0.2, 0.5, 0.8])},
+    "beckmann_roughplastic_nonlinear_novis": {"type": "roughplastic", "alpha": 0.45,
+                                              "int_ior": 1.7, "ext_ior": 1.0, "nonlinear": True,
+                                              "sample_visible": False,
+                                              "diffuse_reflectance": rgb([0.6, 0.3, 0.1]),
+                                              "specular_reflectance": rgb([0.8, 0.9, 1.0])},
+    "beckmann_roughdielectric": {"type": "roughdielectric", "alpha": 0.25, "int_ior": 1.5,
+                                 "ext_ior": 1.0},
+    "beckmann_roughdielectric_aniso_novis": {"type": "roughdielectric", "alpha_u": 0.4,
+                                             "alpha_v": 0.1, "int_ior": 1.33, "ext_ior": 1.0,
+                                             "sample_visible": False,
+                                             "specular_reflectance": rgb([0.5, 0.6, 0.7]),
+                                             "specular_transmittance": rgb([0.9, 0.3, 0.4])},
 }
 
 
