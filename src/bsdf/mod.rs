@@ -30,6 +30,8 @@ pub mod twosided;
 mod golden;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_beckmann;
 
 pub use blend::BlendBsdf;
 pub use btf::{BtfBsdf, BtfMaterial};
