@@ -163,7 +163,29 @@ fn config(name: &str) -> Bsdf {
     }
 }
 
-/// The Beckmann configurations (Mitsuba's default distribution).
+/// `mitsuba_golden.py`'s 4×3 raw RGB height image (row 0 at v = 0, as both lay it out).
+fn bump_texels() -> Texture {
+    let mut img = crate::io::RgbImage::new(4, 3);
+    for j in 0..3 {
+        for i in 0..4 {
+            let v = 0.1 + 0.2 * ((3 * i + 5 * j) % 7) as f64 / 7.0;
+            img.set(i, j, [v as f32, (0.8 * v) as f32, (1.3 * v) as f32]);
+        }
+    }
+    Texture::Bitmap(std::sync::Arc::new(img))
+}
+
+fn bump(nested: Bsdf, scale: f32) -> Bsdf {
+    Bsdf::BumpMap(BumpMap {
+        height: bump_texels(),
+        scale,
+        nested: Box::new(nested),
+        flip_invalid_normals: true,
+        use_shadowing_function: true,
+    })
+}
+
+/// The Beckmann configurations (Mitsuba's default distribution) and the bump maps.
 fn beckmann_config(name: &str) -> Bsdf {
     const B: MicrofacetType = MicrofacetType::Beckmann;
     match name {
@@ -208,6 +230,19 @@ fn beckmann_config(name: &str) -> Bsdf {
             specular_transmittance: c(0.9, 0.3, 0.4),
             sample_visible: false,
         }),
+        "bumpmap_roughplastic" => bump(
+            Bsdf::RoughPlastic(RoughPlastic::new(
+                B,
+                0.2,
+                1.49 / 1.000277,
+                c(0.5, 0.3, 0.2),
+                c(1.0, 1.0, 1.0),
+                false,
+                true,
+            )),
+            0.3,
+        ),
+        "bumpmap_rough_aniso" => bump(rough(0.3, 0.1, true), 0.5),
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -289,7 +324,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 30 && n_eval > 400 && n_sample > 300);
+    assert!(configs.len() == 32 && n_eval > 400 && n_sample > 300);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

@@ -10,7 +10,7 @@ use crate::math::{Pcg32, warp};
 use std::sync::Arc;
 
 /// Number of chi-square tests in this file (the Šidák family).
-const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3;
+const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3 + 6;
 
 fn si(wi: Vec3) -> SurfaceInteraction {
     SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
@@ -312,6 +312,42 @@ fn chi2_normalmap() {
         use_shadowing_function: true,
     });
     chi2_cases("normalmap", &[b], &[0.3, 1.0, 1.4]);
+}
+
+/// A bump map (a steep height ramp, so the frame tilts by ~30°) over rough plastic and over an
+/// anisotropic rough conductor, whose tangent the bump frame also turns.
+#[test]
+fn chi2_bumpmap() {
+    let mut img = crate::io::RgbImage::new(4, 4);
+    for j in 0..4 {
+        for i in 0..4 {
+            let v = 0.05 * (i * i) as f32 + 0.08 * j as f32;
+            img.set(i, j, [v, v, v]);
+        }
+    }
+    let height = Texture::Bitmap(Arc::new(img));
+    let cases = [
+        Bsdf::BumpMap(BumpMap {
+            height: height.clone(),
+            scale: 0.6,
+            nested: Box::new(rough_plastic(0.25, false, true)),
+            flip_invalid_normals: true,
+            use_shadowing_function: true,
+        }),
+        Bsdf::BumpMap(BumpMap {
+            height,
+            scale: 0.4,
+            nested: Box::new(rough_gold(0.4, 0.1, true)),
+            flip_invalid_normals: true,
+            use_shadowing_function: false,
+        }),
+    ];
+    // The perturbed normal must really be tilted, or this tests nothing beyond the nested BSDF.
+    let s = si(Vec3::Z);
+    let tilt = cases[0].eval(&s, from_spherical(0.6, 0.0))
+        - cases[0].eval(&s, from_spherical(0.6, std::f32::consts::PI));
+    assert!(tilt.abs().max_element() > 1e-3, "{tilt}");
+    chi2_cases("bumpmap", &cases, &[0.3, 1.0, 1.4]);
 }
 
 #[test]

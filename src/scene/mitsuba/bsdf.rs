@@ -7,6 +7,7 @@ use super::{Builder, N};
 use crate::Result;
 use crate::bsdf::BlendBsdf;
 use crate::bsdf::Bsdf;
+use crate::bsdf::BumpMap;
 use crate::bsdf::Conductor;
 use crate::bsdf::Dielectric;
 use crate::bsdf::Diffuse;
@@ -351,6 +352,38 @@ impl<'a, 'x> Builder<'a, 'x> {
                     nested: Box::new(self.build_bsdf(node)?),
                 })
             }
+            "bumpmap" => {
+                let kids = p.children_tagged("bsdf");
+                let node = match kids.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("exactly one nested bsdf must be specified")),
+                    _ => return Err(p.err("only a single nested bsdf can be specified")),
+                };
+                // Mitsuba takes the texture child whatever its name.
+                let texs = p.children_tagged("texture");
+                let tnode = match texs.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("exactly one nested height texture must be specified")),
+                    _ => return Err(p.err("only a single nested texture can be specified")),
+                };
+                let height = self.texture(tnode)?;
+                if !height.has_gradient() {
+                    return Err(p.err(
+                        "the height texture must be a bitmap (Mitsuba differentiates only bitmaps)",
+                    ));
+                }
+                let scale = p.float("scale", 1.0)?;
+                if !scale.is_finite() {
+                    return Err(p.err("\"scale\" must be finite"));
+                }
+                Bsdf::BumpMap(BumpMap {
+                    height,
+                    scale,
+                    flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+                    use_shadowing_function: p.bool("use_shadowing_function", true)?,
+                    nested: Box::new(self.build_bsdf(node)?),
+                })
+            }
             "btf" => {
                 let file = p.string_req("filename")?;
                 let uv_scale = p.float("uv_scale", 1.0)?;
@@ -377,7 +410,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 return Err(p.err(
                     "unsupported bsdf type (btfpt implements diffuse, conductor, roughconductor, dielectric, \
                      thindielectric, roughdielectric, plastic, roughplastic, twosided, blendbsdf, \
-                     mixturebsdf (two components), mask, normalmap, btf)",
+                     mixturebsdf (two components), mask, normalmap, bumpmap, btf)",
                 ));
             }
         };
