@@ -740,7 +740,7 @@ fn bad_bsdf_parameters_name_the_line() {
         ),
         (
             r#"<bsdf type="bumpmap"><float name="scale" value="inf"/><texture type="bitmap"><string name="filename" value="h.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
-            "scale",
+            "non-finite value \"inf\"",
         ),
         (
             r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="-0.1"/></bsdf>"#,

@@ -372,10 +372,8 @@ impl<'a, 'x> Builder<'a, 'x> {
                         "the height texture must be a bitmap (Mitsuba differentiates only bitmaps)",
                     ));
                 }
+                // NaN/Inf are refused by the property parser.
                 let scale = p.float("scale", 1.0)?;
-                if !scale.is_finite() {
-                    return Err(p.err("\"scale\" must be finite"));
-                }
                 Bsdf::BumpMap(BumpMap {
                     height,
                     scale,
