@@ -1,7 +1,7 @@
 //! Mitsuba XML scenes written by the tests themselves, parsed into the expected `Scene`, plus the
 //! error cases (each message must name the file and the line).
 
-use btfpt::bsdf::{Bsdf, Texture};
+use btfpt::bsdf::{Bsdf, MicrofacetType, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
 use btfpt::render::camera::PerspectiveCamera;
@@ -187,6 +187,7 @@ fn full_scene_parses_into_expected_values() {
     }
     match b(1) {
         Bsdf::RoughConductor(r) => {
+            assert_eq!(r.distribution, MicrofacetType::Ggx);
             assert_eq!((r.alpha_u, r.alpha_v), (0.2, 0.3));
             assert!(close(r.eta, Vec3::new(0.2, 0.9, 1.1)) && close(r.k, Vec3::new(3.9, 2.4, 2.2)));
             assert!(r.sample_visible);
@@ -450,9 +451,9 @@ fn unknown_plugin_property_and_element() {
     expect_err(&p, &[], 7, "must be nested inside a <shape>");
     let p = scene_with(
         dir.path(),
-        "<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0.1\"/></bsdf>",
+        "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf>",
     );
-    expect_err(&p, &[], 7, "distribution");
+    expect_err(&p, &[], 7, "must be \"beckmann\" or \"ggx\"");
     let p = scene_with(
         dir.path(),
         "<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>",
@@ -726,8 +727,20 @@ fn bad_bsdf_parameters_name_the_line() {
     let dir = tempfile::tempdir().unwrap();
     let cases: &[(&str, &str)] = &[
         (
-            r#"<bsdf type="roughplastic"><float name="alpha" value="0.1"/></bsdf>"#,
-            "beckmann",
+            r#"<bsdf type="roughplastic"><string name="distribution" value="blinn"/></bsdf>"#,
+            "invalid distribution \"blinn\"",
+        ),
+        (
+            r#"<bsdf type="bumpmap"><bsdf type="diffuse"/></bsdf>"#,
+            "height texture",
+        ),
+        (
+            r#"<bsdf type="bumpmap"><texture type="checkerboard"/><bsdf type="diffuse"/></bsdf>"#,
+            "must be a bitmap",
+        ),
+        (
+            r#"<bsdf type="bumpmap"><float name="scale" value="inf"/><texture type="bitmap"><string name="filename" value="h.png"/></texture><bsdf type="diffuse"/></bsdf>"#,
+            "non-finite value \"inf\"",
         ),
         (
             r#"<bsdf type="roughplastic"><string name="distribution" value="ggx"/><float name="alpha" value="-0.1"/></bsdf>"#,
@@ -791,6 +804,8 @@ fn bad_bsdf_parameters_name_the_line() {
             "\"opacity\" must lie in [0, 1]",
         ),
     ];
+    // The bump map's height image (errors after it is read must still name the bsdf's line).
+    write_png_srgb(&dir.path().join("h.png"), &RgbImage::new(2, 2)).unwrap();
     for (body, needle) in cases {
         let p = scene_with(dir.path(), body);
         expect_err(&p, &[], 7, needle);

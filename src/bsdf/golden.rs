@@ -14,13 +14,18 @@ fn c(r: f32, g: f32, b: f32) -> Texture {
 }
 
 fn rough(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
+    rough_with(MicrofacetType::Ggx, alpha_u, alpha_v, sample_visible)
+}
+
+fn rough_with(distribution: MicrofacetType, alpha_u: f32, alpha_v: f32, vis: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
+        distribution,
         alpha_u,
         alpha_v,
         eta: GOLD_ETA,
         k: GOLD_K,
         specular_reflectance: c(0.9, 0.8, 0.7),
-        sample_visible,
+        sample_visible: vis,
     })
 }
 
@@ -78,6 +83,7 @@ fn config(name: &str) -> Bsdf {
             Bsdf::Plastic(Plastic::new(1.7, c(0.6, 0.3, 0.1), c(0.8, 0.9, 1.0), true))
         }
         "roughplastic" => Bsdf::RoughPlastic(RoughPlastic::new(
+            MicrofacetType::Ggx,
             0.2,
             1.49 / 1.000277,
             c(0.2, 0.5, 0.8),
@@ -86,6 +92,7 @@ fn config(name: &str) -> Bsdf {
             true,
         )),
         "roughplastic_nonlinear_novis" => Bsdf::RoughPlastic(RoughPlastic::new(
+            MicrofacetType::Ggx,
             0.45,
             1.7,
             c(0.6, 0.3, 0.1),
@@ -94,6 +101,7 @@ fn config(name: &str) -> Bsdf {
             false,
         )),
         "roughdielectric" => Bsdf::RoughDielectric(RoughDielectric {
+            distribution: MicrofacetType::Ggx,
             alpha_u: c(0.25, 0.25, 0.25),
             alpha_v: c(0.25, 0.25, 0.25),
             eta: 1.5,
@@ -102,6 +110,7 @@ fn config(name: &str) -> Bsdf {
             sample_visible: true,
         }),
         "roughdielectric_aniso_novis" => Bsdf::RoughDielectric(RoughDielectric {
+            distribution: MicrofacetType::Ggx,
             alpha_u: c(0.4, 0.4, 0.4),
             alpha_v: c(0.1, 0.1, 0.1),
             eta: 1.33,
@@ -121,6 +130,7 @@ fn config(name: &str) -> Bsdf {
         "mask" => Bsdf::Mask(Mask {
             opacity: c(0.35, 0.35, 0.35),
             nested: Box::new(Bsdf::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
                 0.1,
                 1.49 / 1.000277,
                 c(0.1, 0.6, 0.3),
@@ -132,6 +142,7 @@ fn config(name: &str) -> Bsdf {
         "normalmap" => Bsdf::NormalMap(NormalMap {
             normalmap: c(0.7, 0.35, 0.9),
             nested: Box::new(Bsdf::RoughPlastic(RoughPlastic::new(
+                MicrofacetType::Ggx,
                 0.2,
                 1.49 / 1.000277,
                 c(0.5, 0.3, 0.2),
@@ -148,6 +159,90 @@ fn config(name: &str) -> Bsdf {
             flip_invalid_normals: true,
             use_shadowing_function: true,
         }),
+        _ => beckmann_config(name),
+    }
+}
+
+/// `mitsuba_golden.py`'s 4×3 raw RGB height image (row 0 at v = 0, as both lay it out).
+fn bump_texels() -> Texture {
+    let mut img = crate::io::RgbImage::new(4, 3);
+    for j in 0..3 {
+        for i in 0..4 {
+            let v = 0.1 + 0.2 * ((3 * i + 5 * j) % 7) as f64 / 7.0;
+            img.set(i, j, [v as f32, (0.8 * v) as f32, (1.3 * v) as f32]);
+        }
+    }
+    Texture::Bitmap(std::sync::Arc::new(img))
+}
+
+fn bump(nested: Bsdf, scale: f32) -> Bsdf {
+    Bsdf::BumpMap(BumpMap {
+        height: bump_texels(),
+        scale,
+        nested: Box::new(nested),
+        flip_invalid_normals: true,
+        use_shadowing_function: true,
+    })
+}
+
+/// The Beckmann configurations (Mitsuba's default distribution) and the bump maps.
+fn beckmann_config(name: &str) -> Bsdf {
+    const B: MicrofacetType = MicrofacetType::Beckmann;
+    match name {
+        "beckmann_rough_iso_vis" => rough_with(B, 0.3, 0.3, true),
+        "beckmann_rough_aniso_vis" => rough_with(B, 0.5, 0.1, true),
+        "beckmann_rough_aniso_novis" => rough_with(B, 0.12, 0.45, false),
+        "beckmann_rough_iso_novis" => rough_with(B, 0.2, 0.2, false),
+        "beckmann_rough_smooth_vis" => rough_with(B, 0.03, 0.03, true),
+        "beckmann_roughplastic" => Bsdf::RoughPlastic(RoughPlastic::new(
+            B,
+            0.2,
+            1.49 / 1.000277,
+            c(0.2, 0.5, 0.8),
+            c(1.0, 1.0, 1.0),
+            false,
+            true,
+        )),
+        "beckmann_roughplastic_nonlinear_novis" => Bsdf::RoughPlastic(RoughPlastic::new(
+            B,
+            0.45,
+            1.7,
+            c(0.6, 0.3, 0.1),
+            c(0.8, 0.9, 1.0),
+            true,
+            false,
+        )),
+        "beckmann_roughdielectric" => Bsdf::RoughDielectric(RoughDielectric {
+            distribution: B,
+            alpha_u: c(0.25, 0.25, 0.25),
+            alpha_v: c(0.25, 0.25, 0.25),
+            eta: 1.5,
+            specular_reflectance: c(1.0, 1.0, 1.0),
+            specular_transmittance: c(1.0, 1.0, 1.0),
+            sample_visible: true,
+        }),
+        "beckmann_roughdielectric_aniso_novis" => Bsdf::RoughDielectric(RoughDielectric {
+            distribution: B,
+            alpha_u: c(0.4, 0.4, 0.4),
+            alpha_v: c(0.1, 0.1, 0.1),
+            eta: 1.33,
+            specular_reflectance: c(0.5, 0.6, 0.7),
+            specular_transmittance: c(0.9, 0.3, 0.4),
+            sample_visible: false,
+        }),
+        "bumpmap_roughplastic" => bump(
+            Bsdf::RoughPlastic(RoughPlastic::new(
+                B,
+                0.2,
+                1.49 / 1.000277,
+                c(0.5, 0.3, 0.2),
+                c(1.0, 1.0, 1.0),
+                false,
+                true,
+            )),
+            0.3,
+        ),
+        "bumpmap_rough_aniso" => bump(rough(0.3, 0.1, true), 0.5),
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -229,7 +324,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 21 && n_eval > 300 && n_sample > 200);
+    assert!(configs.len() == 32 && n_eval > 400 && n_sample > 300);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

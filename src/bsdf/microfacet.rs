@@ -1,15 +1,43 @@
-//! GGX (Trowbridge–Reitz) microfacet distribution, as Mitsuba 3's `MicrofacetDistribution`:
-//! anisotropic roughness (alpha_u along s = local x, alpha_v along t = local y), Smith's separable
-//! shadowing-masking, and either visible-normal sampling (Heitz 2018) or sampling D(m) cos θ_m.
+//! Microfacet distributions as Mitsuba 3's `MicrofacetDistribution`: Beckmann (its default) and
+//! GGX (Trowbridge–Reitz), anisotropic roughness (alpha_u along s = local x, alpha_v along t =
+//! local y), Smith's separable shadowing-masking (Beckmann through Mitsuba's rational fit), and
+//! either visible-normal sampling (Jakob's numerical inversion for Beckmann, Heitz 2018 for GGX)
+//! or sampling D(m) cos θ_m.
 
+use crate::math::special::{erf, erfinv};
 use crate::math::{PI, Vec2, Vec3, warp};
 
 /// Smallest roughness Mitsuba accepts (it clamps, and so do we).
 pub const MIN_ALPHA: f32 = 1e-4;
 
-/// A GGX distribution with its sampling strategy.
+/// 1/√π.
+const INV_SQRT_PI: f32 = 0.564_189_6;
+
+/// The normal distribution function (Mitsuba `MicrofacetType`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MicrofacetType {
+    /// Gaussian random surfaces; Mitsuba's default when a scene names none.
+    Beckmann,
+    /// Trowbridge–Reitz: long tails.
+    Ggx,
+}
+
+impl MicrofacetType {
+    /// The distribution named by Mitsuba's `distribution` string (case-insensitive).
+    pub fn from_name(name: &str) -> Option<MicrofacetType> {
+        match name.to_ascii_lowercase().as_str() {
+            "beckmann" => Some(MicrofacetType::Beckmann),
+            "ggx" => Some(MicrofacetType::Ggx),
+            _ => None,
+        }
+    }
+}
+
+/// A microfacet distribution with its sampling strategy.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ggx {
+pub struct Microfacet {
+    /// Beckmann or GGX.
+    pub kind: MicrofacetType,
     /// Roughness along the tangent s (local x).
     pub alpha_u: f32,
     /// Roughness along the bitangent t (local y).
@@ -18,10 +46,11 @@ pub struct Ggx {
     pub sample_visible: bool,
 }
 
-impl Ggx {
+impl Microfacet {
     /// A distribution with roughness clamped to [`MIN_ALPHA`] as Mitsuba does.
-    pub fn new(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Self {
-        Ggx {
+    pub fn new(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Self {
+        Microfacet {
+            kind,
             alpha_u: alpha_u.max(MIN_ALPHA),
             alpha_v: alpha_v.max(MIN_ALPHA),
             sample_visible,
@@ -38,8 +67,17 @@ impl Ggx {
     #[inline]
     pub fn eval(&self, m: Vec3) -> f32 {
         let (au, av) = (self.alpha_u, self.alpha_v);
-        let t = (m.x / au).powi(2) + (m.y / av).powi(2) + m.z * m.z;
-        let result = 1.0 / (PI * au * av * t * t);
+        let result = match self.kind {
+            MicrofacetType::Beckmann => {
+                let cos_theta_2 = m.z * m.z;
+                (-((m.x / au).powi(2) + (m.y / av).powi(2)) / cos_theta_2).exp()
+                    / (PI * au * av * cos_theta_2 * cos_theta_2)
+            }
+            MicrofacetType::Ggx => {
+                let t = (m.x / au).powi(2) + (m.y / av).powi(2) + m.z * m.z;
+                1.0 / (PI * au * av * t * t)
+            }
+        };
         // Same guard as Mitsuba against numerical trouble further down the model.
         if result * m.z > 1e-20 { result } else { 0.0 }
     }
@@ -56,7 +94,19 @@ impl Ggx {
             return 1.0;
         }
         let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
-        2.0 / (1.0 + (1.0 + tan_theta_alpha_2).sqrt())
+        match self.kind {
+            MicrofacetType::Beckmann => {
+                // Mitsuba's rational fit of the Beckmann G1 (< 0.35 % relative error).
+                let a = 1.0 / tan_theta_alpha_2.sqrt();
+                if a >= 1.6 {
+                    1.0
+                } else {
+                    let a_sqr = a * a;
+                    (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr)
+                }
+            }
+            MicrofacetType::Ggx => 2.0 / (1.0 + (1.0 + tan_theta_alpha_2).sqrt()),
+        }
     }
 
     /// Separable shadowing-masking G(wi, wo, m) = G1(wi, m) G1(wo, m).
@@ -65,7 +115,7 @@ impl Ggx {
         self.smith_g1(wi, m) * self.smith_g1(wo, m)
     }
 
-    /// Solid-angle density of [`Ggx::sample`] producing the normal `m`.
+    /// Solid-angle density of [`Microfacet::sample`] producing the normal `m`.
     #[inline]
     pub fn pdf(&self, wi: Vec3, m: Vec3) -> f32 {
         let d = self.eval(m);
@@ -81,6 +131,7 @@ impl Ggx {
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
         let (au, av) = (self.alpha_u, self.alpha_v);
         if !self.sample_visible {
+            // Azimuth: identical for Beckmann and GGX.
             let (sin_phi, cos_phi, alpha_2) = if self.is_isotropic() {
                 let (s, c) = (2.0 * PI * u.y).sin_cos();
                 (s, c, au * au)
@@ -91,13 +142,21 @@ impl Ggx {
                 let alpha_2 = 1.0 / ((cos_phi / au).powi(2) + (sin_phi / av).powi(2));
                 (sin_phi, cos_phi, alpha_2)
             };
-            let tan_theta_m_2 = alpha_2 * u.x / (1.0 - u.x);
-            let cos_theta = 1.0 / (1.0 + tan_theta_m_2).sqrt();
-            let cos_theta_2 = cos_theta * cos_theta;
-            let temp = 1.0 + tan_theta_m_2 / alpha_2;
-            let cos_theta_3 = (cos_theta_2 * cos_theta).max(1e-20);
-            let pdf = 1.0 / (PI * au * av * cos_theta_3 * temp * temp);
-            let sin_theta = (1.0 - cos_theta_2).max(0.0).sqrt();
+            let (cos_theta, pdf) = match self.kind {
+                MicrofacetType::Beckmann => {
+                    let cos_theta = 1.0 / (1.0 - alpha_2 * (1.0 - u.x).ln()).sqrt();
+                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(1e-20);
+                    (cos_theta, (1.0 - u.x) / (PI * au * av * cos_theta_3))
+                }
+                MicrofacetType::Ggx => {
+                    let tan_theta_m_2 = alpha_2 * u.x / (1.0 - u.x);
+                    let cos_theta = 1.0 / (1.0 + tan_theta_m_2).sqrt();
+                    let temp = 1.0 + tan_theta_m_2 / alpha_2;
+                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(1e-20);
+                    (cos_theta, 1.0 / (PI * au * av * cos_theta_3 * temp * temp))
+                }
+            };
+            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
             let m = Vec3::new(cos_phi * sin_theta, sin_phi * sin_theta, cos_theta);
             (m, pdf)
         } else {
@@ -106,7 +165,10 @@ impl Ggx {
             let (sin_phi, cos_phi) = sincos_phi(wi_p);
             let cos_theta = wi_p.z;
             // 2. Sample the slopes of visible normals for alpha = 1.
-            let slope = sample_visible_11(cos_theta, u);
+            let slope = match self.kind {
+                MicrofacetType::Beckmann => sample_visible_11_beckmann(cos_theta, u),
+                MicrofacetType::Ggx => sample_visible_11_ggx(cos_theta, u),
+            };
             // 3. Rotate back and unstretch.
             let sx = (cos_phi * slope.x - sin_phi * slope.y) * au;
             let sy = (sin_phi * slope.x + cos_phi * slope.y) * av;
@@ -121,7 +183,8 @@ impl Ggx {
 /// (sin φ, cos φ) of a direction, (0, 1) at the pole (Mitsuba `Frame3f::sincos_phi`).
 #[inline]
 fn sincos_phi(v: Vec3) -> (f32, f32) {
-    let sin_theta_2 = 1.0 - v.z * v.z;
+    // x² + y² as Mitsuba's `Frame3f::sin_theta_2`, not 1 − z², which cancels near the pole.
+    let sin_theta_2 = v.x.mul_add(v.x, v.y * v.y);
     if sin_theta_2.abs() <= 4.0 * (f32::EPSILON * 0.5) {
         return (0.0, 1.0);
     }
@@ -129,10 +192,32 @@ fn sincos_phi(v: Vec3) -> (f32, f32) {
     ((v.y * inv).clamp(-1.0, 1.0), (v.x * inv).clamp(-1.0, 1.0))
 }
 
-/// Visible-slope sampling for alpha = 1 (Heitz 2018, "A simpler and exact sampling routine for
-/// the GGX distribution of visible normals"), in Mitsuba's slope formulation.
+/// Beckmann visible-slope sampling for alpha = 1 by Mitsuba's numerical inversion (Jakob 2014,
+/// "An improved visible normal sampling routine for the Beckmann distribution"): three Newton
+/// steps in the erf domain from the analytic θ_i = π/2 solution.
 #[inline]
-fn sample_visible_11(cos_theta_i: f32, u: Vec2) -> Vec2 {
+fn sample_visible_11_beckmann(cos_theta_i: f32, u: Vec2) -> Vec2 {
+    let tan_theta_i = (1.0 - cos_theta_i * cos_theta_i).max(0.0).sqrt() / cos_theta_i;
+    let cot_theta_i = 1.0 / tan_theta_i;
+    // Search interval, parameterised in the erf() domain.
+    let maxval = erf(cot_theta_i);
+    let u = u.clamp(Vec2::splat(1e-6), Vec2::splat(1.0 - 1e-6));
+    let mut x = maxval - (maxval + 1.0) * erf((-u.x.ln()).sqrt());
+    // Normalisation of the CDF.
+    let ux = u.x * (1.0 + maxval + INV_SQRT_PI * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
+    for _ in 0..3 {
+        let slope = erfinv(x);
+        let value = 1.0 + x + INV_SQRT_PI * tan_theta_i * (-slope * slope).exp() - ux;
+        let derivative = 1.0 - slope * tan_theta_i;
+        x -= value / derivative;
+    }
+    Vec2::new(erfinv(x), erfinv(2.0 * u.y - 1.0))
+}
+
+/// GGX visible-slope sampling for alpha = 1 (Heitz 2018, "A simpler and exact sampling routine
+/// for the GGX distribution of visible normals"), in Mitsuba's slope formulation.
+#[inline]
+fn sample_visible_11_ggx(cos_theta_i: f32, u: Vec2) -> Vec2 {
     let mut p = warp::square_to_uniform_disk_concentric(u);
     let s = 0.5 * (1.0 + cos_theta_i);
     let lo = (1.0 - p.x * p.x).max(0.0).sqrt();
@@ -148,6 +233,8 @@ fn sample_visible_11(cos_theta_i: f32, u: Vec2) -> Vec2 {
 mod tests {
     use super::*;
     use crate::math::frame::from_spherical;
+
+    const KINDS: [MicrofacetType; 2] = [MicrofacetType::Beckmann, MicrofacetType::Ggx];
 
     /// ∫ f(ω) dω over the upper hemisphere by the midpoint rule in (cos θ, φ).
     fn integrate_hemisphere(n: usize, f: impl Fn(Vec3) -> f64) -> f64 {
@@ -167,10 +254,23 @@ mod tests {
 
     #[test]
     fn projected_area_is_one_and_visible_normals_normalise() {
-        for &(au, av) in &[(0.3f32, 0.3f32), (0.5, 0.15), (0.8, 0.8)] {
-            let d = Ggx::new(au, av, true);
+        for (kind, &(au, av)) in KINDS.iter().flat_map(|k| {
+            [(0.3f32, 0.3f32), (0.5, 0.15), (0.8, 0.8)]
+                .iter()
+                .map(move |a| (*k, a))
+        }) {
+            let d = Microfacet::new(kind, au, av, true);
+            // Beckmann's G1 is Mitsuba's rational fit (< 0.35 % error), GGX's is exact.
+            let tol = if kind == MicrofacetType::Beckmann {
+                4e-3
+            } else {
+                3e-3
+            };
             let area = integrate_hemisphere(800, |m| d.eval(m) as f64 * m.z as f64);
-            assert!((area - 1.0).abs() < 2e-3, "alpha {au},{av}: {area}");
+            assert!(
+                (area - 1.0).abs() < 2e-3,
+                "{kind:?} alpha {au},{av}: {area}"
+            );
             // ∫ G1(wi, m) max(0, wi·m) D(m) dm = cos θ_i (visible projected area).
             for &(theta, phi) in &[(0.3f32, 0.4f32), (1.2, 2.0), (1.5, 4.0)] {
                 let wi = from_spherical(theta, phi);
@@ -178,8 +278,8 @@ mod tests {
                     (d.smith_g1(wi, m) * wi.dot(m).max(0.0) * d.eval(m)) as f64
                 });
                 assert!(
-                    (vis - wi.z as f64).abs() < 3e-3 * (1.0 + wi.z as f64),
-                    "alpha {au},{av} wi {wi}: {vis} vs {}",
+                    (vis - wi.z as f64).abs() < tol * (1.0 + wi.z as f64),
+                    "{kind:?} alpha {au},{av} wi {wi}: {vis} vs {}",
                     wi.z
                 );
             }
@@ -189,16 +289,19 @@ mod tests {
     #[test]
     fn sampled_normals_match_their_pdf() {
         let mut rng = crate::math::Pcg32::new(3, 5);
-        for &vis in &[true, false] {
+        for (kind, vis) in KINDS.iter().flat_map(|&k| [(k, true), (k, false)]) {
             for &(au, av) in &[(0.2f32, 0.2f32), (0.6, 0.1)] {
-                let d = Ggx::new(au, av, vis);
+                let d = Microfacet::new(kind, au, av, vis);
                 let wi = from_spherical(0.9, 0.7);
                 for _ in 0..2000 {
                     let (m, pdf) = d.sample(wi, rng.next_2d());
                     assert!((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0);
                     let p = d.pdf(wi, m);
                     if pdf > 1e-3 {
-                        assert!((p - pdf).abs() <= 1e-3 * pdf, "vis {vis}: {p} vs {pdf}");
+                        assert!(
+                            (p - pdf).abs() <= 1e-3 * pdf,
+                            "{kind:?} vis {vis}: {p} vs {pdf}"
+                        );
                     }
                 }
             }
@@ -207,12 +310,19 @@ mod tests {
 
     #[test]
     fn alpha_is_clamped_and_normal_incidence_is_unmasked() {
-        let d = Ggx::new(0.0, 0.0, true);
-        assert_eq!((d.alpha_u, d.alpha_v), (MIN_ALPHA, MIN_ALPHA));
-        let d = Ggx::new(0.4, 0.4, true);
-        assert_eq!(d.smith_g1(Vec3::Z, Vec3::Z), 1.0);
-        // Back-facing microfacet → fully masked.
-        let m = Vec3::new(0.8, 0.0, 0.6);
-        assert_eq!(d.smith_g1(Vec3::new(-0.8, 0.0, 0.6), m), 0.0);
+        for kind in KINDS {
+            let d = Microfacet::new(kind, 0.0, 0.0, true);
+            assert_eq!((d.alpha_u, d.alpha_v), (MIN_ALPHA, MIN_ALPHA));
+            let d = Microfacet::new(kind, 0.4, 0.4, true);
+            assert_eq!(d.smith_g1(Vec3::Z, Vec3::Z), 1.0);
+            // Back-facing microfacet → fully masked.
+            let m = Vec3::new(0.8, 0.0, 0.6);
+            assert_eq!(d.smith_g1(Vec3::new(-0.8, 0.0, 0.6), m), 0.0);
+        }
+        assert_eq!(
+            MicrofacetType::from_name("BeckMann"),
+            Some(MicrofacetType::Beckmann)
+        );
+        assert_eq!(MicrofacetType::from_name("phong"), None);
     }
 }

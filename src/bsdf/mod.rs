@@ -8,6 +8,7 @@
 pub mod blend;
 pub mod btf;
 pub mod btf_sampler;
+pub mod bumpmap;
 #[cfg(test)]
 pub(crate) mod chi2;
 pub mod conductor;
@@ -30,13 +31,17 @@ pub mod twosided;
 mod golden;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_beckmann;
 
 pub use blend::BlendBsdf;
 pub use btf::{BtfBsdf, BtfMaterial};
+pub use bumpmap::BumpMap;
 pub use conductor::Conductor;
 pub use dielectric::Dielectric;
 pub use diffuse::Diffuse;
 pub use mask::Mask;
+pub use microfacet::MicrofacetType;
 pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
@@ -117,9 +122,9 @@ pub enum Bsdf {
     TwoSided(TwoSided),
     /// Smooth plastic: diffuse base under a smooth dielectric coating.
     Plastic(Plastic),
-    /// Rough plastic: diffuse base under a rough (GGX) dielectric coating.
+    /// Rough plastic: diffuse base under a rough (Beckmann or GGX) dielectric coating.
     RoughPlastic(RoughPlastic),
-    /// Rough (GGX) dielectric interface.
+    /// Rough (Beckmann or GGX) dielectric interface.
     RoughDielectric(RoughDielectric),
     /// Weighted blend of two BSDFs (also Mitsuba 0.6's two-component `mixturebsdf`).
     Blend(BlendBsdf),
@@ -127,6 +132,8 @@ pub enum Bsdf {
     Mask(Mask),
     /// Shading-frame perturbation from a tangent-space normal map around a nested BSDF.
     NormalMap(NormalMap),
+    /// Shading-frame perturbation from the gradient of a height texture around a nested BSDF.
+    BumpMap(BumpMap),
     /// Measured BTF (raw data), DESIGN §2.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
@@ -149,6 +156,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.flags(),
             Bsdf::Mask(b) => b.flags(),
             Bsdf::NormalMap(b) => b.flags(),
+            Bsdf::BumpMap(b) => b.flags(),
             Bsdf::Btf(b) => b.flags(),
             Bsdf::Plmc(b) => b.flags(),
         }
@@ -250,6 +258,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.eval(si, wo),
             Bsdf::Mask(b) => b.eval(si, wo),
             Bsdf::NormalMap(b) => b.eval(si, wo),
+            Bsdf::BumpMap(b) => b.eval(si, wo),
             Bsdf::Btf(b) => b.eval(si, wo),
             Bsdf::Plmc(b) => b.eval(si, wo),
         }
@@ -270,6 +279,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.pdf(si, wo),
             Bsdf::Mask(b) => b.pdf(si, wo),
             Bsdf::NormalMap(b) => b.pdf(si, wo),
+            Bsdf::BumpMap(b) => b.pdf(si, wo),
             Bsdf::Btf(b) => b.pdf(si, wo),
             Bsdf::Plmc(b) => b.pdf(si, wo),
         }
@@ -285,6 +295,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.eval_pdf(si, wo),
             Bsdf::Mask(b) => b.eval_pdf(si, wo),
             Bsdf::NormalMap(b) => b.eval_pdf(si, wo),
+            Bsdf::BumpMap(b) => b.eval_pdf(si, wo),
             Bsdf::Btf(b) => b.eval_pdf(si, wo),
             Bsdf::Plmc(b) => b.eval_pdf(si, wo),
             _ => (self.eval(si, wo), self.pdf(si, wo)),
@@ -312,6 +323,7 @@ impl Bsdf {
             Bsdf::Blend(b) => b.sample(si, sample1, sample2),
             Bsdf::Mask(b) => b.sample(si, sample1, sample2),
             Bsdf::NormalMap(b) => b.sample(si, sample1, sample2),
+            Bsdf::BumpMap(b) => b.sample(si, sample1, sample2),
             Bsdf::Btf(b) => b.sample(si, sample1, sample2),
             Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
         }

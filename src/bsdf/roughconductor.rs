@@ -1,18 +1,20 @@
-//! Rough conductor (Mitsuba `roughconductor` with `distribution="ggx"`): Cook–Torrance with a GGX
-//! normal distribution, Smith masking and complex-IOR Fresnel. One-sided.
+//! Rough conductor (Mitsuba `roughconductor`): Cook–Torrance with a Beckmann or GGX normal
+//! distribution, Smith masking and complex-IOR Fresnel. One-sided.
 
 use super::fresnel::{fresnel_conductor_rgb, reflect_about};
-use super::microfacet::Ggx;
+use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
-/// Rough conductor (Mitsuba `roughconductor`, GGX): alpha_u along s, alpha_v along t.
+/// Rough conductor (Mitsuba `roughconductor`): alpha_u along s, alpha_v along t.
 #[derive(Clone, Debug)]
 pub struct RoughConductor {
-    /// GGX roughness along the tangent s (clamped to 1e-4 like Mitsuba).
+    /// Normal distribution (Mitsuba default Beckmann).
+    pub distribution: MicrofacetType,
+    /// Roughness along the tangent s (clamped to 1e-4 like Mitsuba).
     pub alpha_u: f32,
-    /// GGX roughness along the bitangent t.
+    /// Roughness along the bitangent t.
     pub alpha_v: f32,
     /// Real part of the relative IOR per channel.
     pub eta: Spectrum,
@@ -26,8 +28,13 @@ pub struct RoughConductor {
 
 impl RoughConductor {
     #[inline]
-    fn distr(&self) -> Ggx {
-        Ggx::new(self.alpha_u, self.alpha_v, self.sample_visible)
+    fn distr(&self) -> Microfacet {
+        Microfacet::new(
+            self.distribution,
+            self.alpha_u,
+            self.alpha_v,
+            self.sample_visible,
+        )
     }
 
     /// Glossy reflection.

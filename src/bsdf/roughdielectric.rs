@@ -1,9 +1,9 @@
-//! Rough dielectric interface (Mitsuba `roughdielectric`, GGX): Walter et al. 2007 microfacet
+//! Rough dielectric interface (Mitsuba `roughdielectric`, Beckmann or GGX): Walter et al. 2007 microfacet
 //! reflection and refraction on both sides, lobe chosen with probability F(wi·m), radiance
 //! transport (1/η² on refraction), optional texture-driven anisotropic roughness.
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
-use super::microfacet::Ggx;
+use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
@@ -12,9 +12,11 @@ use crate::math::{Spectrum, Vec2, Vec3};
 /// Rough dielectric, eta = int_ior / ext_ior (the normal points to the exterior).
 #[derive(Clone, Debug)]
 pub struct RoughDielectric {
-    /// GGX roughness along s (a texture: its luminance is used, as Mitsuba's `eval_1`).
+    /// Normal distribution (Mitsuba default Beckmann).
+    pub distribution: MicrofacetType,
+    /// Roughness along s (a texture: its luminance is used, as Mitsuba's `eval_1`).
     pub alpha_u: Texture,
-    /// GGX roughness along t.
+    /// Roughness along t.
     pub alpha_v: Texture,
     /// Relative IOR int_ior / ext_ior.
     pub eta: f32,
@@ -34,8 +36,9 @@ fn mulsign(v: Vec3, s: f32) -> Vec3 {
 
 impl RoughDielectric {
     #[inline]
-    fn distr(&self, uv: Vec2) -> Ggx {
-        Ggx::new(
+    fn distr(&self, uv: Vec2) -> Microfacet {
+        Microfacet::new(
+            self.distribution,
             luminance(self.alpha_u.eval(uv)),
             luminance(self.alpha_v.eval(uv)),
             self.sample_visible,
@@ -44,12 +47,13 @@ impl RoughDielectric {
 
     /// The distribution that sampling uses: non-visible sampling widens it by 1.2 − 0.2 √|cos θ_i|.
     #[inline]
-    fn sample_distr(&self, d: Ggx, cos_theta_i: f32) -> Ggx {
+    fn sample_distr(&self, d: Microfacet, cos_theta_i: f32) -> Microfacet {
         if d.sample_visible {
             d
         } else {
             let s = 1.2 - 0.2 * cos_theta_i.abs().sqrt();
-            Ggx {
+            Microfacet {
+                kind: d.kind,
                 alpha_u: d.alpha_u * s,
                 alpha_v: d.alpha_v * s,
                 sample_visible: false,

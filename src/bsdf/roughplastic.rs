@@ -1,4 +1,4 @@
-//! Rough plastic (Mitsuba `roughplastic`, GGX): a diffuse base under a rough dielectric coating.
+//! Rough plastic (Mitsuba `roughplastic`, Beckmann or GGX): a diffuse base under a rough dielectric coating.
 //! Glossy reflection F D G / (4 cos θ_i), plus the base seen through the coating,
 //! ρ / (1 − ρ_int) · T(θ_i) T(θ_o) cos θ_o / (π η²), where T is the coating's rough transmittance
 //! and ρ_int its internal diffuse reflectance (`nonlinear`: ρ / (1 − ρ·ρ_int)). T and ρ_int are
@@ -6,7 +6,7 @@
 //! does. Isotropic, one-sided.
 
 use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
-use super::microfacet::Ggx;
+use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::quad::gauss_legendre;
@@ -24,7 +24,7 @@ pub struct RoughPlastic {
     pub specular_reflectance: Texture,
     /// Account for colour shifts from internal scattering (Mitsuba `nonlinear`).
     pub nonlinear: bool,
-    distr: Ggx,
+    distr: Microfacet,
     eta: f32,
     inv_eta_2: f32,
     /// Share of samples steered to the glossy lobe before the transmittance term.
@@ -36,8 +36,10 @@ pub struct RoughPlastic {
 }
 
 impl RoughPlastic {
-    /// A rough plastic with GGX roughness `alpha` (> 0) and relative IOR `eta` (> 0, ≠ 1).
+    /// A rough plastic with distribution `kind`, roughness `alpha` (> 0) and relative IOR `eta`
+    /// (> 0, ≠ 1).
     pub fn new(
+        kind: MicrofacetType,
         alpha: f32,
         eta: f32,
         diffuse_reflectance: Texture,
@@ -48,7 +50,7 @@ impl RoughPlastic {
         let d_mean = diffuse_reflectance.mean();
         let s_mean = specular_reflectance.mean();
         // The tables always use visible-normal sampling, whatever `sample_visible` says.
-        let table_distr = Ggx::new(alpha, alpha, true);
+        let table_distr = Microfacet::new(kind, alpha, alpha, true);
         let mut external_transmittance = Box::new([0.0f32; TRANSMITTANCE_RES]);
         let mut internal = 0.0f64;
         for (i, t) in external_transmittance.iter_mut().enumerate() {
@@ -59,7 +61,7 @@ impl RoughPlastic {
         }
         let internal_reflectance = (internal / TRANSMITTANCE_RES as f64 * 2.0) as f32;
         RoughPlastic {
-            distr: Ggx::new(alpha, alpha, sample_visible),
+            distr: Microfacet::new(kind, alpha, alpha, sample_visible),
             eta,
             inv_eta_2: 1.0 / (eta * eta),
             specular_sampling_weight: s_mean / (d_mean + s_mean),
@@ -192,7 +194,7 @@ impl RoughPlastic {
 
 /// Mitsuba's `eval_transmittance`: ∫ (1 − F) G1(wo) over visible normals, wo refracted (32² or
 /// 128² Gauss–Legendre nodes for eta > 1 or < 1).
-fn eval_transmittance(distr: &Ggx, wi: Vec3, eta: f32) -> f64 {
+fn eval_transmittance(distr: &Microfacet, wi: Vec3, eta: f32) -> f64 {
     integrate_visible(distr, wi, eta, |m| {
         let fr = fresnel_dielectric(wi.dot(m), eta);
         let wo = refract_about(wi, m, fr.cos_theta_t, fr.eta_ti);
@@ -205,7 +207,7 @@ fn eval_transmittance(distr: &Ggx, wi: Vec3, eta: f32) -> f64 {
 }
 
 /// Mitsuba's `eval_reflectance`: ∫ F G1(wo) over visible normals, wo reflected.
-fn eval_reflectance(distr: &Ggx, wi: Vec3, eta: f32) -> f64 {
+fn eval_reflectance(distr: &Microfacet, wi: Vec3, eta: f32) -> f64 {
     integrate_visible(distr, wi, eta, |m| {
         let wo = reflect_about(wi, m);
         if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -217,7 +219,7 @@ fn eval_reflectance(distr: &Ggx, wi: Vec3, eta: f32) -> f64 {
 }
 
 /// Σ f(m) over the visible-normal samples of a product Gauss–Legendre grid on [0, 1]².
-fn integrate_visible(distr: &Ggx, wi: Vec3, eta: f32, f: impl Fn(Vec3) -> f32) -> f64 {
+fn integrate_visible(distr: &Microfacet, wi: Vec3, eta: f32, f: impl Fn(Vec3) -> f32) -> f64 {
     let res = if eta > 1.0 { 32 } else { 128 };
     let (nodes, weights) = gauss_legendre(res);
     let mut sum = 0.0f64;

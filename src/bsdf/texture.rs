@@ -163,6 +163,25 @@ impl Texture {
         }
     }
 
+    /// Gradient (∂/∂u, ∂/∂v) of [`Texture::eval_1`] at `uv` (Mitsuba's `eval_1_grad`, which
+    /// only bitmaps implement): the derivative of the bilinear interpolation of the four texels'
+    /// luminances, times the resolution, through `to_uv`'s transpose; 0 for nearest filtering
+    /// and for non-bitmap textures.
+    pub fn eval_1_grad(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap(img) => bilinear_grad(img, uv, Wrap::Repeat, &UvTransform::IDENTITY),
+            Texture::Mapped(b) if b.filter == TexFilter::Bilinear => {
+                bilinear_grad(&b.image, b.to_uv.apply(uv), b.wrap, &b.to_uv)
+            }
+            _ => Vec2::ZERO,
+        }
+    }
+
+    /// True for the textures Mitsuba can differentiate (`eval_1_grad`): bitmaps.
+    pub fn has_gradient(&self) -> bool {
+        matches!(self, Texture::Bitmap(_) | Texture::Mapped(_))
+    }
+
     /// Mean over the texture (Mitsuba `Texture::mean` in rgb variants, used to steer lobe
     /// selection): a constant's channel mean, a bitmap's mean luminance.
     pub fn mean(&self) -> f32 {
@@ -226,6 +245,32 @@ fn bilinear(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
     let top = px(x0, y0) * (1.0 - fx) + px(x0 + 1, y0) * fx;
     let bottom = px(x0, y0 + 1) * (1.0 - fx) + px(x0 + 1, y0 + 1) * fx;
     top * (1.0 - fy) + bottom * fy
+}
+
+/// Mitsuba's `BitmapTexture::eval_1_grad` at the transformed `uv`: partials of the bilinear
+/// lookup in texel units, mixed by the transpose of `to_uv`'s 2×2 block, then scaled by the
+/// resolution (in that order, as Mitsuba does; with a rotating `to_uv` on a non-square image
+/// this differs from the exact derivative, and Mitsuba's value is what we match).
+fn bilinear_grad(img: &RgbImage, uv: Vec2, wrap: Wrap, to_uv: &UvTransform) -> Vec2 {
+    let (w, h) = (img.width as i64, img.height as i64);
+    let x = uv.x * w as f32 - 0.5;
+    let y = uv.y * h as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (w1x, w1y) = (x - x0, y - y0);
+    let (w0x, w0y) = (1.0 - w1x, 1.0 - w1y);
+    let (x0, y0) = (to_index(x0), to_index(y0));
+    let f = |xi: i64, yi: i64| {
+        let p = img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap));
+        luminance(Spectrum::from(p))
+    };
+    let (f00, f10, f01, f11) = (f(x0, y0), f(x0 + 1, y0), f(x0, y0 + 1), f(x0 + 1, y0 + 1));
+    let dfx = w0y * (f10 - f00) + w1y * (f11 - f01);
+    let dfy = w0x * (f01 - f00) + w1x * (f11 - f10);
+    let m = &to_uv.0;
+    Vec2::new(
+        w as f32 * (m[0] * dfx + m[3] * dfy),
+        h as f32 * (m[1] * dfx + m[4] * dfy),
+    )
 }
 
 fn nearest(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
@@ -294,6 +339,57 @@ mod tests {
         // Garbage uv does not panic.
         let _ = s.eval(Vec2::new(f32::NAN, f32::INFINITY));
         assert!((s.mean - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn gradient_is_the_derivative_of_the_bilinear_lookup() {
+        let mut img = RgbImage::new(3, 2);
+        for (i, v) in [0.1f32, 0.7, 0.3, 0.9, 0.2, 0.5].iter().enumerate() {
+            img.set(i % 3, i / 3, [*v, *v * 0.5, *v * 0.25]);
+        }
+        // Axis-aligned to_uv: there Mitsuba's formula (resolution applied after the transpose)
+        // is the exact derivative; with rotation on a non-square image it is not, and we
+        // reproduce Mitsuba rather than the derivative.
+        let t = UvTransform([1.5, 0.0, 0.1, 0.0, 0.8, 0.05]);
+        let texs = [
+            Texture::Bitmap(Arc::new(img.clone())),
+            Texture::Mapped(Arc::new(BitmapTexture::new(
+                img.clone(),
+                TexFilter::Bilinear,
+                Wrap::Mirror,
+                t,
+            ))),
+        ];
+        // Central differences of eval_1 away from texel-centre kinks.
+        let h = 1e-3f32;
+        for tex in &texs {
+            for uv in [
+                Vec2::new(0.27, 0.61),
+                Vec2::new(0.71, 0.13),
+                Vec2::new(-0.37, 1.3),
+            ] {
+                let g = tex.eval_1_grad(uv);
+                let du = (tex.eval_1(uv + Vec2::new(h, 0.0)) - tex.eval_1(uv - Vec2::new(h, 0.0)))
+                    / (2.0 * h);
+                let dv = (tex.eval_1(uv + Vec2::new(0.0, h)) - tex.eval_1(uv - Vec2::new(0.0, h)))
+                    / (2.0 * h);
+                assert!(
+                    (g.x - du).abs() < 2e-2 && (g.y - dv).abs() < 2e-2,
+                    "{uv}: {g} vs ({du}, {dv})"
+                );
+            }
+        }
+        let nearest = Texture::Mapped(Arc::new(BitmapTexture::new(
+            img,
+            TexFilter::Nearest,
+            Wrap::Repeat,
+            UvTransform::IDENTITY,
+        )));
+        assert_eq!(nearest.eval_1_grad(Vec2::new(0.3, 0.3)), Vec2::ZERO);
+        assert_eq!(
+            Texture::Constant(Spectrum::ONE).eval_1_grad(Vec2::ZERO),
+            Vec2::ZERO
+        );
     }
 
     #[test]

@@ -7,6 +7,7 @@ pub mod frame;
 pub mod quad;
 pub mod rng;
 pub mod simd;
+pub mod special;
 pub mod transform;
 pub mod warp;
 

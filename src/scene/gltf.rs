@@ -21,7 +21,7 @@
 
 use super::shapes::{self, LocalMesh, MeshOptions};
 use super::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
-use crate::bsdf::{Bsdf, Conductor, Diffuse, RoughConductor, Texture, TwoSided};
+use crate::bsdf::{Bsdf, Conductor, Diffuse, MicrofacetType, RoughConductor, Texture, TwoSided};
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
 use crate::math::color::{srgb_to_linear, srgb8_to_linear_table};
@@ -422,6 +422,7 @@ impl GltfBuilder<'_> {
                 })
             } else {
                 Bsdf::RoughConductor(RoughConductor {
+                    distribution: MicrofacetType::Ggx,
                     alpha_u: alpha,
                     alpha_v: alpha,
                     eta: Spectrum::ZERO,

@@ -15,6 +15,7 @@ import math
 import random
 
 import mitsuba as mi
+import numpy as np
 
 mi.set_variant("scalar_rgb")
 
@@ -26,10 +27,25 @@ def rgb(v):
     return {"type": "rgb", "value": v}
 
 
-def rough(au, av, vis):
-    return {"type": "roughconductor", "distribution": "ggx", "alpha_u": au, "alpha_v": av,
-            "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K), "sample_visible": vis,
-            "specular_reflectance": rgb([0.9, 0.8, 0.7])}
+def rough(au, av, vis, distribution="ggx"):
+    d = {"type": "roughconductor", "alpha_u": au, "alpha_v": av,
+         "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K), "sample_visible": vis,
+         "specular_reflectance": rgb([0.9, 0.8, 0.7])}
+    if distribution is not None:
+        d["distribution"] = distribution
+    return d
+
+
+# A 4×3 raw RGB height image (rows top to bottom), the same texels as golden.rs's BUMP_TEXELS:
+# value (i, j) = 0.1 + 0.2·((3·i + 5·j) mod 7) / 7 scaled per channel by (1, 0.8, 1.3).
+BUMP = np.array([[[v, 0.8 * v, 1.3 * v] for v in
+                  (0.1 + 0.2 * ((3 * i + 5 * j) % 7) / 7 for i in range(4))] for j in range(3)],
+                dtype=np.float32)
+
+
+def bump(nested, scale):
+    return {"type": "bumpmap", "scale": scale, "nested": nested,
+            "height": {"type": "bitmap", "bitmap": mi.Bitmap(BUMP), "raw": True}}
 
 
 # Names must match golden.rs.
@@ -78,6 +94,30 @@ CONFIGS = {
                         "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}},
     "normalmap_rough": {"type": "normalmap", "normalmap": rgb([0.2, 0.6, 0.8]),
                         "a": rough(0.3, 0.1, True)},
+    # Beckmann, Mitsuba's default distribution: left unnamed except where it is spelt out.
+    "beckmann_rough_iso_vis": rough(0.3, 0.3, True, None),
+    "beckmann_rough_aniso_vis": rough(0.5, 0.1, True, "beckmann"),
+    "beckmann_rough_aniso_novis": rough(0.12, 0.45, False, None),
+    "beckmann_rough_iso_novis": rough(0.2, 0.2, False, None),
+    "beckmann_rough_smooth_vis": rough(0.03, 0.03, True, None),
+    "beckmann_roughplastic": {"type": "roughplastic", "alpha": 0.2,
+                              "diffuse_reflectance": rgb([0.2, 0.5, 0.8])},
+    "beckmann_roughplastic_nonlinear_novis": {"type": "roughplastic", "alpha": 0.45,
+                                              "int_ior": 1.7, "ext_ior": 1.0, "nonlinear": True,
+                                              "sample_visible": False,
+                                              "diffuse_reflectance": rgb([0.6, 0.3, 0.1]),
+                                              "specular_reflectance": rgb([0.8, 0.9, 1.0])},
+    "beckmann_roughdielectric": {"type": "roughdielectric", "alpha": 0.25, "int_ior": 1.5,
+                                 "ext_ior": 1.0},
+    "beckmann_roughdielectric_aniso_novis": {"type": "roughdielectric", "alpha_u": 0.4,
+                                             "alpha_v": 0.1, "int_ior": 1.33, "ext_ior": 1.0,
+                                             "sample_visible": False,
+                                             "specular_reflectance": rgb([0.5, 0.6, 0.7]),
+                                             "specular_transmittance": rgb([0.9, 0.3, 0.4])},
+    # Bump maps on the test plane (dp/du = x, dp/dv = y, n = z) at uv (0.3, 0.6).
+    "bumpmap_roughplastic": bump({"type": "roughplastic", "alpha": 0.2,
+                                  "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}, 0.3),
+    "bumpmap_rough_aniso": bump(rough(0.3, 0.1, True), 0.5),
 }
 
 
@@ -102,6 +142,12 @@ def main():
             si = mi.SurfaceInteraction3f()
             si.wi = wi
             si.uv = mi.Point2f(0.3, 0.6)
+            # The plane of SurfaceInteraction::for_tests (what bumpmap differentiates).
+            si.n = mi.Normal3f(0, 0, 1)
+            si.sh_frame = mi.Frame3f(mi.Vector3f(1, 0, 0), mi.Vector3f(0, 1, 0),
+                                     mi.Vector3f(0, 0, 1))
+            si.dp_du = mi.Vector3f(1, 0, 0)
+            si.dp_dv = mi.Vector3f(0, 1, 0)
             for _ in range(4):
                 wo = direction(rng.uniform(0, math.pi), rng.uniform(0, 2 * math.pi))
                 v = bsdf.eval(ctx, si, wo)

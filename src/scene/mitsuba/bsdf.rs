@@ -7,10 +7,12 @@ use super::{Builder, N};
 use crate::Result;
 use crate::bsdf::BlendBsdf;
 use crate::bsdf::Bsdf;
+use crate::bsdf::BumpMap;
 use crate::bsdf::Conductor;
 use crate::bsdf::Dielectric;
 use crate::bsdf::Diffuse;
 use crate::bsdf::Mask;
+use crate::bsdf::MicrofacetType;
 use crate::bsdf::NormalMap;
 use crate::bsdf::Plastic;
 use crate::bsdf::RoughConductor;
@@ -82,21 +84,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         specular_reflectance,
                     })
                 } else {
-                    let dist = p.string_opt("distribution")?;
-                    match dist.as_deref() {
-                        Some("ggx") => {}
-                        None => {
-                            return Err(p.err(
-                                "Mitsuba's default microfacet distribution is beckmann, which btfpt does not \
-                                 implement: add <string name=\"distribution\" value=\"ggx\"/>",
-                            ));
-                        }
-                        Some(d) => {
-                            return Err(
-                                p.err(format!("unsupported distribution \"{d}\" (only ggx)"))
-                            );
-                        }
-                    }
+                    let distribution = microfacet_type(&p)?;
                     let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
                         if p.has("alpha") {
                             return Err(p.err(
@@ -120,6 +108,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         return Err(p.err("roughness must be non-negative"));
                     }
                     Bsdf::RoughConductor(RoughConductor {
+                        distribution,
                         alpha_u,
                         alpha_v,
                         eta,
@@ -199,7 +188,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         nonlinear,
                     ))
                 } else {
-                    ggx_distribution(&p)?;
+                    let distribution = microfacet_type(&p)?;
                     if p.has("alpha_u") || p.has("alpha_v") {
                         return Err(p.err(
                             "roughplastic does not support anisotropic roughness (as Mitsuba): use \"alpha\"",
@@ -208,6 +197,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     let alpha = p.float("alpha", 0.1)?;
                     check_alpha(&p, "alpha", alpha)?;
                     Bsdf::RoughPlastic(RoughPlastic::new(
+                        distribution,
                         alpha,
                         eta,
                         diffuse_reflectance,
@@ -225,7 +215,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         "the interior and exterior indices of refraction must be positive and differ",
                     ));
                 }
-                ggx_distribution(&p)?;
+                let distribution = microfacet_type(&p)?;
                 let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
                     if p.has("alpha") {
                         return Err(
@@ -249,6 +239,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     }
                 }
                 Bsdf::RoughDielectric(RoughDielectric {
+                    distribution,
                     alpha_u,
                     alpha_v,
                     eta: int_ior / ext_ior,
@@ -361,6 +352,36 @@ impl<'a, 'x> Builder<'a, 'x> {
                     nested: Box::new(self.build_bsdf(node)?),
                 })
             }
+            "bumpmap" => {
+                let kids = p.children_tagged("bsdf");
+                let node = match kids.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("exactly one nested bsdf must be specified")),
+                    _ => return Err(p.err("only a single nested bsdf can be specified")),
+                };
+                // Mitsuba takes the texture child whatever its name.
+                let texs = p.children_tagged("texture");
+                let tnode = match texs.as_slice() {
+                    [one] => one.node,
+                    [] => return Err(p.err("exactly one nested height texture must be specified")),
+                    _ => return Err(p.err("only a single nested texture can be specified")),
+                };
+                let height = self.texture(tnode)?;
+                if !height.has_gradient() {
+                    return Err(p.err(
+                        "the height texture must be a bitmap (Mitsuba differentiates only bitmaps)",
+                    ));
+                }
+                // NaN/Inf are refused by the property parser.
+                let scale = p.float("scale", 1.0)?;
+                Bsdf::BumpMap(BumpMap {
+                    height,
+                    scale,
+                    flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+                    use_shadowing_function: p.bool("use_shadowing_function", true)?,
+                    nested: Box::new(self.build_bsdf(node)?),
+                })
+            }
             "btf" => {
                 let file = p.string_req("filename")?;
                 let uv_scale = p.float("uv_scale", 1.0)?;
@@ -387,7 +408,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 return Err(p.err(
                     "unsupported bsdf type (btfpt implements diffuse, conductor, roughconductor, dielectric, \
                      thindielectric, roughdielectric, plastic, roughplastic, twosided, blendbsdf, \
-                     mixturebsdf (two components), mask, normalmap, btf)",
+                     mixturebsdf (two components), mask, normalmap, bumpmap, btf)",
                 ));
             }
         };
@@ -419,19 +440,15 @@ impl<'a, 'x> Builder<'a, 'x> {
     }
 }
 
-/// Requires `distribution="ggx"` (Mitsuba's default, beckmann, is not implemented).
-fn ggx_distribution(p: &Props) -> Result<()> {
-    match p
-        .string_opt("distribution")?
-        .map(|d| d.to_ascii_lowercase())
-        .as_deref()
-    {
-        Some("ggx") => Ok(()),
-        None => Err(p.err(
-            "Mitsuba's default microfacet distribution is beckmann, which btfpt does not \
-             implement: add <string name=\"distribution\" value=\"ggx\"/>",
-        )),
-        Some(d) => Err(p.err(format!("unsupported distribution \"{d}\" (only ggx)"))),
+/// The `distribution` of a microfacet BSDF: Mitsuba's default `beckmann` when none is given.
+fn microfacet_type(p: &Props) -> Result<MicrofacetType> {
+    match p.string_opt("distribution")? {
+        None => Ok(MicrofacetType::Beckmann),
+        Some(d) => MicrofacetType::from_name(&d).ok_or_else(|| {
+            p.err(format!(
+                "invalid distribution \"{d}\": must be \"beckmann\" or \"ggx\""
+            ))
+        }),
     }
 }
 
