@@ -82,6 +82,12 @@ impl DirectionSet {
     }
 }
 
+/// Candidates per cell that `locate16` tests lane-wise (about 98 % of UBO2003 directions and
+/// 95 % of UBO2014's fall in cells with at most 4).
+pub(super) const CANDS: usize = 4;
+/// Marks a cell of `DirectionInterp::cands` with more than [`CANDS`] candidates.
+pub(super) const NO_CANDS: u16 = u16::MAX;
+
 /// Refinement factor per axis from the coarse candidate grid to the lookup grid.
 const REFINE: u32 = 3;
 
@@ -145,6 +151,10 @@ pub struct DirectionInterp {
     /// Candidate lists: triangles of cell k are `cell_tris[cell_start[k]..cell_start[k + 1]]`.
     cell_start: Vec<u32>,
     cell_tris: Vec<u32>,
+    /// Per cell, for `locate16`: its first [`CANDS`] candidates in search order, padded with the
+    /// first (a repeat never changes the search's answer); `[NO_CANDS; CANDS]` if the cell has
+    /// more candidates (or a triangle index ≥ 2^16), which `locate16` leaves to the scalar search.
+    pub(super) cands: Vec<[u16; CANDS]>,
     /// Number of directions in the set.
     n_dirs: usize,
     /// This CPU has AVX-512F (detected at construction): `locate16` runs its gather kernel.
@@ -200,12 +210,25 @@ impl DirectionInterp {
             })
             .chain([0])
             .collect();
+        let cands = cell_start
+            .windows(2)
+            .map(|r| match &cell_tris[r[0] as usize..r[1] as usize] {
+                c if !c.is_empty()
+                    && c.len() <= CANDS
+                    && c.iter().all(|&t| t < NO_CANDS as u32) =>
+                {
+                    std::array::from_fn(|j| c.get(j).copied().unwrap_or(c[0]) as u16)
+                }
+                _ => [NO_CANDS; CANDS],
+            })
+            .collect();
         Ok(DirectionInterp {
             tris,
             grid,
             cells,
             cell_start,
             cell_tris,
+            cands,
             n_dirs: set.len(),
             #[cfg(target_arch = "x86_64")]
             avx512: is_x86_feature_detected!("avx512f"),

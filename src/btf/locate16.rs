@@ -1,12 +1,16 @@
 //! Sixteen direction locations at once: [`DirectionInterp::locate`] for 16 disk points, one per
-//! AVX-512 lane. The lookup grid's single-candidate cells (most cells: the test-free fast path
-//! of the scalar search) are read by one gather of the cell table, their triangles' geometry by
-//! gathers of the 64-byte triangle records, and the barycentric weights computed lane-wise with
-//! the scalar code's operations in its order (no fused multiply-adds), so every lane is the
-//! scalar result to the last bit. Lanes whose cell lists several candidates take the scalar
-//! search (a masked slow path). Without AVX-512 every lane takes the scalar search.
+//! AVX-512 lane. Per lookup-grid cell a table lists its first 4 candidate triangles in the
+//! scalar search's order (cells of at most 4 hold about 98 % of UBO2003 directions, 95 % of
+//! UBO2014's, uniform over the hemisphere); two gathers read them, gathers of the 64-byte
+//! triangle records their geometry, and the search runs lane-wise: the barycentric weights with
+//! the scalar code's operations in its order (no fused multiply-adds), the same comparisons and
+//! early exits as masks, so every lane is the scalar result to the last bit. Lanes of cells with
+//! more candidates, or that meet a NaN weight, take the scalar search (a masked slow path).
+//! Without AVX-512 every lane takes the scalar search.
 
 use super::directions::DirectionInterp;
+#[cfg(target_arch = "x86_64")]
+use super::directions::{CANDS, NO_CANDS};
 
 /// Lanes of one batched location (one AVX-512 register of f32).
 pub const LOCATE_LANES: usize = 16;
@@ -62,24 +66,23 @@ impl DirectionInterp {
         out
     }
 
-    /// The gather kernel: single-candidate cells lane-wise, the others by the scalar search.
+    /// The gather kernel: the search over cells of up to [`CANDS`] candidates lane-wise, the
+    /// scalar search for the other lanes (and any lane that meets a NaN weight).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn locate16_avx512(&self, qx: &[f32; LOCATE_LANES], qy: &[f32; LOCATE_LANES]) -> Located16 {
         use core::arch::x86_64::*;
         let grid = self.grid;
-        // The cell table has one pad entry (a 4-byte gather at the last cell stays inside), the
-        // triangle records are 16 words each: every offset below fits i32.
-        assert!(self.cells.len() > (grid * grid) as usize);
+        assert!(self.cands.len() == (grid * grid) as usize);
         let mut out = Located16 {
             tri: [0; LOCATE_LANES],
             w: [[0.0; LOCATE_LANES]; 3],
         };
-        // SAFETY: loads of the two input arrays (16 f32 each); the cell gather reads 4 bytes at
-        // 2·cell with cell < grid² (clamped below), inside `cells` (grid² + 1 u16); the triangle
-        // gathers read word f < 13 of record t, where t is a single-candidate cell's triangle
-        // (< tris.len(), by construction of `cells`) or 0 on the other lanes; the stores go to
-        // `out`'s arrays of 16.
+        // SAFETY: loads of the two input arrays (16 f32 each); the candidate gathers read u32
+        // 2·cell and 2·cell + 1 of `cands` (grid² entries of 2 u32) with cell < grid² (clamped
+        // below); the triangle gathers read word f < 13 of record t, t a cell's candidate
+        // (< tris.len() by construction of `cands`) or 0 on over-full cells' lanes; the stores
+        // go to `out`'s arrays of 16.
         unsafe {
             let (x, y) = (_mm512_loadu_ps(qx.as_ptr()), _mm512_loadu_ps(qy.as_ptr()));
             let one = _mm512_set1_ps(1.0);
@@ -98,31 +101,76 @@ impl DirectionInterp {
                 _mm512_mullo_epi32(cell_of(y), _mm512_set1_epi32(grid as i32)),
                 cell_of(x),
             );
-            let entry = _mm512_and_si512(
-                _mm512_i32gather_epi32::<2>(cell, self.cells.as_ptr() as *const i32),
-                _mm512_set1_epi32(0xffff),
-            );
-            let single = _mm512_test_epi32_mask(entry, _mm512_set1_epi32(1));
-            let t = _mm512_maskz_srli_epi32::<1>(single, entry);
-            let rec = _mm512_slli_epi32::<4>(t);
+            // The cell's 4 candidates as 2 u32 of 2 u16 each.
+            const _: () = assert!(CANDS == 4);
+            let table = self.cands.as_ptr() as *const i32;
+            let pair = _mm512_slli_epi32::<1>(cell);
+            let lo = _mm512_i32gather_epi32::<4>(pair, table);
+            let hi =
+                _mm512_i32gather_epi32::<4>(_mm512_add_epi32(pair, _mm512_set1_epi32(1)), table);
+            let low16 = _mm512_set1_epi32(0xffff);
+            let cand = [
+                _mm512_and_si512(lo, low16),
+                _mm512_srli_epi32::<16>(lo),
+                _mm512_and_si512(hi, low16),
+                _mm512_srli_epi32::<16>(hi),
+            ];
+            // Over-full cells (marked NO_CANDS): scalar search; their lanes read triangle 0.
+            let full = _mm512_cmpeq_epi32_mask(cand[0], _mm512_set1_epi32(NO_CANDS as i32));
+            let cand = cand.map(|c| _mm512_mask_mov_epi32(c, full, _mm512_setzero_si512()));
             let base = self.tris.as_ptr() as *const f32;
-            let field = |f: i32| {
-                _mm512_i32gather_ps::<4>(_mm512_add_epi32(rec, _mm512_set1_epi32(f)), base)
+            // TriGeom::weights of triangles `t` on the lanes of `m`: record words p = a, b, c at
+            // 0..6, e = c − b, a − c, b − a at 6..12, 1/(2A) at 12;
+            // w = (e_x · (q_y − o_y) − e_y · (q_x − o_x)) · 1/(2A), the scalar operations.
+            let weights = |m: __mmask16, t: __m512i| {
+                let rec = _mm512_slli_epi32::<4>(t);
+                let field = |f: i32| {
+                    let off = _mm512_add_epi32(rec, _mm512_set1_epi32(f));
+                    _mm512_mask_i32gather_ps::<4>(zero, m, off, base)
+                };
+                let inv = field(12);
+                let weight = |e: i32, o: i32| {
+                    let l = _mm512_mul_ps(field(e), _mm512_sub_ps(y, field(o + 1)));
+                    let r = _mm512_mul_ps(field(e + 1), _mm512_sub_ps(x, field(o)));
+                    _mm512_mul_ps(_mm512_sub_ps(l, r), inv)
+                };
+                [weight(6, 2), weight(8, 4), weight(10, 0)]
             };
-            // Record words: p = a, b, c at 0..6, e = c − b, a − c, b − a at 6..12, 1/(2A) at 12.
-            let inv = field(12);
-            // TriGeom::weights: (e_x · (q_y − o_y) − e_y · (q_x − o_x)) · inv.
-            let weight = |e: i32, o: i32| {
-                let l = _mm512_mul_ps(field(e), _mm512_sub_ps(y, field(o + 1)));
-                let r = _mm512_mul_ps(field(e + 1), _mm512_sub_ps(x, field(o)));
-                _mm512_mul_ps(_mm512_sub_ps(l, r), inv)
+            // f32::min of non-NaN values (NaN lanes leave for the scalar search).
+            let min3 = |w: [__m512; 3]| _mm512_min_ps(_mm512_min_ps(w[0], w[1]), w[2]);
+            let nan = |w: [__m512; 3]| {
+                _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(w[0], w[1])
+                    | _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(w[2], w[2])
             };
-            _mm512_storeu_ps(out.w[0].as_mut_ptr(), weight(6, 2));
-            _mm512_storeu_ps(out.w[1].as_mut_ptr(), weight(8, 4));
-            _mm512_storeu_ps(out.w[2].as_mut_ptr(), weight(10, 0));
-            _mm512_storeu_si512(out.tri.as_mut_ptr() as *mut _, t);
-            // Lanes of cells with several candidates: the exact scalar search.
-            let mut slow = !single;
+            // The scalar search, lane-wise: the first candidate; stop if it contains q; else
+            // each next one that raises the smallest weight replaces it, stopping once inside.
+            let mut best_t = cand[0];
+            let mut best_w = weights(!0, cand[0]);
+            let mut best_min = min3(best_w);
+            let mut slow = full | nan(best_w);
+            let mut done = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(best_min, zero);
+            for c in &cand[1..] {
+                // Repeats of the first candidate pad the list: nothing to test.
+                let need = !done & !slow & _mm512_cmpneq_epi32_mask(*c, cand[0]);
+                if need == 0 {
+                    continue;
+                }
+                let w = weights(need, *c);
+                let m = min3(w);
+                slow |= need & nan(w);
+                let better = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(need, m, best_min);
+                best_t = _mm512_mask_mov_epi32(best_t, better, *c);
+                for k in 0..3 {
+                    best_w[k] = _mm512_mask_mov_ps(best_w[k], better, w[k]);
+                }
+                best_min = _mm512_mask_mov_ps(best_min, better, m);
+                done |= better & _mm512_cmp_ps_mask::<_CMP_GE_OQ>(m, zero);
+            }
+            for k in 0..3 {
+                _mm512_storeu_ps(out.w[k].as_mut_ptr(), best_w[k]);
+            }
+            _mm512_storeu_si512(out.tri.as_mut_ptr() as *mut _, best_t);
+            // Lanes of over-full cells or NaN weights: the exact scalar search.
             while slow != 0 {
                 let i = slow.trailing_zeros() as usize;
                 slow &= slow - 1;
@@ -145,7 +193,7 @@ mod tests {
     use crate::math::frame::from_spherical;
 
     /// `locate16` against `locate` lane by lane, bit for bit (NaN weights: both NaN), over
-    /// `points` in chunks of 16; returns how many lanes hit a single-candidate cell.
+    /// `points` in chunks of 16; returns how many lanes hit a cell searched lane-wise.
     fn check(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
         let mut fast = 0;
         for chunk in points.chunks(LOCATE_LANES) {
@@ -169,7 +217,8 @@ mod tests {
                         (t, w)
                     );
                 }
-                if i < chunk.len() && ip.cells[ip.cell_of([qx[i], qy[i]])] & 1 == 1 {
+                let c = ip.cands[ip.cell_of([qx[i], qy[i]])];
+                if i < chunk.len() && c[0] != super::super::directions::NO_CANDS {
                     fast += 1;
                 }
             }
@@ -259,19 +308,17 @@ mod tests {
         for (k, set) in sets.iter().enumerate() {
             let Ok(ip) = set.interpolator() else { continue };
             if k < 2 {
-                // Uniform directions (the first 4000 points): mostly the gathered path.
+                // Directions uniform in θ, φ (the first 4000 points): mostly lane-wise.
                 let pts = &adversarial(set, &ip, &mut rng)[..4000];
                 let fast = check(&ip, pts);
-                eprintln!("uniform {fast} of 4000");
-                assert!(fast > 4000 / 2, "{fast} of 4000");
+                assert!(fast > 4000 * 9 / 10, "{fast} of 4000");
             }
             let pts = adversarial(set, &ip, &mut rng);
             let fast = check(&ip, &pts);
-            // Both paths of the kernel ran: gathered lanes and scalar-search lanes (a set of 3
-            // directions has one triangle: every cell is single).
-            assert!(fast > 0 && fast <= pts.len(), "{fast} of {}", pts.len());
-            if set.len() > 3 {
-                assert!(fast < pts.len());
+            // The lane-wise search ran, and (the standard sets) cells left to the scalar search.
+            assert!(fast > pts.len() / 10, "{fast} of {}", pts.len());
+            if k < 2 {
+                assert!(fast < pts.len(), "{fast} of {}", pts.len());
             }
         }
     }
