@@ -1,8 +1,8 @@
 //! Sixteen direction locations at once: [`DirectionInterp::locate`] for 16 disk points, one per
 //! AVX-512 lane. Per lookup-grid cell a table lists its first 4 candidate triangles in the
 //! scalar search's order (cells of at most 4 hold about 98 % of UBO2003 directions, 95 % of
-//! UBO2014's, uniform over the hemisphere); two gathers read them, gathers of the 64-byte
-//! triangle records their geometry, and the search runs lane-wise: the barycentric weights with
+//! UBO2014's, uniform over the hemisphere); two gathers read them, 16 loads of the 64-byte
+//! triangle records and a 16 × 16 transpose their geometry, and the search runs lane-wise: the barycentric weights with
 //! the scalar code's operations in its order (no fused multiply-adds), the same comparisons and
 //! early exits as masks, so every lane is the scalar result to the last bit. Lanes of cells with
 //! more candidates, or that meet a NaN weight, take the scalar search (a masked slow path).
@@ -11,6 +11,8 @@
 use super::directions::DirectionInterp;
 #[cfg(target_arch = "x86_64")]
 use super::directions::{CANDS, NO_CANDS};
+#[cfg(target_arch = "x86_64")]
+use crate::math::simd::transpose::transpose16;
 
 /// Lanes of one batched location (one AVX-512 register of f32).
 pub const LOCATE_LANES: usize = 16;
@@ -80,7 +82,7 @@ impl DirectionInterp {
         };
         // SAFETY: loads of the two input arrays (16 f32 each); the candidate gathers read u32
         // 2·cell and 2·cell + 1 of `cands` (grid² entries of 2 u32) with cell < grid² (clamped
-        // below); the triangle gathers read word f < 13 of record t, t a cell's candidate
+        // below); the row loads read the 64-byte record t, t a cell's candidate
         // (< tris.len() by construction of `cands`) or 0 on over-full cells' lanes; the stores
         // go to `out`'s arrays of 16.
         unsafe {
@@ -119,20 +121,22 @@ impl DirectionInterp {
             let full = _mm512_cmpeq_epi32_mask(cand[0], _mm512_set1_epi32(NO_CANDS as i32));
             let cand = cand.map(|c| _mm512_mask_mov_epi32(c, full, _mm512_setzero_si512()));
             let base = self.tris.as_ptr() as *const f32;
-            // TriGeom::weights of triangles `t` on the lanes of `m`: record words p = a, b, c at
-            // 0..6, e = c − b, a − c, b − a at 6..12, 1/(2A) at 12;
+            // TriGeom::weights of triangles `t`: the 16 records (64 bytes, aligned) loaded and
+            // transposed, so that register f holds word f of every lane's record: p = a, b, c
+            // at 0..6, e = c − b, a − c, b − a at 6..12, 1/(2A) at 12;
             // w = (e_x · (q_y − o_y) − e_y · (q_x − o_x)) · 1/(2A), the scalar operations.
-            let weights = |m: __mmask16, t: __m512i| {
-                let rec = _mm512_slli_epi32::<4>(t);
-                let field = |f: i32| {
-                    let off = _mm512_add_epi32(rec, _mm512_set1_epi32(f));
-                    _mm512_mask_i32gather_ps::<4>(zero, m, off, base)
-                };
-                let inv = field(12);
-                let weight = |e: i32, o: i32| {
-                    let l = _mm512_mul_ps(field(e), _mm512_sub_ps(y, field(o + 1)));
-                    let r = _mm512_mul_ps(field(e + 1), _mm512_sub_ps(x, field(o)));
-                    _mm512_mul_ps(_mm512_sub_ps(l, r), inv)
+            let weights = |t: __m512i| {
+                let mut idx = [0u32; LOCATE_LANES];
+                _mm512_storeu_si512(idx.as_mut_ptr() as *mut _, t);
+                let mut r = [zero; 16];
+                for (r, &t) in r.iter_mut().zip(&idx) {
+                    *r = _mm512_load_ps(base.add(t as usize * 16));
+                }
+                transpose16(&mut r);
+                let weight = |e: usize, o: usize| {
+                    let l = _mm512_mul_ps(r[e], _mm512_sub_ps(y, r[o + 1]));
+                    let rr = _mm512_mul_ps(r[e + 1], _mm512_sub_ps(x, r[o]));
+                    _mm512_mul_ps(_mm512_sub_ps(l, rr), r[12])
                 };
                 [weight(6, 2), weight(8, 4), weight(10, 0)]
             };
@@ -145,7 +149,7 @@ impl DirectionInterp {
             // The scalar search, lane-wise: the first candidate; stop if it contains q; else
             // each next one that raises the smallest weight replaces it, stopping once inside.
             let mut best_t = cand[0];
-            let mut best_w = weights(!0, cand[0]);
+            let mut best_w = weights(cand[0]);
             let mut best_min = min3(best_w);
             let mut slow = full | nan(best_w);
             let mut done = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(best_min, zero);
@@ -155,7 +159,7 @@ impl DirectionInterp {
                 if need == 0 {
                     continue;
                 }
-                let w = weights(need, *c);
+                let w = weights(*c);
                 let m = min3(w);
                 slow |= need & nan(w);
                 let better = _mm512_mask_cmp_ps_mask::<_CMP_GT_OQ>(need, m, best_min);
