@@ -6,6 +6,9 @@ use core::arch::x86_64::*;
 
 /// Transposes 16 rows of 16 f32 in registers: afterwards `r[e]` holds element e of every input
 /// row (lane i = row i). Unpacks within 128-bit blocks, then two rounds of block shuffles.
+///
+/// # Safety
+/// The CPU must have AVX-512F (callers are `avx512f` functions or hold a detection token).
 #[target_feature(enable = "avx512f")]
 #[inline]
 pub fn transpose16(r: &mut [__m512; 16]) {
