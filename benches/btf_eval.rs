@@ -20,6 +20,7 @@
 
 use btfpt::bsdf::plmc::{BATCH, PlmcHit, PlmcMaterial};
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
+use btfpt::btf::locate16::LOCATE_LANES;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
 use btfpt::math::{Pcg32, Spectrum, Vec3};
 use btfpt::model::ModelKind;
@@ -49,6 +50,31 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
             for (_, wo) in &q {
                 let (i, w) = interp.lookup(black_box(*wo));
                 acc += w[0] + i[0] as f32;
+            }
+            acc
+        })
+    });
+    // The same 4096 directions located 16 at a time (the batched kernels' light search).
+    g.bench_function("direction_locate16", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for chunk in q.chunks(LOCATE_LANES) {
+                let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
+                for (j, (_, wo)) in chunk.iter().enumerate() {
+                    (qx[j], qy[j]) = (wo.x, wo.y);
+                }
+                let l = interp.locate16(black_box(&qx), black_box(&qy));
+                acc += l.w[0][0] + l.tri[15] as f32;
+            }
+            acc
+        })
+    });
+    g.bench_function("direction_locate", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for (_, wo) in &q {
+                let (t, w) = interp.locate(black_box([wo.x, wo.y]));
+                acc += w[0] + t as f32;
             }
             acc
         })

@@ -82,13 +82,19 @@ impl DirectionSet {
     }
 }
 
+/// Candidates per cell that `locate16` tests lane-wise (about 98 % of UBO2003 directions and
+/// 95 % of UBO2014's fall in cells with at most 4).
+pub(super) const CANDS: usize = 4;
+/// Marks a cell of `DirectionInterp::cands` with more than [`CANDS`] candidates.
+pub(super) const NO_CANDS: u16 = u16::MAX;
+
 /// Refinement factor per axis from the coarse candidate grid to the lookup grid.
 const REFINE: u32 = 3;
 
 /// Precomputed geometry of one triangle of the disk triangulation (one cache line).
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
-struct TriGeom {
+pub(super) struct TriGeom {
     /// Vertex positions on the disk: a, b, c.
     p: [[f32; 2]; 3],
     /// Edge vectors c − b, a − c, b − a (opposite a, b, c).
@@ -98,6 +104,9 @@ struct TriGeom {
     /// Indices into the direction set.
     v: [u32; 3],
 }
+
+// `locate16` gathers the fields of a record by word offset: p at 0, e at 6, 1/(2A) at 12.
+const _: () = assert!(std::mem::size_of::<TriGeom>() == 64);
 
 impl TriGeom {
     /// Unclamped barycentric weights of `q`. Weight i vanishes exactly (in floating point) at the
@@ -132,17 +141,24 @@ impl TriGeom {
 /// any test.
 #[derive(Clone, Debug)]
 pub struct DirectionInterp {
-    tris: Vec<TriGeom>,
+    pub(super) tris: Vec<TriGeom>,
     /// Cells per side of the grid over [−1, 1]².
-    grid: u32,
+    pub(super) grid: u32,
     /// Per cell, one small load for the common case: `(t << 1) | 1` if triangle t (< 2^15) is
     /// the cell's only candidate, else `0` (look in `cell_start`). u16 keeps the table L1-sized.
-    cells: Vec<u16>,
+    /// One pad entry (0) after the grid² cells: `locate16` gathers 4 bytes per cell.
+    pub(super) cells: Vec<u16>,
     /// Candidate lists: triangles of cell k are `cell_tris[cell_start[k]..cell_start[k + 1]]`.
     cell_start: Vec<u32>,
     cell_tris: Vec<u32>,
+    /// Per cell, for `locate16`: its first [`CANDS`] candidates in search order, padded with the
+    /// first (a repeat never changes the search's answer); `[NO_CANDS; CANDS]` if the cell has
+    /// more candidates (or a triangle index ≥ 2^16), which `locate16` leaves to the scalar search.
+    pub(super) cands: Vec<[u16; CANDS]>,
     /// Number of directions in the set.
     n_dirs: usize,
+    /// This CPU has AVX-512F (detected at construction): `locate16` runs its gather kernel.
+    pub(super) avx512: bool,
 }
 
 impl DirectionInterp {
@@ -192,6 +208,19 @@ impl DirectionInterp {
                 [t] if t < 1 << 15 => ((t << 1) | 1) as u16,
                 _ => 0,
             })
+            .chain([0])
+            .collect();
+        let cands = cell_start
+            .windows(2)
+            .map(|r| match &cell_tris[r[0] as usize..r[1] as usize] {
+                c if !c.is_empty()
+                    && c.len() <= CANDS
+                    && c.iter().all(|&t| t < NO_CANDS as u32) =>
+                {
+                    std::array::from_fn(|j| c.get(j).copied().unwrap_or(c[0]) as u16)
+                }
+                _ => [NO_CANDS; CANDS],
+            })
             .collect();
         Ok(DirectionInterp {
             tris,
@@ -199,7 +228,12 @@ impl DirectionInterp {
             cells,
             cell_start,
             cell_tris,
+            cands,
             n_dirs: set.len(),
+            #[cfg(target_arch = "x86_64")]
+            avx512: is_x86_feature_detected!("avx512f"),
+            #[cfg(not(target_arch = "x86_64"))]
+            avx512: false,
         })
     }
 
@@ -241,14 +275,21 @@ impl DirectionInterp {
         self.tris[t].weights(q)
     }
 
+    /// The lookup-grid cell of the disk point `q` (points outside [−1, 1]² and NaN: the
+    /// nearest edge cell, resp. cell 0 of that axis).
+    #[inline(always)]
+    pub(super) fn cell_of(&self, q: [f32; 2]) -> usize {
+        let g = self.grid as f32;
+        let cx = (((q[0] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
+        let cy = (((q[1] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
+        (cy * self.grid + cx) as usize
+    }
+
     /// The triangle chosen by the DESIGN rule for the disk point `q`, with its unclamped
     /// barycentric weights (all ≥ 0 iff `q` is inside the hull, up to rounding).
     #[inline]
     pub fn locate(&self, q: [f32; 2]) -> (usize, [f32; 3]) {
-        let g = self.grid as f32;
-        let cx = (((q[0] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
-        let cy = (((q[1] + 1.0) * 0.5 * g) as i32).clamp(0, self.grid as i32 - 1) as u32;
-        let cell = (cy * self.grid + cx) as usize;
+        let cell = self.cell_of(q);
         let single = self.cells[cell] as usize;
         if single & 1 == 1 {
             // The only triangle that wins anywhere in this cell (most cells of the fine grid).

@@ -4,6 +4,7 @@
 pub mod cache;
 pub mod delaunay;
 pub mod directions;
+pub mod locate16;
 pub mod raw;
 pub mod synth;
 pub mod tiling;

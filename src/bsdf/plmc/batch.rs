@@ -11,6 +11,7 @@
 //! result is the single-query kernel's to the last bit (tested in `tests.rs`).
 
 use super::avx512::{Avx512, Tables, lobe_value, map_decode, splat};
+use crate::math::simd::transpose::transpose16;
 use core::arch::x86_64::*;
 
 use super::kernel::{BATCH, BatchQuery as Query};
@@ -156,38 +157,5 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         for (l, o) in out.iter_mut().enumerate() {
             *o = [res[0][l], res[1][l], res[2][l]];
         }
-    }
-}
-
-/// Transposes 16 rows of 16 f32 in registers: afterwards `r[e]` holds element e of every input
-/// row (lane i = row i). Unpacks within 128-bit blocks, then two rounds of block shuffles.
-#[target_feature(enable = "avx512f,avx2,fma")]
-#[inline]
-fn transpose16(r: &mut [__m512; 16]) {
-    let pd = _mm512_castps_pd;
-    let ps = _mm512_castpd_ps;
-    let mut t = [_mm512_setzero_ps(); 16];
-    for i in 0..8 {
-        t[2 * i] = _mm512_unpacklo_ps(r[2 * i], r[2 * i + 1]);
-        t[2 * i + 1] = _mm512_unpackhi_ps(r[2 * i], r[2 * i + 1]);
-    }
-    // u[4 i + m], block k: element 4 k + m of rows 4 i .. 4 i + 3.
-    let mut u = [_mm512_setzero_ps(); 16];
-    for i in 0..4 {
-        u[4 * i] = ps(_mm512_unpacklo_pd(pd(t[4 * i]), pd(t[4 * i + 2])));
-        u[4 * i + 1] = ps(_mm512_unpackhi_pd(pd(t[4 * i]), pd(t[4 * i + 2])));
-        u[4 * i + 2] = ps(_mm512_unpacklo_pd(pd(t[4 * i + 1]), pd(t[4 * i + 3])));
-        u[4 * i + 3] = ps(_mm512_unpackhi_pd(pd(t[4 * i + 1]), pd(t[4 * i + 3])));
-    }
-    for m in 0..4 {
-        let (a, b, c, d) = (u[m], u[4 + m], u[8 + m], u[12 + m]);
-        let x0 = _mm512_shuffle_f32x4::<0x44>(a, b);
-        let x1 = _mm512_shuffle_f32x4::<0xEE>(a, b);
-        let y0 = _mm512_shuffle_f32x4::<0x44>(c, d);
-        let y1 = _mm512_shuffle_f32x4::<0xEE>(c, d);
-        r[m] = _mm512_shuffle_f32x4::<0x88>(x0, y0);
-        r[4 + m] = _mm512_shuffle_f32x4::<0xDD>(x0, y0);
-        r[8 + m] = _mm512_shuffle_f32x4::<0x88>(x1, y1);
-        r[12 + m] = _mm512_shuffle_f32x4::<0xDD>(x1, y1);
     }
 }

@@ -4,10 +4,14 @@
 use super::kernel::{BATCH, BatchQuery};
 use super::material::PlmcMaterial;
 use crate::bsdf::{BsdfFlags, BsdfSample};
+use crate::btf::locate16::LOCATE_LANES;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::sync::Arc;
+
+// One batched light location serves a whole batch.
+const _: () = assert!(BATCH <= LOCATE_LANES);
 
 /// A fitted-model BTF instance: shared model + uv tiling + texel filter.
 #[derive(Clone, Debug)]
@@ -241,13 +245,20 @@ impl PlmcBsdf {
         let mut slot = [0usize; BATCH];
         let mut nq = 0;
         let batches = m.batches();
+        // All light directions located at once (lanes past n and below the horizon locate
+        // (0, 0) or their own direction and are not used).
+        let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
+        for (q, w) in wo.iter().enumerate() {
+            (qx[q], qy[q]) = (w.x, w.y);
+        }
+        let all = lights.locate16(&qx, &qy);
         for q in 0..n {
             let (h, w) = (&hits[q], wo[q]);
             if w.z <= 0.0 {
                 out[q] = (Spectrum::ZERO, 0.0);
                 continue;
             }
-            let located = lights.locate([w.x, w.y]);
+            let located = all.lane(q);
             let (li, lw) = lights.interpolation(located.0, located.1);
             let pdf = if want_pdf[q] {
                 m.sampler.pdf_located(h.vi, h.vw, w, located)

@@ -702,9 +702,26 @@ fn batched_evaluation_is_the_single_query_evaluation_bit_for_bit() {
                     let s = SurfaceInteraction::for_tests(wi, rng.next_2d());
                     let Some(h) = bsdf.prepare(&s) else { continue };
                     let mut w = warp::square_to_uniform_sphere(rng.next_2d());
-                    if rng.next_f32() < 0.1 {
+                    let lights = bsdf.material().sampler.light_interp();
+                    let u = rng.next_f32();
+                    if u < 0.1 {
                         // Exactly at a measured light: the polynomial at its fitted point.
                         w = dir(15.0, 60.0);
+                    } else if u < 0.25 {
+                        // On an edge of the light triangulation (the batched light search
+                        // must pick the scalar search's side), or a vertex of it.
+                        let p = lights
+                            .triangle_disk(rng.next_below(lights.num_triangles() as u32) as usize);
+                        let (a, b) = (rng.next_below(3) as usize, rng.next_below(3) as usize);
+                        let s = [0.5, rng.next_f32(), 0.0][rng.next_below(3) as usize];
+                        let (x, y) = (
+                            p[a][0] + s * (p[b][0] - p[a][0]),
+                            p[a][1] + s * (p[b][1] - p[a][1]),
+                        );
+                        w = Vec3::new(x, y, (1.0 - x * x - y * y).max(0.0).sqrt());
+                    } else if u < 0.35 {
+                        // Grazing: just above the horizon, beyond the outermost measured ring.
+                        w = dir(89.9 + 0.1 * rng.next_f32(), 360.0 * rng.next_f32());
                     }
                     hits.push(h);
                     wo.push(w);

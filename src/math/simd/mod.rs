@@ -7,6 +7,8 @@
 //! `cargo bench --bench simd_math` compares them with libm.
 
 pub mod lane;
+#[cfg(target_arch = "x86_64")]
+pub mod transpose;
 
 use std::sync::OnceLock;
 
