@@ -387,7 +387,10 @@ mod tests {
             let own = dist2(p, &r.centers[r.assign[i] as usize * dim..][..dim]);
             for c in 0..r.k {
                 let o = dist2(p, &r.centers[c * dim..(c + 1) * dim]);
-                assert!(own <= o * (1.0 + 1e-5), "point {i}: own {own}, centre {c} {o}");
+                assert!(
+                    own <= o * (1.0 + 1e-5),
+                    "point {i}: own {own}, centre {c} {o}"
+                );
             }
         }
     }
