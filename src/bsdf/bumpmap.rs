@@ -1,9 +1,9 @@
 //! Bump mapping (Mitsuba `bumpmap`): the nested BSDF is evaluated in a shading frame tilted by
 //! the gradient of a height texture. The surface's ∂p/∂u, ∂p/∂v are displaced along the
 //! shading normal by `scale` × the texture's uv gradient, and their cross product is the new
-//! normal, with the same side checks and shadowing term as [`super::NormalMap`].
+//! normal; the evaluation in that frame is [`Perturbed`]'s, as for [`super::NormalMap`].
 
-use super::normalmap::shadow_terminator;
+use super::perturbed::Perturbed;
 use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
@@ -24,10 +24,9 @@ pub struct BumpMap {
 }
 
 impl BumpMap {
-    /// The perturbed frame relative to the shading frame (Mitsuba `BumpMap::frame`), and the
-    /// hit seen in that frame.
+    /// The nested model seen through the bumped frame (Mitsuba `BumpMap::frame`) at this hit.
     #[inline]
-    fn perturb(&self, si: &SurfaceInteraction) -> (Frame, SurfaceInteraction) {
+    fn perturb(&self, si: &SurfaceInteraction) -> Perturbed<'_> {
         let grad = self.height.eval_1_grad(si.uv) * self.scale;
         let sn = si.sh_frame.n;
         let dp_du = si.dpdu + sn * (grad.x - sn.dot(si.dpdu));
@@ -48,14 +47,7 @@ impl BumpMap {
             t: n.cross(s),
             n,
         };
-        let mut psi = *si;
-        psi.sh_frame = Frame {
-            s: si.sh_frame.to_world(local.s),
-            t: si.sh_frame.to_world(local.t),
-            n: si.sh_frame.to_world(local.n),
-        };
-        psi.wi = local.to_local(si.wi);
-        (local, psi)
+        Perturbed::new(&self.nested, si, local, self.use_shadowing_function)
     }
 
     /// The nested model's lobes, spatially varying.
@@ -70,26 +62,12 @@ impl BumpMap {
 
     /// Nested pdf in the perturbed frame (rotations keep solid angle).
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        let (local, psi) = self.perturb(si);
-        let pwo = local.to_local(wo);
-        if !(wo.z * pwo.z > 0.0) {
-            return 0.0;
-        }
-        self.nested.pdf(&psi, pwo)
+        self.perturb(si).pdf(wo)
     }
 
     /// `eval` and `pdf` together.
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        let (local, psi) = self.perturb(si);
-        let pwo = local.to_local(wo);
-        if !(wo.z * pwo.z > 0.0) {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let (mut v, p) = self.nested.eval_pdf(&psi, pwo);
-        if self.use_shadowing_function {
-            v *= shadow_terminator(local.n, wo);
-        }
-        (v, p)
+        self.perturb(si).eval_pdf(wo)
     }
 
     /// Samples the nested model in the perturbed frame and rotates the direction back.
@@ -99,19 +77,6 @@ impl BumpMap {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let (local, psi) = self.perturb(si);
-        let (mut bs, mut w) = self.nested.sample(&psi, sample1, sample2)?;
-        if w == Spectrum::ZERO {
-            return None;
-        }
-        let wo = local.to_world(bs.wo);
-        if !(bs.wo.z * wo.z > 0.0) {
-            return None;
-        }
-        bs.wo = wo;
-        if self.use_shadowing_function {
-            w *= shadow_terminator(local.n, wo);
-        }
-        Some((bs, w))
+        self.perturb(si).sample(sample1, sample2)
     }
 }

@@ -18,6 +18,7 @@ pub mod fresnel;
 pub mod mask;
 pub mod microfacet;
 pub mod normalmap;
+pub mod perturbed;
 pub mod plastic;
 pub mod plmc;
 pub mod roughconductor;
