@@ -38,28 +38,9 @@ impl Scratch {
         );
         self.pair_tmp.clear();
         self.pair_tmp.resize(n, 0);
-        for pass in 0..4 {
-            let shift = 32 + 8 * pass;
-            let mut count = [0usize; 256];
-            for &k in &self.pair_keys {
-                count[((k >> shift) & 0xff) as usize] += 1;
-            }
-            if count.contains(&n) {
-                continue; // every key shares this byte: the pass would not move anything
-            }
-            let mut sum = 0;
-            for c in count.iter_mut() {
-                let m = *c;
-                *c = sum;
-                sum += m;
-            }
-            for &k in &self.pair_keys {
-                let b = ((k >> shift) & 0xff) as usize;
-                self.pair_tmp[count[b]] = k;
-                count[b] += 1;
-            }
-            std::mem::swap(&mut self.pair_keys, &mut self.pair_tmp);
-        }
+        radix_passes(&mut self.pair_keys, &mut self.pair_tmp, |k, pass| {
+            ((k >> (32 + 8 * pass)) & 0xff) as usize
+        });
         self.xs.clear();
         self.ys.clear();
         for &k in &self.pair_keys {
@@ -101,30 +82,38 @@ pub fn radix_sort(v: &mut [f32], keys: &mut Vec<u32>, tmp: &mut Vec<u32>) {
     keys.extend(v.iter().map(|&x| key(x)));
     tmp.clear();
     tmp.resize(v.len(), 0);
+    radix_passes(keys, tmp, |k, pass| ((k >> (8 * pass)) & 0xff) as usize);
+    for (o, &k) in v.iter_mut().zip(keys.iter()) {
+        *o = unkey(k);
+    }
+}
+
+/// The 4 byte passes of a stable LSD radix sort of `keys` (`tmp` as long, scratch), `byte(key,
+/// pass)` the pass's digit; a pass where every key has the same digit is skipped (it would not
+/// move anything).
+#[inline]
+fn radix_passes<T: Copy>(keys: &mut Vec<T>, tmp: &mut Vec<T>, byte: impl Fn(T, u32) -> usize) {
+    let n = keys.len();
     for pass in 0..4 {
-        let shift = 8 * pass;
         let mut count = [0usize; 256];
         for &k in keys.iter() {
-            count[((k >> shift) & 0xff) as usize] += 1;
+            count[byte(k, pass)] += 1;
         }
-        if count.contains(&keys.len()) {
-            continue; // all keys share this byte: the pass would not move anything
+        if count.contains(&n) {
+            continue;
         }
         let mut sum = 0;
         for c in count.iter_mut() {
-            let n = *c;
+            let m = *c;
             *c = sum;
-            sum += n;
+            sum += m;
         }
         for &k in keys.iter() {
-            let b = ((k >> shift) & 0xff) as usize;
+            let b = byte(k, pass);
             tmp[count[b]] = k;
             count[b] += 1;
         }
         std::mem::swap(keys, tmp);
-    }
-    for (o, &k) in v.iter_mut().zip(keys.iter()) {
-        *o = unkey(k);
     }
 }
 
