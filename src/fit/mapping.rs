@@ -26,15 +26,16 @@ pub struct Scratch {
 
 impl Scratch {
     /// The pairs (`x[i]`, `y(i)`) sorted by x ascending in `f32::total_cmp` order, ties in index
-    /// order (a stable LSD radix sort on the x key with the index as payload: the order, and
-    /// so every sum over the pairs, is fixed), as the slices (xs, ys).
+    /// order (a stable LSD radix sort on the x key: the order, and so every sum over the pairs,
+    /// is fixed), as the slices (xs, ys). y travels with its key as the sort's payload, so `y` is
+    /// read in index order (no gather after the sort).
     pub fn sort_pairs(&mut self, x: &[f32], y: impl Fn(usize) -> f32) -> (&[f32], &[f32]) {
         let n = x.len();
         self.pair_keys.clear();
         self.pair_keys.extend(
             x.iter()
                 .enumerate()
-                .map(|(i, &v)| ((key(v) as u64) << 32) | i as u64),
+                .map(|(i, &v)| ((key(v) as u64) << 32) | y(i).to_bits() as u64),
         );
         self.pair_tmp.clear();
         self.pair_tmp.resize(n, 0);
@@ -45,7 +46,7 @@ impl Scratch {
         self.ys.clear();
         for &k in &self.pair_keys {
             self.xs.push(unkey((k >> 32) as u32));
-            self.ys.push(y((k & 0xffff_ffff) as usize));
+            self.ys.push(f32::from_bits(k as u32));
         }
         (&self.xs, &self.ys)
     }
@@ -89,16 +90,18 @@ pub fn radix_sort(v: &mut [f32], keys: &mut Vec<u32>, tmp: &mut Vec<u32>) {
 }
 
 /// The 4 byte passes of a stable LSD radix sort of `keys` (`tmp` as long, scratch), `byte(key,
-/// pass)` the pass's digit; a pass where every key has the same digit is skipped (it would not
-/// move anything).
+/// pass)` the pass's digit. The four digit histograms are counted in one read of the keys; a pass
+/// where every key has the same digit is skipped (it would not move anything).
 #[inline]
 fn radix_passes<T: Copy>(keys: &mut Vec<T>, tmp: &mut Vec<T>, byte: impl Fn(T, u32) -> usize) {
     let n = keys.len();
-    for pass in 0..4 {
-        let mut count = [0usize; 256];
-        for &k in keys.iter() {
-            count[byte(k, pass)] += 1;
+    let mut counts = [[0usize; 256]; 4];
+    for &k in keys.iter() {
+        for (pass, count) in counts.iter_mut().enumerate() {
+            count[byte(k, pass as u32)] += 1;
         }
+    }
+    for (pass, count) in counts.iter_mut().enumerate() {
         if count.contains(&n) {
             continue;
         }
@@ -109,7 +112,7 @@ fn radix_passes<T: Copy>(keys: &mut Vec<T>, tmp: &mut Vec<T>, byte: impl Fn(T, u
             sum += m;
         }
         for &k in keys.iter() {
-            let b = byte(k, pass);
+            let b = byte(k, pass as u32);
             tmp[count[b]] = k;
             count[b] += 1;
         }
@@ -263,16 +266,10 @@ fn run_sums(ys: &[f32], v: f32, eps: f32) -> (f64, f64, f64) {
     (out[0], out[1], out[2])
 }
 
-/// Σ|max(p(x), 0) − y| over sorted pairs, the polynomial evaluated once per run of equal x.
+/// Σ|max(p(x), 0) − y| over the pairs (lane-split sums in a fixed order).
 #[inline(always)]
 pub fn abs_error(x: &[f32], y: &[f32], a: &Poly) -> f64 {
-    let (mut e, mut lo) = (0.0f64, 0);
-    while lo < x.len() {
-        let hi = run_end(x, lo);
-        e += run_sums(&y[lo..hi], eval(a, x[lo]).max(0.0), f32::INFINITY).0;
-        lo = hi;
-    }
-    e
+    pair_sums::<true>(x, y, None, a, 1.0).0
 }
 
 /// The end of the run of values equal to `x[lo]` that starts at `lo` in the sorted `x`.
@@ -302,6 +299,9 @@ struct PairStats {
     domain: f64,
     /// max|x| (the image's own range, for snapping).
     x_abs: f64,
+    /// Whether the sums go pair by pair ([`pair_sums`]) rather than run by run: most x are
+    /// distinct (a texel-wise model image), so runs would be a loop of length one.
+    by_pair: bool,
 }
 
 impl PairStats {
@@ -324,7 +324,9 @@ impl PairStats {
             }
         }
         let x_abs = hi.abs().max(lo.abs());
+        let runs = 1 + x.windows(2).filter(|w| w[1] != w[0]).count();
         PairStats {
+            by_pair: runs * PAIR_RUN_LENGTH > n,
             centre,
             inv_half: 1.0 / half,
             half,
@@ -398,6 +400,9 @@ fn moments(x: &[f32], y: &[f32], s: &PairStats) -> Moments {
     if s.max_degree == 0 {
         return m;
     }
+    if s.by_pair {
+        return pair_sums::<false>(x, y, Some(s), &IDENTITY, 0.0).1;
+    }
     let mut lo = 0;
     while lo < x.len() {
         let hi = run_end(x, lo);
@@ -413,6 +418,9 @@ fn moments(x: &[f32], y: &[f32], s: &PairStats) -> Moments {
 /// 1/max(|residual of a|, `eps`).
 #[inline(always)]
 fn residual_moments(x: &[f32], y: &[f32], s: &PairStats, a: &Poly, eps: f32) -> (f64, Moments) {
+    if s.by_pair {
+        return pair_sums::<true>(x, y, Some(s), a, eps);
+    }
     let mut m = Moments::default();
     let (mut e, mut lo) = (0.0f64, 0);
     while lo < x.len() {
@@ -426,6 +434,78 @@ fn residual_moments(x: &[f32], y: &[f32], s: &PairStats, a: &Poly, eps: f32) -> 
         lo = hi;
     }
     (e, m)
+}
+
+/// Runs shorter than this on average make [`PairStats`] sum pair by pair.
+const PAIR_RUN_LENGTH: usize = 4;
+
+/// Lanes of [`pair_sums`]' accumulators (8 f64: one AVX-512 register, two AVX2 ones; the sums
+/// are split into these lanes in the same fixed order in every build, so the bits agree).
+const PAIR_LANES: usize = 8;
+
+/// The moments over the pairs one by one, lane-split: unweighted (`WEIGHTED` = false: w = 1,
+/// no error) or weighted by w = 1/max(|max(a(x), 0) − y|, `eps`) with Σ|max(a(x), 0) − y| as the
+/// first result; `s` = None: the error alone. For images whose x are mostly distinct, where run sums ([`run_sums`]) degrade
+/// to a serial chain of f64 adds per pair.
+#[inline(always)]
+fn pair_sums<const WEIGHTED: bool>(
+    x: &[f32],
+    y: &[f32],
+    s: Option<&PairStats>,
+    a: &Poly,
+    eps: f32,
+) -> (f64, Moments) {
+    let (centre, inv_half) = s.map_or((0.0, 0.0), |s| (s.centre, s.inv_half));
+    let degree = s.is_some_and(|s| s.max_degree > 0);
+    let one = |xv: f32, yv: f32| -> (f64, f64, f64, f64) {
+        let t = (xv as f64 - centre) * inv_half;
+        if WEIGHTED {
+            let r = (eval(a, xv).max(0.0) - yv).abs();
+            let w = 1.0 / r.max(eps);
+            (r as f64, t, w as f64, w as f64 * yv as f64)
+        } else {
+            (0.0, t, 1.0, yv as f64)
+        }
+    };
+    let mut e = [0.0f64; PAIR_LANES];
+    let mut mom = [[0.0f64; PAIR_LANES]; 9];
+    let mut rhs = [[0.0f64; PAIR_LANES]; 5];
+    let xc = x.chunks_exact(PAIR_LANES);
+    let yc = y.chunks_exact(PAIR_LANES);
+    let (xt, yt) = (xc.remainder(), yc.remainder());
+    for (xs, ys) in xc.zip(yc) {
+        for l in 0..PAIR_LANES {
+            let (r, t, w, wy) = one(xs[l], ys[l]);
+            e[l] += r;
+            if degree {
+                let (mut p, mut q) = (w, wy);
+                for k in 0..9 {
+                    mom[k][l] += p;
+                    if k < 5 {
+                        rhs[k][l] += q;
+                    }
+                    p *= t;
+                    q *= t;
+                }
+            }
+        }
+    }
+    let mut m = Moments::default();
+    let mut err: f64 = e.iter().sum();
+    for (o, a) in m.mom.iter_mut().zip(&mom) {
+        *o = a.iter().sum();
+    }
+    for (o, a) in m.rhs.iter_mut().zip(&rhs) {
+        *o = a.iter().sum();
+    }
+    for (&xv, &yv) in xt.iter().zip(yt) {
+        let (r, t, w, wy) = one(xv, yv);
+        err += r;
+        if degree {
+            m.add(t, w, wy);
+        }
+    }
+    (err, m)
 }
 
 /// p(x) = Σ_j b_j ((x − c)/h)^j expanded into powers of x (f64, rounded once to f32).
