@@ -54,7 +54,7 @@ impl Scratch {
 
 /// Order-preserving map of f32 bits to u32 (the IEEE total order, as `f32::total_cmp`).
 #[inline]
-fn key(v: f32) -> u32 {
+pub(super) fn key(v: f32) -> u32 {
     let b = v.to_bits();
     if b & 0x8000_0000 != 0 {
         !b
@@ -63,8 +63,9 @@ fn key(v: f32) -> u32 {
     }
 }
 
+/// The inverse of [`key`].
 #[inline]
-fn unkey(k: u32) -> f32 {
+pub(super) fn unkey(k: u32) -> f32 {
     f32::from_bits(if k & 0x8000_0000 != 0 {
         k & 0x7fff_ffff
     } else {

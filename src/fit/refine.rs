@@ -12,6 +12,7 @@
 //! error, so the total never rises.
 
 use super::lafortune::{self, LobeFitter};
+use super::mapping;
 use crate::math::color::linear_to_srgb;
 use crate::model::PackedLobe;
 use crate::model::lobe::Lobe;
@@ -272,15 +273,24 @@ pub fn refine(
                 }
                 let mut mean = vec![0.0f32; nl];
                 let mut median = vec![0.0f32; nl];
-                let mut col = Vec::with_capacity(mem.len());
-                for l in 0..nl {
-                    col.clear();
-                    col.extend(mem.iter().map(|&t| y[t * nl + l]));
-                    mean[l] =
-                        (col.iter().map(|&v| v as f64).sum::<f64>() / col.len() as f64) as f32;
-                    let mid = col.len() / 2;
-                    col.select_nth_unstable_by(mid, f32::total_cmp);
-                    median[l] = col[mid];
+                // The members' curves transposed to one column per light, as order keys of the
+                // values (`u32` comparisons select faster than `f32::total_cmp`): each member's
+                // row is read whole (the rows are scattered over the texels; a column-wise gather
+                // would miss the cache once per value). The column sums run in member order.
+                let n = mem.len();
+                let mut cols = vec![0u32; n * nl];
+                let mut sum = vec![0.0f64; nl];
+                for (i, &t) in mem.iter().enumerate() {
+                    for (l, &v) in y[t * nl..(t + 1) * nl].iter().enumerate() {
+                        cols[l * n + i] = mapping::key(v);
+                        sum[l] += v as f64;
+                    }
+                }
+                for (l, col) in cols.chunks_exact_mut(n).enumerate() {
+                    mean[l] = (sum[l] / n as f64) as f32;
+                    let mid = n / 2;
+                    col.select_nth_unstable(mid);
+                    median[l] = mapping::unkey(col[mid]);
                 }
                 let cur = lobes[a];
                 let member_err = |c: &[f32]| mem.iter().map(|&t| l1(row(t), c) as f64).sum::<f64>();

@@ -115,7 +115,7 @@ pub fn fit_view(
         &sorted,
         texels,
         &mut out.stats,
-        texel_images(lights, &lm_lobes, texels),
+        Model::Texels(texel_images(lights, &lm_lobes, texels)),
     );
     stage(Stage::Plm);
     if opts.kind == ModelKind::Plm {
@@ -283,7 +283,10 @@ pub fn fit_view(
         &sorted,
         texels,
         &mut stats,
-        cluster_images(lights, &unpacked, &index, texels),
+        Model::Clusters {
+            table: &unpacked,
+            index: &index,
+        },
     );
     if opts.refine_iters > 0 {
         // A second, short refinement through the PLM-C mappings themselves (the first used PLM's),
@@ -347,7 +350,10 @@ pub fn fit_view(
             &sorted,
             texels,
             &mut stats2,
-            cluster_images(lights, &unpacked2, &index2, texels),
+            Model::Clusters {
+                table: &unpacked2,
+                index: &index2,
+            },
         );
         if view_err(&table2, &index2, &polys2) < view_err(&table, &index, &polys) {
             (table, index, polys, stats) = (table2, index2, polys2, stats2);
@@ -409,29 +415,102 @@ fn texel_images(lights: &DirectionSet, lobes: &[Lobe], texels: usize) -> Vec<f32
     out
 }
 
-/// A clustered model's images `[light][channel][texel]` from its lobe table `[cluster][channel]`
-/// and index image `[texel][channel]`: each cluster's lobe is evaluated once per image and
-/// looked up per texel (the same values as evaluating every texel's lobe).
-fn cluster_images(lights: &DirectionSet, table: &[Lobe], index: &[u16], texels: usize) -> Vec<f32> {
-    let k = table.len() / 3;
-    let mut out = vec![0.0f32; lights.len() * 3 * texels];
-    out.par_chunks_mut(texels.max(1))
-        .enumerate()
-        .for_each_init(Vec::new, |vals, (i, img)| {
-            let (l, c) = (i / 3, i % 3);
-            let u = lights.dirs[l];
-            vals.clear();
-            vals.extend((0..k).map(|j| lobe::eval(&table[3 * j + c], u)));
-            for (t, v) in img.iter_mut().enumerate() {
-                *v = vals[index[3 * t + c] as usize];
-            }
-        });
-    out
+/// The model whose images [`fit_polys`] maps onto the original images.
+enum Model<'a> {
+    /// Texel-wise images `[light][channel][texel]` (see [`texel_images`]).
+    Texels(Vec<f32>),
+    /// A clustered model: lobe table `[cluster][channel]`, index image `[texel][channel]`. An
+    /// image takes each cluster's lobe value at every member texel, so its pairs come sorted
+    /// without sorting texels: members grouped by cluster once per channel, clusters ordered by
+    /// their value per image.
+    Clusters { table: &'a [Lobe], index: &'a [u16] },
 }
 
-/// Polynomials `[light][channel]` mapping the model images `images` (`[light][channel][texel]`,
-/// see [`texel_images`] and [`cluster_images`]) onto the
-/// original image `data` (`[light][texel][rgb]`, also given sorted, see [`sorted_planes`]).
+/// The texels of each cluster of one channel, ascending: cluster j's are
+/// `texels[start[j]..start[j + 1]]` (a counting sort of the index image).
+struct Members {
+    start: Vec<usize>,
+    texels: Vec<u32>,
+}
+
+impl Members {
+    fn new(index: &[u16], c: usize, k: usize) -> Self {
+        let mut start = vec![0usize; k + 1];
+        for ix in index.chunks_exact(3) {
+            start[ix[c] as usize + 1] += 1;
+        }
+        for j in 0..k {
+            start[j + 1] += start[j];
+        }
+        let mut pos = start.clone();
+        let mut texels = vec![0u32; index.len() / 3];
+        for (t, ix) in index.chunks_exact(3).enumerate() {
+            let j = ix[c] as usize;
+            texels[pos[j]] = t as u32;
+            pos[j] += 1;
+        }
+        Members { start, texels }
+    }
+
+    fn of(&self, j: usize) -> &[u32] {
+        &self.texels[self.start[j]..self.start[j + 1]]
+    }
+}
+
+/// Per-image buffers of [`fit_polys`].
+#[derive(Default)]
+struct PolyScratch {
+    mapping: mapping::Scratch,
+    order: Vec<usize>,
+    merged: Vec<u32>,
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+}
+
+/// The (model, original) pairs of image `i` = (light, channel `c`) of a clustered model, in the
+/// order of a stable sort by model value (`f32::total_cmp`, ties by texel): clusters by value,
+/// each one's members ascending, members of clusters with the same value merged by texel.
+fn cluster_pairs<'s>(
+    vals: &[f32],
+    members: &Members,
+    orig: impl Fn(usize) -> f32,
+    s: &'s mut PolyScratch,
+) -> (&'s [f32], &'s [f32]) {
+    s.order.clear();
+    s.order
+        .extend((0..vals.len()).filter(|&j| !members.of(j).is_empty()));
+    s.order
+        .sort_unstable_by_key(|&j| (mapping::key(vals[j]), j));
+    s.xs.clear();
+    s.ys.clear();
+    let mut a = 0;
+    while a < s.order.len() {
+        let v = vals[s.order[a]];
+        let mut b = a + 1;
+        while b < s.order.len() && mapping::key(vals[s.order[b]]) == mapping::key(v) {
+            b += 1;
+        }
+        let run: &[u32] = if b - a == 1 {
+            members.of(s.order[a])
+        } else {
+            s.merged.clear();
+            for &j in &s.order[a..b] {
+                s.merged.extend_from_slice(members.of(j));
+            }
+            s.merged.sort_unstable();
+            &s.merged
+        };
+        for &t in run {
+            s.xs.push(v);
+            s.ys.push(orig(t as usize));
+        }
+        a = b;
+    }
+    (&s.xs, &s.ys)
+}
+
+/// Polynomials `[light][channel]` mapping the images of `model` (`[light][channel]`) onto the
+/// original images `data` (`[light][texel][rgb]`, also given sorted, see [`sorted_planes`]).
 ///
 /// Per image two mappings are fitted and the one with the lower MAE on the image is kept (counted
 /// in `stats`): the paper's histogram matching (rank k of the model ↦ rank k of the original; it
@@ -450,22 +529,51 @@ fn fit_polys(
     sorted: &[f32],
     texels: usize,
     stats: &mut ViewStats,
-    images: Vec<f32>,
+    model: Model,
 ) -> Vec<Poly> {
+    let images = lights.len() * 3;
+    // The model values: per image its texels' (texel-wise) or its clusters' (clustered).
+    let (values, members): (Vec<f32>, Vec<Members>) = match model {
+        Model::Texels(images) => (images, Vec::new()),
+        Model::Clusters { table, index } => {
+            let k = table.len() / 3;
+            let vals = (0..images)
+                .into_par_iter()
+                .flat_map_iter(|i| {
+                    let (l, c) = (i / 3, i % 3);
+                    let u = lights.dirs[l];
+                    (0..k).map(move |j| lobe::eval(&table[3 * j + c], u))
+                })
+                .collect();
+            (vals, (0..3).map(|c| Members::new(index, c, k)).collect())
+        }
+    };
+    let per_image = values.len() / images.max(1);
+    // Each channel's mapping is conditioned on the largest model value of the channel.
     let mut floor = [0.0f32; 3];
-    for (i, img) in images.chunks(texels.max(1)).enumerate() {
-        let m = img.iter().fold(0.0f32, |m, &v| m.max(v));
-        floor[i % 3] = floor[i % 3].max(m);
+    for (i, img) in values.chunks(per_image.max(1)).enumerate() {
+        let c = i % 3;
+        let m = img
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| members.is_empty() || !members[c].of(j).is_empty())
+            .fold(0.0f32, |m, (_, &v)| m.max(v));
+        floor[c] = floor[c].max(m);
     }
-    let fits: Vec<(Poly, bool)> = (0..lights.len() * 3)
+    let fits: Vec<(Poly, bool)> = (0..images)
         .into_par_iter()
-        .map_init(mapping::Scratch::default, |s, i| {
+        .map_init(PolyScratch::default, |s, i| {
             let (l, c) = (i / 3, i % 3);
-            let img = &images[i * texels..(i + 1) * texels];
+            let img = &values[i * per_image..(i + 1) * per_image];
             let f = floor[c];
+            let orig = |t: usize| data[(l * texels + t) * 3 + c];
             // The pairs (model, original) by model value; their model values are the sorted
             // model image the histogram matching pairs rank by rank with the sorted original.
-            let (xs, ys) = s.sort_pairs(img, |t| data[(l * texels + t) * 3 + c]);
+            let (xs, ys) = if members.is_empty() {
+                s.mapping.sort_pairs(img, orig)
+            } else {
+                cluster_pairs(img, &members[c], orig, s)
+            };
             let matched = mapping::fit_pairs_in(xs, &sorted[i * texels..(i + 1) * texels], f);
             let (regressed, e_regressed) = mapping::fit_pairs_l1(xs, ys, f, L1_ROUNDS);
             if e_regressed < mapping::abs_error(xs, ys, &matched) {
