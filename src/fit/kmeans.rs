@@ -9,6 +9,7 @@
 //! [`STOP_FRACTION`] of the points change cluster; the result is taken right after that
 //! assignment pass, so every point is still at its nearest centre.
 
+use super::mapping;
 use crate::math::Pcg32;
 
 /// Result of a clustering: `centers` is `k × dim`, `assign[i] < k` for every point.
@@ -65,19 +66,22 @@ fn neighbours(
             cc[b * k + a] = d;
         }
     }
+    // Sorted as u64 keys (distance order key, then index): the same order as comparing
+    // (distance by `f32::total_cmp`, index), with plain integer comparisons.
+    let mut keys: Vec<u64> = Vec::with_capacity(k.saturating_sub(1));
     for a in 0..k {
-        let row = &mut near[a * (k - 1)..(a + 1) * (k - 1)];
-        for (j, r) in (0..k).filter(|&b| b != a).zip(row.iter_mut()) {
-            *r = j as u32;
-        }
         let dist = &cc[a * k..(a + 1) * k];
-        row.sort_unstable_by(|&x, &y| {
-            dist[x as usize]
-                .total_cmp(&dist[y as usize])
-                .then(x.cmp(&y))
-        });
-        for (d, &b) in near_d[a * (k - 1)..].iter_mut().zip(row.iter()) {
-            *d = dist[b as usize];
+        keys.clear();
+        keys.extend(
+            (0..k)
+                .filter(|&b| b != a)
+                .map(|b| ((mapping::key(dist[b]) as u64) << 32) | b as u64),
+        );
+        keys.sort_unstable();
+        let row = a * (k - 1)..(a + 1) * (k - 1);
+        for ((n, d), &key) in near[row.clone()].iter_mut().zip(&mut near_d[row]).zip(&keys) {
+            *n = key as u32;
+            *d = dist[key as u32 as usize];
         }
     }
 }
