@@ -79,7 +79,11 @@ fn neighbours(
         );
         keys.sort_unstable();
         let row = a * (k - 1)..(a + 1) * (k - 1);
-        for ((n, d), &key) in near[row.clone()].iter_mut().zip(&mut near_d[row]).zip(&keys) {
+        for ((n, d), &key) in near[row.clone()]
+            .iter_mut()
+            .zip(&mut near_d[row])
+            .zip(&keys)
+        {
             *n = key as u32;
             *d = dist[key as u32 as usize];
         }
