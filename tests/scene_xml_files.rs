@@ -225,6 +225,31 @@ fn alias_path_and_spectrum_errors() {
     expect_err(&p, "i.xml", 8, "line 3");
 }
 
+/// A top-level area emitter with an id, referenced by a shape written before it (Mitsuba's
+/// Cornell boxes, `cbox-rgb.xml`); one that no shape references is an error.
+#[test]
+fn top_level_area_emitter_referenced_by_a_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = load(&write(
+        d,
+        "a.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><ref id=\"area-emitter\"/></shape>\n<emitter type=\"area\" id=\"area-emitter\"><rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter>",
+        ),
+    ));
+    assert_eq!(s.meshes[0].emitter, Some(Spectrum::new(1.0, 2.0, 3.0)));
+    assert!(s.emitters.is_empty());
+    let p = write(
+        d,
+        "b.xml",
+        &scene_text(
+            "<shape type=\"sphere\"/>\n<emitter type=\"area\" id=\"lonely\"><rgb name=\"radiance\" value=\"1\"/></emitter>",
+        ),
+    );
+    expect_err(&p, "b.xml", 8, "no shape references this one");
+}
+
 /// Mitsuba 3.9.1's values (`src/bsdf/golden/spectrum_golden.py`): `<use> r g b <spectrum>`.
 const SPECTRUM_GOLDEN: &str = include_str!("../src/bsdf/golden/spectrum_golden.txt");
 

@@ -455,8 +455,8 @@ impl<'a, 'x> Builder<'a, 'x> {
                 return Err(p.err("should specify either (eta, k) or material, not both"));
             }
             return Err(p.err(format!(
-                "named conductor material \"{material}\" is not supported (btfpt cannot reproduce \
-                 Mitsuba's spectral-to-RGB values): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+                "named conductor material \"{material}\" is not supported (its spectral IOR tables \
+                 ship with Mitsuba, not btfpt): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
             )));
         }
         Ok((

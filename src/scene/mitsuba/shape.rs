@@ -152,6 +152,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
                 let radiance = e.emission("radiance", Vec3::ONE)?;
                 e.finish()?;
+                self.area_emitters_used.insert(x.key(c.node));
                 Some(radiance)
             }
         };
