@@ -188,8 +188,13 @@ fn full_scene_parses_into_expected_values() {
     match b(1) {
         Bsdf::RoughConductor(r) => {
             assert_eq!(r.distribution, MicrofacetType::Ggx);
-            assert_eq!((r.alpha_u, r.alpha_v), (0.2, 0.3));
-            assert!(close(r.eta, Vec3::new(0.2, 0.9, 1.1)) && close(r.k, Vec3::new(3.9, 2.4, 2.2)));
+            assert!(matches!(r.alpha_u, Texture::Constant(c) if c == Vec3::splat(0.2)));
+            assert!(matches!(r.alpha_v, Texture::Constant(c) if c == Vec3::splat(0.3)));
+            let uv = Vec2::ZERO;
+            assert!(
+                close(r.eta.eval(uv), Vec3::new(0.2, 0.9, 1.1))
+                    && close(r.k.eval(uv), Vec3::new(3.9, 2.4, 2.2))
+            );
             assert!(r.sample_visible);
         }
         o => panic!("{o:?}"),
@@ -204,7 +209,8 @@ fn full_scene_parses_into_expected_values() {
     }
     match b(5) {
         Bsdf::Conductor(x) => {
-            assert_eq!((x.eta, x.k), (Vec3::ZERO, Vec3::ONE));
+            assert!(matches!(x.eta, Texture::Constant(v) if v == Vec3::ZERO));
+            assert!(matches!(x.k, Texture::Constant(v) if v == Vec3::ONE));
             assert!(matches!(x.specular_reflectance, Texture::Constant(v) if v == Vec3::ONE));
         }
         o => panic!("{o:?}"),
@@ -657,6 +663,53 @@ property float z\nproperty float u\nproperty float v\nelement face 2\nproperty l
     assert_eq!(m.normals.len(), 4);
 }
 
+/// Mitsuba 3.9.1's roughconductor takes alpha/alpha_u/alpha_v and its conductors eta/k as
+/// (unbounded) textures: a checkerboard roughness, a bitmap IOR, a float k.
+#[test]
+fn conductor_roughness_and_ior_textures_parse() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut img = RgbImage::new(2, 1);
+    img.set(0, 0, [0.2, 1.5, 2.5]);
+    img.set(1, 0, [0.4, 0.9, 1.1]);
+    write_exr(&dir.path().join("eta.exr"), &img).unwrap();
+    let p = scene_with(
+        dir.path(),
+        r#"<bsdf type="roughconductor" id="a"><texture type="checkerboard" name="alpha"><float name="color0" value="0.05"/><float name="color1" value="0.4"/></texture><texture type="bitmap" name="eta"><string name="filename" value="eta.exr"/></texture><float name="k" value="2"/></bsdf>
+<bsdf type="roughconductor" id="b"><float name="alpha_u" value="0.2"/><texture type="checkerboard" name="alpha_v"/></bsdf>
+<bsdf type="conductor" id="c"><texture type="bitmap" name="k"><string name="filename" value="eta.exr"/></texture></bsdf>
+<shape type="cube"><ref id="a"/></shape>
+<shape type="cube"><ref id="b"/></shape>
+<shape type="cube"><ref id="c"/></shape>"#,
+    );
+    let s = load(&p);
+    let b = |i: usize| &s.bsdfs[s.meshes[i].bsdf as usize];
+    match b(0) {
+        Bsdf::RoughConductor(r) => {
+            // eval_1 of a checkerboard: color0 where the halves of uv differ (Mitsuba 3.9.1).
+            assert_eq!(r.alpha_u.eval_1(Vec2::new(0.3, 0.6)), 0.05);
+            assert_eq!(r.alpha_v.eval_1(Vec2::new(0.3, 0.3)), 0.4);
+            assert_eq!(r.eta.eval(Vec2::new(0.25, 0.5)), Vec3::new(0.2, 1.5, 2.5));
+            assert!(matches!(r.k, Texture::Constant(c) if c == Vec3::splat(2.0)));
+            assert!(r.flags().has(btfpt::bsdf::BsdfFlags::SPATIALLY_VARYING));
+        }
+        o => panic!("{o:?}"),
+    }
+    match b(1) {
+        Bsdf::RoughConductor(r) => {
+            assert!(matches!(r.alpha_u, Texture::Constant(c) if c == Vec3::splat(0.2)));
+            assert!(matches!(r.alpha_v, Texture::Checkerboard(_)));
+        }
+        o => panic!("{o:?}"),
+    }
+    match b(2) {
+        Bsdf::Conductor(c) => {
+            assert!(matches!(c.k, Texture::Bitmap(_) | Texture::Mapped(_)));
+            assert!(matches!(c.eta, Texture::Constant(v) if v == Vec3::ZERO));
+        }
+        o => panic!("{o:?}"),
+    }
+}
+
 #[test]
 fn plastic_rough_blend_and_mask_bsdfs_parse() {
     let dir = tempfile::tempdir().unwrap();
@@ -757,6 +810,26 @@ fn bad_bsdf_parameters_name_the_line() {
         (
             r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha_u" value="0.1"/></bsdf>"#,
             "both \"alpha_u\" and \"alpha_v\"",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><texture type="checkerboard" name="alpha_u"/></bsdf>"#,
+            "both \"alpha_u\" and \"alpha_v\"",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><float name="alpha" value="0.1"/><texture type="checkerboard" name="alpha_u"/><float name="alpha_v" value="0.1"/></bsdf>"#,
+            "either \"alpha\" or",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><rgb name="alpha" value="0.1, -0.2, 0.3"/></bsdf>"#,
+            "non-negative roughness",
+        ),
+        (
+            r#"<bsdf type="roughconductor"><bsdf type="diffuse" name="alpha"/></bsdf>"#,
+            "must be a <texture> or a colour",
+        ),
+        (
+            r#"<bsdf type="conductor"><string name="material" value="Au"/><texture type="checkerboard" name="eta"/></bsdf>"#,
+            "either (eta, k) or material",
         ),
         (
             r#"<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="int_ior" value="1"/><float name="ext_ior" value="1"/></bsdf>"#,

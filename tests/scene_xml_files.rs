@@ -173,14 +173,160 @@ fn alias_path_and_spectrum_errors() {
     expect_err(&p, "b.xml", 9, "already exists");
     let p = write(d, "c.xml", &scene_text("<path value=\"no-such-folder\"/>"));
     expect_err(&p, "c.xml", 7, "not found");
+    let bad = [
+        ("400:0.1, 400:0.5", "increasing order"),
+        ("400:0.1, 500:x", "invalid spectrum value \"500:x\""),
+        ("400:0.1", "at least two entries"),
+        ("400:0.1, 500", "expected wavelength:value pairs"),
+    ];
+    for (value, needle) in bad {
+        let p = write(
+            d,
+            "e.xml",
+            &scene_text(&format!(
+                "<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" value=\"{value}\"/></bsdf></shape>"
+            )),
+        );
+        expect_err(&p, "e.xml", 8, needle);
+    }
+    // Spectral-only uses: a spectrum plugin, a wavelength list where a number is needed.
     let p = write(
         d,
-        "e.xml",
+        "f.xml",
         &scene_text(
-            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" value=\"400:0.1, 700:0.5\"/></bsdf></shape>",
+            "<shape type=\"sphere\"><emitter type=\"area\">\n<spectrum type=\"blackbody\" name=\"radiance\"/></emitter></shape>",
         ),
     );
-    expect_err(&p, "e.xml", 8, "spectrum");
+    expect_err(&p, "f.xml", 8, "spectral plugin");
+    let p = write(
+        d,
+        "g.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><bsdf type=\"dielectric\">\n<spectrum name=\"int_ior\" value=\"400:1.5, 700:1.4\"/></bsdf></shape>",
+        ),
+    );
+    expect_err(&p, "g.xml", 8, "int_ior");
+    let p = write(
+        d,
+        "h.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"none.spd\"/></bsdf></shape>",
+        ),
+    );
+    expect_err(&p, "h.xml", 8, "none.spd");
+    write(d, "bad.spd", "# nm value\n400 0.5\n500 oops\n");
+    let p = write(
+        d,
+        "i.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\">\n<spectrum name=\"reflectance\" filename=\"bad.spd\"/></bsdf></shape>",
+        ),
+    );
+    expect_err(&p, "i.xml", 8, "line 3");
+}
+
+/// A top-level area emitter with an id, referenced by a shape written before it (Mitsuba's
+/// Cornell boxes, `cbox-rgb.xml`); one that no shape references is an error.
+#[test]
+fn top_level_area_emitter_referenced_by_a_shape() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = load(&write(
+        d,
+        "a.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><ref id=\"area-emitter\"/></shape>\n<emitter type=\"area\" id=\"area-emitter\"><rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter>",
+        ),
+    ));
+    assert_eq!(s.meshes[0].emitter, Some(Spectrum::new(1.0, 2.0, 3.0)));
+    assert!(s.emitters.is_empty());
+    let p = write(
+        d,
+        "b.xml",
+        &scene_text(
+            "<shape type=\"sphere\"/>\n<emitter type=\"area\" id=\"lonely\"><rgb name=\"radiance\" value=\"1\"/></emitter>",
+        ),
+    );
+    expect_err(&p, "b.xml", 8, "no shape references this one");
+}
+
+/// Mitsuba 3.9.1's values (`src/bsdf/golden/spectrum_golden.py`): `<use> r g b <spectrum>`.
+const SPECTRUM_GOLDEN: &str = include_str!("../src/bsdf/golden/spectrum_golden.txt");
+
+/// Wavelength-list spectra load as Mitsuba's RGB variants convert them: a diffuse reflectance
+/// (D65-weighted, clipped to [0, 1]), a conductor's eta (unbounded), an area light's and a
+/// constant emitter's radiance (no D65 weighting; a constant spectrum is Mitsuba's purplish
+/// white), inline or from a `.spd` file.
+#[test]
+fn wavelength_list_spectra_match_mitsuba() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let close =
+        |a: Spectrum, b: Spectrum| (a - b).abs().max_element() <= 2e-6 * b.max_element().max(1.0);
+    let mut n = 0;
+    for line in SPECTRUM_GOLDEN.lines() {
+        let f: Vec<&str> = line.splitn(5, ' ').collect();
+        let want = Spectrum::new(
+            f[1].parse().unwrap(),
+            f[2].parse().unwrap(),
+            f[3].parse().unwrap(),
+        );
+        let spec = |name: &str| format!("<spectrum name=\"{name}\" value=\"{}\"/>", f[4]);
+        let body = match f[0] {
+            "reflectance" => format!(
+                "<shape type=\"sphere\"><bsdf type=\"diffuse\">{}</bsdf></shape>",
+                spec("reflectance")
+            ),
+            "unbounded" => format!(
+                "<shape type=\"sphere\"><bsdf type=\"conductor\">{}</bsdf></shape>",
+                spec("eta")
+            ),
+            _ => format!(
+                "<shape type=\"sphere\"><emitter type=\"area\">{}</emitter></shape>\n<emitter type=\"constant\">{}</emitter>",
+                spec("radiance"),
+                spec("radiance")
+            ),
+        };
+        let s = load(&write(d, "s.xml", &scene_text(&body)));
+        let got: Vec<Spectrum> = match f[0] {
+            "reflectance" => vec![diffuse_reflectance(&s, 0).eval(Vec2::ZERO)],
+            "unbounded" => match &s.bsdfs[s.meshes[0].bsdf as usize] {
+                Bsdf::Conductor(c) => vec![c.eta.eval(Vec2::ZERO)],
+                b => panic!("{b:?}"),
+            },
+            _ => {
+                let area = s.meshes[0].emitter.unwrap();
+                match s.emitters[..] {
+                    [scene::Emitter::Constant { radiance }] => vec![area, radiance],
+                    ref e => panic!("{e:?}"),
+                }
+            }
+        };
+        for g in got {
+            assert!(close(g, want), "{line}: ours {g}, Mitsuba {want}");
+        }
+        n += 1;
+    }
+    assert_eq!(n, 14);
+    // A .spd file (comments, blank lines, extra columns ignored) is the same spectrum.
+    write(
+        d,
+        "red.spd",
+        "# cbox red, a few samples\n400 0.04\n\n550 0.063 x\n700 0.642\n",
+    );
+    let s = load(&write(
+        d,
+        "spd.xml",
+        &scene_text(
+            "<shape type=\"sphere\"><bsdf type=\"diffuse\"><spectrum name=\"reflectance\" filename=\"red.spd\"/></bsdf></shape>\n\
+             <shape type=\"sphere\"><bsdf type=\"diffuse\"><spectrum name=\"reflectance\" value=\"400:0.04 550:0.063 700:0.642\"/></bsdf></shape>",
+        ),
+    ));
+    let (a, b) = (
+        diffuse_reflectance(&s, 0).eval(Vec2::ZERO),
+        diffuse_reflectance(&s, 1).eval(Vec2::ZERO),
+    );
+    assert!(a == b && a.x > 0.3 && a.y < 0.2, "{a} {b}");
 }
 
 #[test]

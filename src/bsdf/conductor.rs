@@ -9,10 +9,10 @@ use crate::math::{Spectrum, Vec2, Vec3};
 /// Mitsuba's `material="none"` (ideal mirror) is eta = 0, k = 1.
 #[derive(Clone, Debug)]
 pub struct Conductor {
-    /// Real part of the relative IOR per channel.
-    pub eta: Spectrum,
-    /// Extinction coefficient (imaginary part of the IOR) per channel.
-    pub k: Spectrum,
+    /// Real part of the relative IOR per channel (a texture, unbounded, as Mitsuba's `eta`).
+    pub eta: Texture,
+    /// Extinction coefficient (imaginary part of the IOR) per channel (a texture).
+    pub k: Texture,
     /// Multiplier on the reflectance (Mitsuba default 1).
     pub specular_reflectance: Texture,
 }
@@ -21,7 +21,10 @@ impl Conductor {
     /// Delta reflection only.
     pub fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION;
-        if self.specular_reflectance.is_spatially_varying() {
+        if self.specular_reflectance.is_spatially_varying()
+            || self.eta.is_spatially_varying()
+            || self.k.is_spatially_varying()
+        {
             f | BsdfFlags::SPATIALLY_VARYING
         } else {
             f
@@ -55,7 +58,7 @@ impl Conductor {
             eta: 1.0,
             sampled: BsdfFlags::DELTA_REFLECTION,
         };
-        let f = fresnel_conductor_rgb(cos_theta_i, self.eta, self.k);
+        let f = fresnel_conductor_rgb(cos_theta_i, self.eta.eval(si.uv), self.k.eval(si.uv));
         Some((bs, self.specular_reflectance.eval(si.uv) * f))
     }
 }

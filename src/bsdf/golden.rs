@@ -2,6 +2,7 @@
 //! Mitsuba 3.9.1's own plugins (variant `scalar_rgb`, made by `golden/mitsuba_golden.py`) at fixed
 //! directions and random numbers; every line must be reproduced by our models.
 
+use super::texture::{Checkerboard, UvTransform};
 use super::*;
 
 const GOLDEN: &str = include_str!("golden/mitsuba3_golden.txt");
@@ -20,10 +21,10 @@ fn rough(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
 fn rough_with(distribution: MicrofacetType, alpha_u: f32, alpha_v: f32, vis: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
         distribution,
-        alpha_u,
-        alpha_v,
-        eta: GOLD_ETA,
-        k: GOLD_K,
+        alpha_u: Texture::uniform(alpha_u),
+        alpha_v: Texture::uniform(alpha_v),
+        eta: Texture::Constant(GOLD_ETA),
+        k: Texture::Constant(GOLD_K),
         specular_reflectance: c(0.9, 0.8, 0.7),
         sample_visible: vis,
     })
@@ -40,13 +41,13 @@ fn config(name: &str) -> Bsdf {
         "rough_aniso_novis" => rough(0.12, 0.45, false),
         "rough_iso_novis" => rough(0.2, 0.2, false),
         "conductor_gold" => Bsdf::Conductor(Conductor {
-            eta: GOLD_ETA,
-            k: GOLD_K,
+            eta: Texture::Constant(GOLD_ETA),
+            k: Texture::Constant(GOLD_K),
             specular_reflectance: c(1.0, 0.9, 0.8),
         }),
         "conductor_none" => Bsdf::Conductor(Conductor {
-            eta: Spectrum::ZERO,
-            k: Spectrum::ONE,
+            eta: Texture::Constant(Spectrum::ZERO),
+            k: Texture::Constant(Spectrum::ONE),
             specular_reflectance: c(1.0, 1.0, 1.0),
         }),
         "dielectric" => Bsdf::Dielectric(Dielectric {
@@ -243,6 +244,80 @@ fn beckmann_config(name: &str) -> Bsdf {
             0.3,
         ),
         "bumpmap_rough_aniso" => bump(rough(0.3, 0.1, true), 0.5),
+        _ => textured_config(name),
+    }
+}
+
+/// `mitsuba_golden.py`'s `texels`: a 4×3 raw image, value (i, j) = f(i, j) × scales per channel.
+fn texels(f: impl Fn(usize, usize) -> f64, scales: [f64; 3]) -> Texture {
+    let mut img = crate::io::RgbImage::new(4, 3);
+    for j in 0..3 {
+        for i in 0..4 {
+            let v = f(i, j);
+            img.set(i, j, scales.map(|s| (s * v) as f32));
+        }
+    }
+    Texture::Bitmap(std::sync::Arc::new(img))
+}
+
+fn alpha_texels() -> Texture {
+    texels(
+        |i, j| 0.05 + 0.5 * ((2 * i + 3 * j) % 5) as f64 / 5.0,
+        [1.0, 0.7, 1.4],
+    )
+}
+
+fn eta_texels() -> Texture {
+    texels(|i, j| 0.2 + 0.3 * ((i + 2 * j) % 4) as f64, [1.0, 1.5, 0.6])
+}
+
+fn k_texels() -> Texture {
+    texels(|i, j| 2.0 + 0.4 * ((3 * i + j) % 5) as f64, [1.0, 0.8, 0.6])
+}
+
+fn checker(c0: f32, c1: f32) -> Texture {
+    Texture::Checkerboard(std::sync::Arc::new(Checkerboard {
+        color0: Texture::uniform(c0),
+        color1: Texture::uniform(c1),
+        to_uv: UvTransform::IDENTITY,
+    }))
+}
+
+/// Textured roughness and complex IOR (Mitsuba's unbounded textures).
+fn textured_config(name: &str) -> Bsdf {
+    match name {
+        "rough_textured_alpha" => Bsdf::RoughConductor(RoughConductor {
+            distribution: MicrofacetType::Ggx,
+            alpha_u: alpha_texels(),
+            alpha_v: checker(0.1, 0.45),
+            eta: Texture::Constant(GOLD_ETA),
+            k: Texture::Constant(GOLD_K),
+            specular_reflectance: c(0.9, 0.8, 0.7),
+            sample_visible: true,
+        }),
+        "beckmann_rough_textured_novis" => Bsdf::RoughConductor(RoughConductor {
+            distribution: MicrofacetType::Beckmann,
+            alpha_u: alpha_texels(),
+            alpha_v: alpha_texels(),
+            eta: eta_texels(),
+            k: k_texels(),
+            specular_reflectance: c(1.0, 1.0, 1.0),
+            sample_visible: false,
+        }),
+        "conductor_textured_ior" => Bsdf::Conductor(Conductor {
+            eta: eta_texels(),
+            k: k_texels(),
+            specular_reflectance: c(1.0, 1.0, 1.0),
+        }),
+        "roughdielectric_checker_alpha" => Bsdf::RoughDielectric(RoughDielectric {
+            distribution: MicrofacetType::Ggx,
+            alpha_u: checker(0.1, 0.45),
+            alpha_v: checker(0.1, 0.45),
+            eta: 1.5,
+            specular_reflectance: c(1.0, 1.0, 1.0),
+            specular_transmittance: c(1.0, 1.0, 1.0),
+            sample_visible: true,
+        }),
         other => panic!("golden file names an unknown configuration {other}"),
     }
 }
@@ -324,7 +399,7 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 32 && n_eval > 400 && n_sample > 300);
+    assert!(configs.len() == 36 && n_eval > 400 && n_sample > 300);
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",

@@ -1,5 +1,6 @@
 //! Rough conductor (Mitsuba `roughconductor`): Cook–Torrance with a Beckmann or GGX normal
-//! distribution, Smith masking and complex-IOR Fresnel. One-sided.
+//! distribution, Smith masking and complex-IOR Fresnel. One-sided. Roughness and IOR are
+//! textures evaluated at the hit, as in Mitsuba 3.9.1 (`alpha_u->eval_1(si)`, `eta->eval(si)`).
 
 use super::fresnel::{fresnel_conductor_rgb, reflect_about};
 use super::microfacet::{Microfacet, MicrofacetType};
@@ -12,14 +13,15 @@ use crate::math::{Spectrum, Vec2, Vec3};
 pub struct RoughConductor {
     /// Normal distribution (Mitsuba default Beckmann).
     pub distribution: MicrofacetType,
-    /// Roughness along the tangent s (clamped to 1e-4 like Mitsuba).
-    pub alpha_u: f32,
-    /// Roughness along the bitangent t.
-    pub alpha_v: f32,
-    /// Real part of the relative IOR per channel.
-    pub eta: Spectrum,
-    /// Extinction coefficient per channel.
-    pub k: Spectrum,
+    /// Roughness along the tangent s: a texture read with Mitsuba's `eval_1` at the hit,
+    /// clamped to 1e-4 like Mitsuba.
+    pub alpha_u: Texture,
+    /// Roughness along the bitangent t (`eval_1` at the hit).
+    pub alpha_v: Texture,
+    /// Real part of the relative IOR per channel (a texture, unbounded, as Mitsuba's `eta`).
+    pub eta: Texture,
+    /// Extinction coefficient per channel (a texture, as Mitsuba's `k`).
+    pub k: Texture,
     /// Multiplier on the reflectance (Mitsuba default 1).
     pub specular_reflectance: Texture,
     /// Sample visible normals (Mitsuba default true).
@@ -27,20 +29,32 @@ pub struct RoughConductor {
 }
 
 impl RoughConductor {
+    /// The distribution at `uv` (roughness textures evaluated there).
     #[inline]
-    fn distr(&self) -> Microfacet {
+    fn distr(&self, uv: Vec2) -> Microfacet {
         Microfacet::new(
             self.distribution,
-            self.alpha_u,
-            self.alpha_v,
+            self.alpha_u.eval_1(uv),
+            self.alpha_v.eval_1(uv),
             self.sample_visible,
         )
+    }
+
+    /// Fresnel reflectance at `cos_theta_i` with the IOR textures evaluated at `uv`.
+    #[inline]
+    fn fresnel(&self, cos_theta_i: f32, uv: Vec2) -> Spectrum {
+        fresnel_conductor_rgb(cos_theta_i, self.eta.eval(uv), self.k.eval(uv))
     }
 
     /// Glossy reflection.
     pub fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::GLOSSY_REFLECTION;
-        if self.specular_reflectance.is_spatially_varying() {
+        if self.specular_reflectance.is_spatially_varying()
+            || self.alpha_u.is_spatially_varying()
+            || self.alpha_v.is_spatially_varying()
+            || self.eta.is_spatially_varying()
+            || self.k.is_spatially_varying()
+        {
             f | BsdfFlags::SPATIALLY_VARYING
         } else {
             f
@@ -62,7 +76,7 @@ impl RoughConductor {
         if wi.dot(m) <= 0.0 || wo.dot(m) <= 0.0 {
             return 0.0;
         }
-        let d = self.distr();
+        let d = self.distr(si.uv);
         if d.sample_visible {
             d.eval(m) * d.smith_g1(wi, m) / (4.0 * wi.z)
         } else {
@@ -77,14 +91,14 @@ impl RoughConductor {
             return (Spectrum::ZERO, 0.0);
         }
         let h = (wo + wi).normalize();
-        let d = self.distr();
+        let d = self.distr(si.uv);
         let dm = d.eval(h);
         if dm == 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
         let g1_wi = d.smith_g1(wi, h);
         let g = g1_wi * d.smith_g1(wo, h);
-        let f = fresnel_conductor_rgb(wi.dot(h), self.eta, self.k);
+        let f = self.fresnel(wi.dot(h), si.uv);
         let value = self.specular_reflectance.eval(si.uv) * f * (dm * g / (4.0 * wi.z));
         let pdf = if wi.dot(h) <= 0.0 || wo.dot(h) <= 0.0 {
             0.0
@@ -108,7 +122,7 @@ impl RoughConductor {
         if wi.z <= 0.0 {
             return None;
         }
-        let d = self.distr();
+        let d = self.distr(si.uv);
         let (m, pdf_m) = d.sample(wi, sample2);
         let wo = reflect_about(wi, m);
         if !(pdf_m != 0.0 && wo.z > 0.0) {
@@ -123,7 +137,7 @@ impl RoughConductor {
         if !(pdf.is_finite() && pdf > 0.0) {
             return None;
         }
-        let f = fresnel_conductor_rgb(wi.dot(m), self.eta, self.k);
+        let f = self.fresnel(wi.dot(m), si.uv);
         let bs = BsdfSample {
             wo,
             pdf,

@@ -6,7 +6,6 @@ use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
 use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
-use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Rough dielectric, eta = int_ior / ext_ior (the normal points to the exterior).
@@ -14,7 +13,7 @@ use crate::math::{Spectrum, Vec2, Vec3};
 pub struct RoughDielectric {
     /// Normal distribution (Mitsuba default Beckmann).
     pub distribution: MicrofacetType,
-    /// Roughness along s (a texture: its luminance is used, as Mitsuba's `eval_1`).
+    /// Roughness along s (a texture read with Mitsuba's `eval_1`: a bitmap's luminance).
     pub alpha_u: Texture,
     /// Roughness along t.
     pub alpha_v: Texture,
@@ -39,8 +38,8 @@ impl RoughDielectric {
     fn distr(&self, uv: Vec2) -> Microfacet {
         Microfacet::new(
             self.distribution,
-            luminance(self.alpha_u.eval(uv)),
-            luminance(self.alpha_v.eval(uv)),
+            self.alpha_u.eval_1(uv),
+            self.alpha_v.eval_1(uv),
             self.sample_visible,
         )
     }

@@ -10,7 +10,7 @@ use crate::math::{Pcg32, warp};
 use std::sync::Arc;
 
 /// Number of chi-square tests in this file (the Šidák family).
-const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3 + 6;
+const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3 + 6 + 4;
 
 fn si(wi: Vec3) -> SurfaceInteraction {
     SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
@@ -30,10 +30,10 @@ fn diffuse(r: f32) -> Bsdf {
 fn rough_mirror(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
         distribution: MicrofacetType::Ggx,
-        alpha_u,
-        alpha_v,
-        eta: Spectrum::ZERO,
-        k: Spectrum::ONE,
+        alpha_u: Texture::uniform(alpha_u),
+        alpha_v: Texture::uniform(alpha_v),
+        eta: Texture::Constant(Spectrum::ZERO),
+        k: Texture::Constant(Spectrum::ONE),
         specular_reflectance: white(),
         sample_visible,
     })
@@ -43,10 +43,10 @@ fn rough_mirror(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
 fn rough_gold(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
         distribution: MicrofacetType::Ggx,
-        alpha_u,
-        alpha_v,
-        eta: Spectrum::new(0.143, 0.374, 1.442),
-        k: Spectrum::new(3.983, 2.385, 1.603),
+        alpha_u: Texture::uniform(alpha_u),
+        alpha_v: Texture::uniform(alpha_v),
+        eta: Texture::Constant(Spectrum::new(0.143, 0.374, 1.442)),
+        k: Texture::Constant(Spectrum::new(3.983, 2.385, 1.603)),
         specular_reflectance: white(),
         sample_visible,
     })
@@ -127,6 +127,50 @@ fn chi2_roughconductor_anisotropic_u() {
 #[test]
 fn chi2_roughconductor_anisotropic_v() {
     chi2_roughconductor_cases(0.08, 0.4);
+}
+
+/// Roughness and IOR from textures (a bitmap alpha_u between texels, a checkerboard alpha_v, a
+/// bitmap eta): sampling and pdf read the same per-hit distribution.
+#[test]
+fn chi2_roughconductor_textured_alpha() {
+    let mut img = crate::io::RgbImage::new(2, 2);
+    for (i, v) in [
+        [0.05, 0.1, 0.02],
+        [0.6, 0.4, 0.9],
+        [0.3, 0.2, 0.25],
+        [0.15, 0.5, 0.1],
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        img.set(i % 2, i / 2, v);
+    }
+    let alpha_u = Texture::Bitmap(Arc::new(img.clone()));
+    let alpha_v = Texture::Checkerboard(Arc::new(texture::Checkerboard {
+        color0: Texture::uniform(0.07),
+        color1: Texture::uniform(0.35),
+        to_uv: texture::UvTransform::IDENTITY,
+    }));
+    let mut failures = Vec::new();
+    for vis in [true, false] {
+        let b = Bsdf::RoughConductor(RoughConductor {
+            distribution: MicrofacetType::Beckmann,
+            alpha_u: alpha_u.clone(),
+            alpha_v: alpha_v.clone(),
+            eta: Texture::Bitmap(Arc::new(img.clone())),
+            k: Texture::uniform(2.0),
+            specular_reflectance: white(),
+            sample_visible: vis,
+        });
+        assert!(b.flags().has(BsdfFlags::SPATIALLY_VARYING));
+        for &theta in &[0.4f32, 1.2] {
+            let r = chi2_bsdf(&b, from_spherical(theta, 0.9), 300_000);
+            if !r.passed || r.pdf_integral > 1.0 + 2e-3 {
+                failures.push(format!("visible = {vis} θ_i = {theta}: {}", r.message));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 #[test]
@@ -493,18 +537,18 @@ fn energy_bounds_and_known_albedos() {
 #[test]
 fn smooth_conductor_is_a_fresnel_mirror() {
     let mirror = Bsdf::Conductor(Conductor {
-        eta: Spectrum::ZERO,
-        k: Spectrum::ONE,
+        eta: Texture::Constant(Spectrum::ZERO),
+        k: Texture::Constant(Spectrum::ONE),
         specular_reflectance: white(),
     });
     let big_k = Bsdf::Conductor(Conductor {
-        eta: Spectrum::ONE,
-        k: Spectrum::splat(1e4),
+        eta: Texture::Constant(Spectrum::ONE),
+        k: Texture::Constant(Spectrum::splat(1e4)),
         specular_reflectance: white(),
     });
     let gold = Bsdf::Conductor(Conductor {
-        eta: Spectrum::new(0.143, 0.374, 1.442),
-        k: Spectrum::new(3.983, 2.385, 1.603),
+        eta: Texture::Constant(Spectrum::new(0.143, 0.374, 1.442)),
+        k: Texture::Constant(Spectrum::new(3.983, 2.385, 1.603)),
         specular_reflectance: Texture::Constant(Spectrum::new(1.0, 0.5, 0.25)),
     });
     assert_eq!(mirror.flags(), BsdfFlags::DELTA_REFLECTION);
@@ -787,10 +831,10 @@ fn specular_reflectance_texture_scales_and_flags_spatial_variation() {
     let tex = Texture::Bitmap(Arc::new(img));
     let b = Bsdf::RoughConductor(RoughConductor {
         distribution: MicrofacetType::Ggx,
-        alpha_u: 0.3,
-        alpha_v: 0.3,
-        eta: Spectrum::ZERO,
-        k: Spectrum::ONE,
+        alpha_u: Texture::uniform(0.3),
+        alpha_v: Texture::uniform(0.3),
+        eta: Texture::Constant(Spectrum::ZERO),
+        k: Texture::Constant(Spectrum::ONE),
         specular_reflectance: tex,
         sample_visible: true,
     });

@@ -20,10 +20,10 @@ fn c(v: f32) -> Texture {
 fn conductor(alpha_u: f32, alpha_v: f32, vis: bool) -> Bsdf {
     Bsdf::RoughConductor(RoughConductor {
         distribution: B,
-        alpha_u,
-        alpha_v,
-        eta: Spectrum::new(0.143, 0.374, 1.442),
-        k: Spectrum::new(3.983, 2.385, 1.603),
+        alpha_u: Texture::uniform(alpha_u),
+        alpha_v: Texture::uniform(alpha_v),
+        eta: Texture::Constant(Spectrum::new(0.143, 0.374, 1.442)),
+        k: Texture::Constant(Spectrum::new(3.983, 2.385, 1.603)),
         specular_reflectance: c(1.0),
         sample_visible: vis,
     })

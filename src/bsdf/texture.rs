@@ -129,6 +129,11 @@ impl Checkerboard {
 }
 
 impl Texture {
+    /// A grey constant, e.g. a float roughness (Mitsuba's `uniform` texture).
+    pub fn uniform(v: f32) -> Texture {
+        Texture::Constant(Spectrum::splat(v))
+    }
+
     /// The value at `uv`.
     pub fn eval(&self, uv: Vec2) -> Spectrum {
         match self {
@@ -145,10 +150,11 @@ impl Texture {
         }
     }
 
-    /// The scalar value at `uv` (Mitsuba's `eval_1`, used for roughness): a constant's channel
-    /// mean, a bitmap's luminance.
+    /// The scalar value at `uv` (Mitsuba's `eval_1`, used for roughness): a grey constant's
+    /// value (Mitsuba's `uniform`), another constant's channel mean (`srgb`), a bitmap's luminance.
     pub fn eval_1(&self, uv: Vec2) -> f32 {
         match self {
+            Texture::Constant(c) if c.x == c.y && c.y == c.z => c.x,
             Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
             Texture::Bitmap(_) | Texture::Mapped(_) => luminance(self.eval(uv)),
             // Mitsuba 3.9's Checkerboard::eval_1 selects with the opposite test to its eval

@@ -416,17 +416,17 @@ impl GltfBuilder<'_> {
         let mut bsdf = if pbr.metallic_factor() >= 0.5 {
             if alpha < 1e-4 {
                 Bsdf::Conductor(Conductor {
-                    eta: Spectrum::ZERO,
-                    k: Spectrum::ONE,
+                    eta: Texture::Constant(Spectrum::ZERO),
+                    k: Texture::Constant(Spectrum::ONE),
                     specular_reflectance: base,
                 })
             } else {
                 Bsdf::RoughConductor(RoughConductor {
                     distribution: MicrofacetType::Ggx,
-                    alpha_u: alpha,
-                    alpha_v: alpha,
-                    eta: Spectrum::ZERO,
-                    k: Spectrum::ONE,
+                    alpha_u: Texture::uniform(alpha),
+                    alpha_v: Texture::uniform(alpha),
+                    eta: Texture::Constant(Spectrum::ZERO),
+                    k: Texture::Constant(Spectrum::ONE),
                     specular_reflectance: base,
                     sample_visible: true,
                 })

@@ -43,6 +43,27 @@ BUMP = np.array([[[v, 0.8 * v, 1.3 * v] for v in
                 dtype=np.float32)
 
 
+# Textured parameters (raw bitmaps read with bilinear filtering and repeat wrap at uv (0.3, 0.6);
+# golden.rs builds the same texels): a roughness image whose channels differ (eval_1 takes the
+# luminance) and complex-IOR images.
+def texels(f, scales):
+    return np.array([[[s * f(i, j) for s in scales] for i in range(4)] for j in range(3)],
+                    dtype=np.float32)
+
+
+ALPHA = texels(lambda i, j: 0.05 + 0.5 * ((2 * i + 3 * j) % 5) / 5, (1.0, 0.7, 1.4))
+ETA = texels(lambda i, j: 0.2 + 0.3 * ((i + 2 * j) % 4), (1.0, 1.5, 0.6))
+K = texels(lambda i, j: 2.0 + 0.4 * ((3 * i + j) % 5), (1.0, 0.8, 0.6))
+
+
+def bitmap(a):
+    return {"type": "bitmap", "bitmap": mi.Bitmap(a), "raw": True}
+
+
+def checker(c0, c1):
+    return {"type": "checkerboard", "color0": c0, "color1": c1}
+
+
 def bump(nested, scale):
     return {"type": "bumpmap", "scale": scale, "nested": nested,
             "height": {"type": "bitmap", "bitmap": mi.Bitmap(BUMP), "raw": True}}
@@ -118,6 +139,19 @@ CONFIGS = {
     "bumpmap_roughplastic": bump({"type": "roughplastic", "alpha": 0.2,
                                   "diffuse_reflectance": rgb([0.5, 0.3, 0.2])}, 0.3),
     "bumpmap_rough_aniso": bump(rough(0.3, 0.1, True), 0.5),
+    # Textured roughness and IOR (Mitsuba's unbounded textures, alpha read with eval_1; the
+    # checkerboard's eval_1 picks color0 at uv (0.3, 0.6) where its eval would pick color1).
+    "rough_textured_alpha": {"type": "roughconductor", "distribution": "ggx",
+                             "alpha_u": bitmap(ALPHA), "alpha_v": checker(0.1, 0.45),
+                             "eta": rgb(GOLD_ETA), "k": rgb(GOLD_K),
+                             "specular_reflectance": rgb([0.9, 0.8, 0.7])},
+    "beckmann_rough_textured_novis": {"type": "roughconductor", "alpha": bitmap(ALPHA),
+                                      "sample_visible": False, "eta": bitmap(ETA),
+                                      "k": bitmap(K)},
+    "conductor_textured_ior": {"type": "conductor", "eta": bitmap(ETA), "k": bitmap(K)},
+    "roughdielectric_checker_alpha": {"type": "roughdielectric", "distribution": "ggx",
+                                      "alpha": checker(0.1, 0.45), "int_ior": 1.5,
+                                      "ext_ior": 1.0},
 }
 
 

@@ -23,6 +23,7 @@ use crate::bsdf::ThinDielectric;
 use crate::bsdf::TwoSided;
 use crate::math::Spectrum;
 use crate::math::Vec3;
+use crate::math::cie1931::SpectrumUse;
 use crate::model::BtfModel;
 
 impl<'a, 'x> Builder<'a, 'x> {
@@ -74,7 +75,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 reflectance: self.texture_param(&p, "reflectance", Vec3::splat(0.5))?,
             }),
             "conductor" | "roughconductor" => {
-                let (eta, k) = conductor_ior(&p)?;
+                let (eta, k) = self.conductor_ior(&p)?;
                 let specular_reflectance =
                     self.texture_param(&p, "specular_reflectance", Vec3::ONE)?;
                 if p.ty == "conductor" {
@@ -85,28 +86,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     })
                 } else {
                     let distribution = microfacet_type(&p)?;
-                    let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
-                        if p.has("alpha") {
-                            return Err(p.err(
-                                "specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both",
-                            ));
-                        }
-                        let (u, v) = (p.float_opt("alpha_u")?, p.float_opt("alpha_v")?);
-                        match (u, v) {
-                            (Some(u), Some(v)) => (u, v),
-                            _ => {
-                                return Err(
-                                    p.err("both \"alpha_u\" and \"alpha_v\" must be specified")
-                                );
-                            }
-                        }
-                    } else {
-                        let a = p.float("alpha", 0.1)?;
-                        (a, a)
-                    };
-                    if alpha_u < 0.0 || alpha_v < 0.0 {
-                        return Err(p.err("roughness must be non-negative"));
-                    }
+                    let (alpha_u, alpha_v) = self.roughness(&p)?;
                     Bsdf::RoughConductor(RoughConductor {
                         distribution,
                         alpha_u,
@@ -216,28 +196,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     ));
                 }
                 let distribution = microfacet_type(&p)?;
-                let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
-                    if p.has("alpha") {
-                        return Err(
-                            p.err("specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both")
-                        );
-                    }
-                    if !(p.has("alpha_u") && p.has("alpha_v")) {
-                        return Err(p.err("both \"alpha_u\" and \"alpha_v\" must be specified"));
-                    }
-                    (
-                        self.texture_param(&p, "alpha_u", Vec3::splat(0.1))?,
-                        self.texture_param(&p, "alpha_v", Vec3::splat(0.1))?,
-                    )
-                } else {
-                    let a = self.texture_param(&p, "alpha", Vec3::splat(0.1))?;
-                    (a.clone(), a)
-                };
-                for (name, t) in [("alpha_u", &alpha_u), ("alpha_v", &alpha_v)] {
-                    if let Texture::Constant(c) = t {
-                        check_alpha(&p, name, c.x)?;
-                    }
-                }
+                let (alpha_u, alpha_v) = self.roughness(&p)?;
                 Bsdf::RoughDielectric(RoughDielectric {
                     distribution,
                     alpha_u,
@@ -424,6 +383,18 @@ impl<'a, 'x> Builder<'a, 'x> {
         name: &str,
         default: Vec3,
     ) -> Result<Texture> {
+        self.texture_param_as(p, name, default, SpectrumUse::Reflectance)
+    }
+
+    /// [`Builder::texture_param`] for a parameter used as `usage` (what a `<spectrum>` list
+    /// converts to: Mitsuba's unbounded textures, eta/k/alpha, are not clipped at 1).
+    pub(super) fn texture_param_as(
+        &mut self,
+        p: &Props<'a, 'x>,
+        name: &str,
+        default: Vec3,
+        usage: SpectrumUse,
+    ) -> Result<Texture> {
         if let Some(c) = p.child_named(name) {
             if c.tag() != "texture" {
                 return Err(self.x.err(
@@ -436,7 +407,62 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
             return self.texture(c.node);
         }
-        Ok(Texture::Constant(p.color(name, default)?))
+        Ok(Texture::Constant(
+            p.color_opt_as(name, usage)?.unwrap_or(default),
+        ))
+    }
+}
+
+impl<'a, 'x> Builder<'a, 'x> {
+    /// `alpha` or `alpha_u`/`alpha_v` of roughconductor and roughdielectric: floats or textures
+    /// (Mitsuba 3.9.1's `get_unbounded_texture`, read with `eval_1` at the hit). A constant
+    /// must be finite and non-negative.
+    fn roughness(&mut self, p: &Props<'a, 'x>) -> Result<(Texture, Texture)> {
+        const U: SpectrumUse = SpectrumUse::Unbounded;
+        let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
+            if p.has("alpha") {
+                return Err(p.err("specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both"));
+            }
+            if !(p.has("alpha_u") && p.has("alpha_v")) {
+                return Err(p.err("both \"alpha_u\" and \"alpha_v\" must be specified"));
+            }
+            (
+                self.texture_param_as(p, "alpha_u", Vec3::splat(0.1), U)?,
+                self.texture_param_as(p, "alpha_v", Vec3::splat(0.1), U)?,
+            )
+        } else {
+            let a = self.texture_param_as(p, "alpha", Vec3::splat(0.1), U)?;
+            (a.clone(), a)
+        };
+        for (name, t) in [("alpha_u", &alpha_u), ("alpha_v", &alpha_v)] {
+            if let Texture::Constant(c) = t {
+                for v in [c.x, c.y, c.z] {
+                    check_alpha(p, name, v)?;
+                }
+            }
+        }
+        Ok((alpha_u, alpha_v))
+    }
+
+    /// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta
+    /// 0, k 1) with optional explicit `eta`/`k`, colours or textures (Mitsuba's unbounded
+    /// textures). Named metals need Mitsuba's spectral data: error.
+    fn conductor_ior(&mut self, p: &Props<'a, 'x>) -> Result<(Texture, Texture)> {
+        const U: SpectrumUse = SpectrumUse::Unbounded;
+        let material = p.string("material", "none")?;
+        if material != "none" {
+            if p.has("eta") || p.has("k") {
+                return Err(p.err("should specify either (eta, k) or material, not both"));
+            }
+            return Err(p.err(format!(
+                "named conductor material \"{material}\" is not supported (its spectral IOR tables \
+                 ship with Mitsuba, not btfpt): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+            )));
+        }
+        Ok((
+            self.texture_param_as(p, "eta", Vec3::ZERO, U)?,
+            self.texture_param_as(p, "k", Vec3::ONE, U)?,
+        ))
     }
 }
 
@@ -505,20 +531,4 @@ pub(super) fn ior(p: &Props, name: &str, default: &str) -> Result<f32> {
         Some(Ok(v)) => Ok(v),
         Some(Err(s)) => lookup(&s),
     }
-}
-
-/// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta 0,
-/// k 1) with optional explicit `eta`/`k`. Named metals need Mitsuba's spectral data: error.
-pub(super) fn conductor_ior(p: &Props) -> Result<(Spectrum, Spectrum)> {
-    let material = p.string("material", "none")?;
-    if material != "none" {
-        if p.has("eta") || p.has("k") {
-            return Err(p.err("should specify either (eta, k) or material, not both"));
-        }
-        return Err(p.err(format!(
-            "named conductor material \"{material}\" is not supported (btfpt cannot reproduce Mitsuba's \
-             spectral-to-RGB values): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
-        )));
-    }
-    Ok((p.color("eta", Vec3::ZERO)?, p.color("k", Vec3::ONE)?))
 }

@@ -16,7 +16,7 @@ impl<'a, 'x> Builder<'a, 'x> {
         let x = self.x;
         Ok(match p.ty.as_str() {
             "point" => {
-                let intensity = p.color("intensity", Vec3::ONE)?;
+                let intensity = p.emission("intensity", Vec3::ONE)?;
                 let pos = p.vec3_opt("position")?;
                 let xf = p.transform_opt("to_world")?;
                 let position = match (pos, xf) {
@@ -38,7 +38,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
             "spot" => {
-                let intensity = p.color("intensity", Vec3::ONE)?;
+                let intensity = p.emission("intensity", Vec3::ONE)?;
                 let cutoff_angle = p.float("cutoff_angle", 20.0)?;
                 let mut beam_width = p.float("beam_width", cutoff_angle * 0.75)?;
                 if beam_width > cutoff_angle {
@@ -56,7 +56,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
             "directional" => {
-                let irradiance = p.color("irradiance", Vec3::ONE)?;
+                let irradiance = p.emission("irradiance", Vec3::ONE)?;
                 let d = p.vec3_opt("direction")?;
                 let xf = p.transform_opt("to_world")?;
                 let direction = match (d, xf) {
@@ -78,7 +78,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 }
             }
             "constant" => Emitter::Constant {
-                radiance: p.color("radiance", Vec3::ONE)?,
+                radiance: p.emission("radiance", Vec3::ONE)?,
             },
             "envmap" => {
                 let file = p.string_req("filename")?;

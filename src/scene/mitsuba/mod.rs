@@ -56,6 +56,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                         default_bsdf: None,
                         meshes: Vec::new(),
                         emitters: Vec::new(),
+                        area_emitters_used: HashSet::new(),
                     };
                     return b.scene(docs[0].root_element());
                 }
@@ -102,6 +103,8 @@ pub(super) struct Builder<'a, 'x> {
     default_bsdf: Option<u32>,
     meshes: Vec<crate::geometry::Mesh>,
     emitters: Vec<Emitter>,
+    /// Area `<emitter>` elements a shape has taken (nested or by `<ref>`).
+    area_emitters_used: HashSet<Key>,
 }
 
 pub(super) type N<'a> = Node<'a, 'a>;
@@ -141,6 +144,9 @@ impl<'a, 'x> Builder<'a, 'x> {
         {
             return Err(x.err(t, "unexpected text content in <scene>"));
         }
+        // Top-level area emitters with an id, built by the shapes that reference them (Mitsuba
+        // resolves such references in any order); each must be referenced by some shape.
+        let mut area_emitters = Vec::new();
         for ch in x.children(root) {
             match ch.tag_name().name() {
                 "integrator" => {
@@ -168,7 +174,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                 "emitter" => {
                     let p = Props::parse(x, ch)?;
                     if p.ty == "area" {
-                        return Err(x.err(ch, "an area emitter must be nested inside a <shape>"));
+                        if x.attr(ch, "id").is_none() {
+                            return Err(x.err(
+                                ch,
+                                "an area emitter must be nested inside a <shape> or referenced by one",
+                            ));
+                        }
+                        area_emitters.push(ch);
+                        continue;
                     }
                     let e = self.emitter(&p)?;
                     p.finish()?;
@@ -181,6 +194,16 @@ impl<'a, 'x> Builder<'a, 'x> {
                     ));
                 }
             }
+        }
+        if let Some(e) = area_emitters
+            .iter()
+            .find(|e| !self.area_emitters_used.contains(&x.key(**e)))
+        {
+            return Err(x.err(
+                *e,
+                "an area emitter must be nested inside a <shape> or referenced by one (no shape \
+                 references this one)",
+            ));
         }
         let (camera, spp, sampler) =
             camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;

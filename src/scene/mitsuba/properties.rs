@@ -6,6 +6,7 @@ use crate::Error;
 use crate::Result;
 use crate::math::Mat4;
 use crate::math::Vec3;
+use crate::math::cie1931::{SpectrumUse, spectrum_list_to_srgb, uniform_emission_rgb};
 use roxmltree::Node;
 use std::cell::Cell;
 
@@ -19,6 +20,9 @@ pub(crate) enum Value {
     Rgb(Vec3),
     /// A constant `<spectrum value="x">`.
     Spectrum(f32),
+    /// A `<spectrum>` given as wavelength:value pairs (or a `.spd` file): wavelengths in nm,
+    /// strictly increasing, at least two; converted to RGB where it is used.
+    SpectrumList(Vec<f64>, Vec<f64>),
     Point(Vec3),
     Vector(Vec3),
     Transform(Mat4),
@@ -32,7 +36,7 @@ impl Value {
             Value::Boolean(_) => "boolean",
             Value::String(_) => "string",
             Value::Rgb(_) => "rgb",
-            Value::Spectrum(_) => "spectrum",
+            Value::Spectrum(_) | Value::SpectrumList(..) => "spectrum",
             Value::Point(_) => "point",
             Value::Vector(_) => "vector",
             Value::Transform(_) => "transform",
@@ -155,21 +159,7 @@ impl<'a, 'x> Props<'a, 'x> {
                         _ => return Err(x.err(ch, "'rgb' tag requires one or three values")),
                     }
                 }
-                "spectrum" => {
-                    x.check_attrs(ch, &["name", "value"])?;
-                    let s = x.req_attr(ch, "value")?;
-                    let l: Vec<&str> = s
-                        .split(|c: char| c == ',' || c.is_whitespace())
-                        .filter(|t| !t.is_empty())
-                        .collect();
-                    if l.len() != 1 || l[0].contains(':') {
-                        return Err(x.err(
-                            ch,
-                            "only constant <spectrum value=\"x\"> is supported (btfpt renders in RGB): use <rgb>",
-                        ));
-                    }
-                    Value::Spectrum(x.parse_f32(ch, l[0])?)
-                }
+                "spectrum" => parse_spectrum(x, ch)?,
                 "point" | "vector" => {
                     x.check_attrs(ch, &["name", "value", "x", "y", "z"])?;
                     let v = x.parse_xyz(ch, 0.0)?;
@@ -332,8 +322,19 @@ impl<'a, 'x> Props<'a, 'x> {
         }
     }
 
-    /// A colour given as `rgb`, `float` or constant `spectrum` (nested textures are not looked at).
-    pub fn color_opt(&self, name: &str) -> Result<Option<Vec3>> {
+    /// An emitted quantity (radiance, intensity, irradiance) given as `rgb`, `float` or
+    /// `spectrum`: a constant spectrum is that multiple of Mitsuba's white (D65-relative) RGB,
+    /// a wavelength list is converted without the D65 weighting, as Mitsuba's RGB variants do.
+    pub fn emission(&self, name: &str, default: Vec3) -> Result<Vec3> {
+        Ok(self
+            .color_opt_as(name, SpectrumUse::Emission)?
+            .unwrap_or(default))
+    }
+
+    /// A colour given as `rgb`, `float` or `spectrum` (nested textures are not looked at), used
+    /// as `usage`: what a wavelength list or constant spectrum converts to, as in Mitsuba's RGB
+    /// variants.
+    pub fn color_opt_as(&self, name: &str, usage: SpectrumUse) -> Result<Option<Vec3>> {
         match self.get(name) {
             None => {
                 if let Some(c) = self
@@ -352,18 +353,20 @@ impl<'a, 'x> Props<'a, 'x> {
                 }
                 Ok(None)
             }
-            Some(p) => match p.value {
-                Value::Rgb(v) => Ok(Some(v)),
-                Value::Float(v) | Value::Spectrum(v) => Ok(Some(Vec3::splat(v))),
-                Value::Integer(v) => Ok(Some(Vec3::splat(v as f32))),
+            Some(p) => match &p.value {
+                Value::Rgb(v) => Ok(Some(*v)),
+                Value::Float(v) => Ok(Some(Vec3::splat(*v))),
+                Value::Spectrum(v) if usage == SpectrumUse::Emission => {
+                    Ok(Some(Vec3::from(uniform_emission_rgb()) * *v))
+                }
+                Value::Spectrum(v) => Ok(Some(Vec3::splat(*v))),
+                Value::SpectrumList(w, v) => {
+                    Ok(Some(Vec3::from(spectrum_list_to_srgb(w, v, usage).0)))
+                }
+                Value::Integer(v) => Ok(Some(Vec3::splat(*v as f32))),
                 _ => Err(self.wrong_type(p, "rgb or float")),
             },
         }
-    }
-
-    /// A colour with a default.
-    pub fn color(&self, name: &str, default: Vec3) -> Result<Vec3> {
-        Ok(self.color_opt(name)?.unwrap_or(default))
     }
 
     /// A point or vector.
@@ -443,4 +446,103 @@ impl<'a, 'x> Props<'a, 'x> {
         }
         Ok(())
     }
+}
+
+/// A `<spectrum>` property: `value` (one number, or wavelength:value pairs separated by commas
+/// or spaces) or `filename` (a `.spd` file: a wavelength and a value per line, `#` comments),
+/// checked as Mitsuba 3.9.1's `Properties::Spectrum` checks them.
+fn parse_spectrum(x: &XmlDoc, ch: Node) -> Result<Value> {
+    if let Some(t) = x.attr(ch, "type") {
+        return Err(x.err(
+            ch,
+            format!(
+                "<spectrum type=\"{t}\"> is a spectral plugin: not supported (btfpt renders in RGB; \
+                 give <rgb> or a <spectrum value=\"...\"> list)"
+            ),
+        ));
+    }
+    x.check_attrs(ch, &["name", "value", "filename"])?;
+    let (value, file) = (x.attr(ch, "value"), x.attr(ch, "filename"));
+    let pairs: Vec<(f64, f64)> = match (value, file) {
+        (Some(s), None) => {
+            let tokens: Vec<&str> = s
+                .split(|c: char| c == ',' || c.is_whitespace())
+                .filter(|t| !t.is_empty())
+                .collect();
+            if tokens.len() == 1 && !tokens[0].contains(':') {
+                return Ok(Value::Spectrum(x.parse_f32(ch, tokens[0])?));
+            }
+            let mut pairs = Vec::with_capacity(tokens.len());
+            for t in tokens {
+                let pair = t.split_once(':').and_then(|(w, v)| {
+                    let w = w.trim().parse::<f64>().ok()?;
+                    let v = v.trim().parse::<f64>().ok()?;
+                    Some((w, v))
+                });
+                match pair {
+                    Some(p) => pairs.push(p),
+                    None => {
+                        return Err(x.err(
+                            ch,
+                            format!(
+                                "invalid spectrum value \"{t}\" (expected wavelength:value pairs)"
+                            ),
+                        ));
+                    }
+                }
+            }
+            pairs
+        }
+        (None, Some(f)) => {
+            let path = x.resolve(f);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                x.err(
+                    ch,
+                    format!("cannot read spectrum file \"{}\": {e}", path.display()),
+                )
+            })?;
+            read_spd(&text)
+                .map_err(|m| x.err(ch, format!("spectrum file \"{}\": {m}", path.display())))?
+        }
+        _ => {
+            return Err(x.err(
+                ch,
+                "<spectrum> element requires either \"value\" or \"filename\" attribute (but not both)",
+            ));
+        }
+    };
+    if pairs.len() < 2 {
+        return Err(x.err(ch, "a spectrum must have at least two entries"));
+    }
+    if pairs.iter().any(|(w, v)| !w.is_finite() || !v.is_finite()) {
+        return Err(x.err(ch, "non-finite wavelength or value in spectrum"));
+    }
+    if pairs.windows(2).any(|p| p[1].0 <= p[0].0) {
+        return Err(x.err(ch, "wavelengths must be specified in increasing order"));
+    }
+    let (w, v) = pairs.into_iter().unzip();
+    Ok(Value::SpectrumList(w, v))
+}
+
+/// The (wavelength, value) lines of a `.spd` file as Mitsuba reads them: lines starting with
+/// `#` and empty lines skipped, otherwise two numbers first on the line.
+fn read_spd(text: &str) -> std::result::Result<Vec<(f64, f64)>, String> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.starts_with('#') || line.trim_end_matches('\r').is_empty() {
+            continue;
+        }
+        let mut it = line.split_whitespace().map(str::parse::<f64>);
+        match (it.next(), it.next()) {
+            (Some(Ok(w)), Some(Ok(v))) => out.push((w, v)),
+            _ => {
+                return Err(format!(
+                    "line {}: expected a wavelength and a value, found \"{}\"",
+                    i + 1,
+                    line.trim()
+                ));
+            }
+        }
+    }
+    Ok(out)
 }

@@ -150,8 +150,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 if e.ty != "area" {
                     return Err(e.err("only \"area\" emitters can be attached to a shape"));
                 }
-                let radiance = e.color("radiance", Vec3::ONE)?;
+                let radiance = e.emission("radiance", Vec3::ONE)?;
                 e.finish()?;
+                self.area_emitters_used.insert(x.key(c.node));
                 Some(radiance)
             }
         };
