@@ -215,10 +215,10 @@ fn full_scene_parses_into_expected_values() {
         }
         o => panic!("{o:?}"),
     }
-    // the rectangle (no bsdf) gets Mitsuba's default diffuse 0.5
+    // the rectangle (no bsdf, an area emitter) gets Mitsuba's default for emitters: black diffuse
     match b(2) {
         Bsdf::Diffuse(x) => {
-            assert!(matches!(x.reflectance, Texture::Constant(v) if v == Vec3::splat(0.5)))
+            assert!(matches!(x.reflectance, Texture::Constant(v) if v == Vec3::ZERO))
         }
         o => panic!("{o:?}"),
     }
@@ -883,4 +883,32 @@ fn bad_bsdf_parameters_name_the_line() {
         let p = scene_with(dir.path(), body);
         expect_err(&p, &[], 7, needle);
     }
+}
+
+#[test]
+fn shapes_without_a_bsdf_get_mitsubas_default_black_on_emitters() {
+    // Mitsuba 3 gives a shape without <bsdf> a diffuse 0.5, but reflectance 0 if it carries an
+    // area emitter (src/render/shape.cpp): the light reflects nothing.
+    let dir = tempfile::tempdir().unwrap();
+    let p = scene_with(
+        dir.path(),
+        "<shape type=\"rectangle\"/>\n\
+         <shape type=\"rectangle\"><emitter type=\"area\"><rgb name=\"radiance\" value=\"1\"/></emitter></shape>\n\
+         <shape type=\"sphere\"/>",
+    );
+    let s = load(&p);
+    let reflectance = |i: usize| match &s.bsdfs[s.meshes[i].bsdf as usize] {
+        Bsdf::Diffuse(d) => match d.reflectance {
+            Texture::Constant(c) => c,
+            ref t => panic!("{t:?}"),
+        },
+        o => panic!("{o:?}"),
+    };
+    assert_eq!(reflectance(0), Vec3::splat(0.5));
+    assert_eq!(reflectance(1), Vec3::ZERO);
+    assert_eq!(reflectance(2), Vec3::splat(0.5));
+    assert_eq!(
+        s.meshes[0].bsdf, s.meshes[2].bsdf,
+        "the default is built once"
+    );
 }

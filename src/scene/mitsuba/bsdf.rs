@@ -27,13 +27,19 @@ use crate::math::cie1931::SpectrumUse;
 use crate::model::BtfModel;
 
 impl<'a, 'x> Builder<'a, 'x> {
-    pub(super) fn default_bsdf(&mut self) -> u32 {
-        *self.default_bsdf.get_or_insert_with(|| {
-            self.bsdfs.push(Bsdf::Diffuse(Diffuse {
-                reflectance: Texture::Constant(Spectrum::splat(0.5)),
-            }));
-            (self.bsdfs.len() - 1) as u32
-        })
+    /// The BSDF of a shape that names none, as Mitsuba 3 creates it: diffuse with reflectance
+    /// 0.5, or 0 on a shape carrying an area emitter (built once each).
+    pub(super) fn default_bsdf(&mut self, emitter: bool) -> u32 {
+        let slot = usize::from(emitter);
+        if let Some(i) = self.default_bsdf[slot] {
+            return i;
+        }
+        self.bsdfs.push(Bsdf::Diffuse(Diffuse {
+            reflectance: Texture::Constant(Spectrum::splat(if emitter { 0.0 } else { 0.5 })),
+        }));
+        let i = (self.bsdfs.len() - 1) as u32;
+        self.default_bsdf[slot] = Some(i);
+        i
     }
 
     /// The index in `Scene::bsdfs` of a `<bsdf>` element (built once per element).

@@ -53,7 +53,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                         bsdf_memo: HashMap::new(),
                         tex_memo: HashMap::new(),
                         busy: HashSet::new(),
-                        default_bsdf: None,
+                        default_bsdf: [None, None],
                         meshes: Vec::new(),
                         emitters: Vec::new(),
                         area_emitters_used: HashSet::new(),
@@ -100,7 +100,8 @@ pub(super) struct Builder<'a, 'x> {
     tex_memo: HashMap<Key, Texture>,
     /// Objects being built (reference-cycle detection).
     busy: HashSet<Key>,
-    default_bsdf: Option<u32>,
+    /// The default BSDFs once built: `[plain shape, area emitter]` (see `default_bsdf`).
+    default_bsdf: [Option<u32>; 2],
     meshes: Vec<crate::geometry::Mesh>,
     emitters: Vec<Emitter>,
     /// Area `<emitter>` elements a shape has taken (nested or by `<ref>`).

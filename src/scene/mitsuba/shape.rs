@@ -139,10 +139,7 @@ impl<'a, 'x> Builder<'a, 'x> {
         if !is_finite(&xf) {
             return Err(p.err("to_world contains NaN or infinite values"));
         }
-        let bsdf = match p.single_child("bsdf")? {
-            Some(c) => self.bsdf_index(c.node)?,
-            None => self.default_bsdf(),
-        };
+        let bsdf_node = p.single_child("bsdf")?;
         let emitter = match p.single_child("emitter")? {
             None => None,
             Some(c) => {
@@ -155,6 +152,12 @@ impl<'a, 'x> Builder<'a, 'x> {
                 self.area_emitters_used.insert(x.key(c.node));
                 Some(radiance)
             }
+        };
+        // Mitsuba's default BSDF: diffuse 0.5, but black on an emitter (an area light without a
+        // <bsdf> reflects nothing).
+        let bsdf = match bsdf_node {
+            Some(c) => self.bsdf_index(c.node)?,
+            None => self.default_bsdf(emitter.is_some()),
         };
         p.finish()?;
         let mut mesh = if analytic {
