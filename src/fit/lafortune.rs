@@ -177,30 +177,10 @@ impl LobeFitter {
         s
     }
 
-    /// SSE, JᵀJ and Jᵀr at `p`, with the AVX-512 or AVX2 build of the kernel where the CPU has
-    /// it.
+    /// SSE, JᵀJ and Jᵀr at `p`, in the build for this fitter's instruction set.
     #[inline]
     fn normal(&self, p: &[f64; 5], y: &[f32]) -> Normal {
-        match self.isa {
-            // SAFETY: `isa` comes from `simd::isa()`, which checked these features on this CPU.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => unsafe { self.normal_avx512(p, y) },
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { self.normal_avx2(p, y) },
-            _ => self.normal_kernel(p, y),
-        }
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx2")]
-    unsafe fn normal_avx512(&self, p: &[f64; 5], y: &[f32]) -> Normal {
-        self.normal_kernel(p, y)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn normal_avx2(&self, p: &[f64; 5], y: &[f32]) -> Normal {
-        self.normal_kernel(p, y)
+        normal_isa(self.isa, self, p, y)
     }
 
     /// The kernel: per block of lights, an elementwise pass (fast ln/exp) into stack buffers,
@@ -341,6 +321,12 @@ impl LobeFitter {
             evaluations,
         }
     }
+}
+
+crate::isa_dispatch! {
+    /// [`LobeFitter::normal_kernel`] built for an instruction set (the elementwise pass 16 lanes
+    /// wide on AVX-512, 8 on AVX2; the dot products keep their 8-lane split: the same bits).
+    fn normal_isa(f: &LobeFitter, p: &[f64; 5], y: &[f32]) -> Normal = LobeFitter::normal_kernel;
 }
 
 /// Relative SSE improvement below which Levenberg–Marquardt stops.

@@ -6,6 +6,7 @@
 //! histograms with one bin per distinct value; no bin-width choice, ties handled by averaging in
 //! the least-squares fit).
 
+use crate::math::simd::isa;
 use crate::model::polynomial::{E_RANGE, IDENTITY, Poly, decode, eval, quantise};
 
 /// Grid points on which monotonicity of a fitted mapping is checked.
@@ -193,19 +194,12 @@ const L1_EPS: f64 = 1e-3;
 /// absolute error and the next round's weights, and pairs of equal x (a clustered model image has
 /// at most K distinct values) are summed into their run before the moments are formed.
 pub fn fit_pairs_l1(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the running CPU supports AVX2 (checked just above).
-        return unsafe { fit_pairs_l1_avx2(x, y, floor, rounds) };
-    }
-    fit_pairs_l1_impl(x, y, floor, rounds)
+    fit_pairs_l1_isa(isa(), x, y, floor, rounds)
 }
 
-/// [`fit_pairs_l1`] compiled for AVX2 (the lane-split run sums are 8 wide; same results).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn fit_pairs_l1_avx2(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) {
-    fit_pairs_l1_impl(x, y, floor, rounds)
+crate::isa_dispatch! {
+    /// [`fit_pairs_l1`] built for an instruction set (the lane-split sums are fixed: same bits).
+    fn fit_pairs_l1_isa(x: &[f32], y: &[f32], floor: f32, rounds: usize) -> (Poly, f64) = fit_pairs_l1_impl;
 }
 
 #[inline(always)]

@@ -14,6 +14,7 @@
 use super::lafortune::{self, LobeFitter};
 use super::mapping;
 use crate::math::color::linear_to_srgb;
+use crate::math::simd::isa;
 use crate::model::PackedLobe;
 use crate::model::lobe::Lobe;
 use crate::model::polynomial::{self, Poly};
@@ -77,37 +78,17 @@ fn l1(a: &[f32], b: &[f32]) -> f32 {
     acc.iter().sum::<f32>() + tail
 }
 
-/// The candidate cluster whose curve (`curves`, `nl` values each) is nearest to `y` in L1, if
-/// nearer than `own_err` (the error at the current cluster `own`); else (`own`, `own_err`).
-/// Dispatches to an AVX2 build where the CPU has it (the same lane-split sums: same results).
-#[inline]
-fn nearest_curve(
-    y: &[f32],
-    curves: &[f32],
-    nl: usize,
-    cand: &[u32],
-    own: u32,
-    own_err: f32,
-) -> (u32, f32) {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the running CPU supports AVX2 (checked just above).
-        return unsafe { nearest_curve_avx2(y, curves, nl, cand, own, own_err) };
-    }
-    nearest_curve_impl(y, curves, nl, cand, own, own_err)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn nearest_curve_avx2(
-    y: &[f32],
-    curves: &[f32],
-    nl: usize,
-    cand: &[u32],
-    own: u32,
-    own_err: f32,
-) -> (u32, f32) {
-    nearest_curve_impl(y, curves, nl, cand, own, own_err)
+crate::isa_dispatch! {
+    /// The candidate cluster whose curve (`curves`, `nl` values each) is nearest to `y` in L1, if
+    /// nearer than `own_err` (the error at the current cluster `own`); else (`own`, `own_err`).
+    fn nearest_curve(
+        y: &[f32],
+        curves: &[f32],
+        nl: usize,
+        cand: &[u32],
+        own: u32,
+        own_err: f32,
+    ) -> (u32, f32) = nearest_curve_impl;
 }
 
 #[inline(always)]
@@ -209,6 +190,7 @@ pub fn refine(
             .map(|t| {
                 let a = assign[t] as usize;
                 nearest_curve(
+                    isa(),
                     row(t),
                     &curves,
                     nl,

@@ -100,6 +100,39 @@ macro_rules! lanes16 {
     };
 }
 
+/// Defines `$name(isa, args…)`: the `#[inline(always)]` function `$body` run in a build for
+/// `isa` (AVX-512, AVX2 or the baseline one). For kernels whose loops are written with fixed
+/// lane-split sums and no fused multiply-adds, so every build returns the same bits; callers pass
+/// [`isa()`] (tests may pass any instruction set `isa()` allows).
+#[macro_export]
+macro_rules! isa_dispatch {
+    ($(#[$doc:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $out:ty = $body:path;) => {
+        $(#[$doc])*
+        #[inline]
+        $vis fn $name(isa: $crate::math::simd::Isa, $($arg: $ty),*) -> $out {
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx2")]
+            fn avx512($($arg: $ty),*) -> $out {
+                $body($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2($($arg: $ty),*) -> $out {
+                $body($($arg),*)
+            }
+            match isa {
+                // SAFETY: `Isa::Avx512`/`Avx2` come only from `simd::isa()`, which checked the
+                // features on this CPU (callers pass `isa()` or what it allows).
+                #[cfg(target_arch = "x86_64")]
+                $crate::math::simd::Isa::Avx512 => unsafe { avx512($($arg),*) },
+                #[cfg(target_arch = "x86_64")]
+                $crate::math::simd::Isa::Avx2 => unsafe { avx2($($arg),*) },
+                _ => $body($($arg),*),
+            }
+        }
+    };
+}
+
 lanes16!(
     pair,
     /// (sin x, cos x) per lane, |x| ≤ 8192 (error ≤ 2e-7 absolute; see [`lane::sin_cos`]).
