@@ -11,7 +11,7 @@
 //! `plmc_64` is the PLM-C model on 64² texels (its index planes fit in the cache). `plmc` runs
 //! the AVX-512 kernel where the CPU has it, `plmc_sse2` the x86_64 baseline. The render group's
 //! integrator shares the view lookup and texel addressing of a hit between its BSDF calls
-//! (`Bsdf::prepare`). `examples/btf_eval_profile.rs` runs the same workloads for callgrind and
+//! (`Bsdf::at`). `examples/btf_eval_profile.rs` runs the same workloads for callgrind and
 //! for best-of-N CPU-time A/B runs (kernel alone, lookups alone, with or without AVX-512).
 //!
 //! `cargo bench --bench btf_eval`; ns per evaluation = reported time / 4096 queries. The

@@ -5,6 +5,7 @@
 //! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
+pub mod at;
 pub mod blend;
 pub mod btf;
 pub mod btf_sampler;
@@ -35,6 +36,7 @@ mod tests;
 #[cfg(test)]
 mod tests_beckmann;
 
+pub use at::BsdfAt;
 pub use blend::BlendBsdf;
 pub use btf::{BtfBsdf, BtfMaterial};
 pub use bumpmap::BumpMap;
@@ -99,17 +101,6 @@ pub struct BsdfSample {
     pub eta: f32,
     /// The lobe that was sampled (one of the single-lobe flags).
     pub sampled: BsdfFlags,
-}
-
-/// What a BSDF computes once per shading point and shares between its calls there
-/// ([`Bsdf::prepare`]): for a fitted BTF model the view lookup and texel addressing; nothing for
-/// the others (their prepared calls are the stateless ones). Plain data, on the stack.
-#[derive(Clone, Copy, Debug)]
-pub enum Prepared {
-    /// No shared state: the prepared calls forward to the stateless ones.
-    None,
-    /// A fitted BTF model's hit (wi above the horizon).
-    Plmc(PlmcHit),
 }
 
 /// Every scattering model of btfpt.
@@ -180,67 +171,6 @@ impl Bsdf {
             }
             Bsdf::Mask(b) => b.nested.prefetch(si),
             _ => {}
-        }
-    }
-
-    /// The per-hit state for the calls at `si` (see [`Prepared`]); like [`Bsdf::prefetch`] it
-    /// also starts the memory loads the first evaluation will need. The `*_prepared` methods
-    /// with it return exactly what the stateless ones return for the same `si`.
-    #[inline]
-    pub fn prepare(&self, si: &SurfaceInteraction) -> Prepared {
-        match self {
-            Bsdf::Plmc(b) => b.prepare(si).map_or(Prepared::None, Prepared::Plmc),
-            other => {
-                other.prefetch(si);
-                Prepared::None
-            }
-        }
-    }
-
-    /// [`Bsdf::eval`] with the state [`Bsdf::prepare`] made for `si`.
-    #[inline]
-    pub fn eval_prepared(&self, si: &SurfaceInteraction, prep: &Prepared, wo: Vec3) -> Spectrum {
-        match (self, prep) {
-            (Bsdf::Plmc(b), Prepared::Plmc(h)) => b.eval_hit(h, wo),
-            _ => self.eval(si, wo),
-        }
-    }
-
-    /// [`Bsdf::pdf`] with the state [`Bsdf::prepare`] made for `si`.
-    #[inline]
-    pub fn pdf_prepared(&self, si: &SurfaceInteraction, prep: &Prepared, wo: Vec3) -> f32 {
-        match (self, prep) {
-            (Bsdf::Plmc(b), Prepared::Plmc(h)) => b.pdf_hit(h, wo),
-            _ => self.pdf(si, wo),
-        }
-    }
-
-    /// [`Bsdf::eval_pdf`] with the state [`Bsdf::prepare`] made for `si`.
-    #[inline]
-    pub fn eval_pdf_prepared(
-        &self,
-        si: &SurfaceInteraction,
-        prep: &Prepared,
-        wo: Vec3,
-    ) -> (Spectrum, f32) {
-        match (self, prep) {
-            (Bsdf::Plmc(b), Prepared::Plmc(h)) => b.eval_pdf_hit(h, wo),
-            _ => self.eval_pdf(si, wo),
-        }
-    }
-
-    /// [`Bsdf::sample`] with the state [`Bsdf::prepare`] made for `si`.
-    #[inline]
-    pub fn sample_prepared(
-        &self,
-        si: &SurfaceInteraction,
-        prep: &Prepared,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        match (self, prep) {
-            (Bsdf::Plmc(b), Prepared::Plmc(h)) => b.sample_hit(h, sample1, sample2),
-            _ => self.sample(si, sample1, sample2),
         }
     }
 

@@ -44,7 +44,7 @@ pub fn li(
     let Some(bsdf) = rs.scene.bsdfs.get(meshes[h.mesh as usize].bsdf as usize) else {
         return result;
     };
-    let prep = bsdf.prepare(&si);
+    let bsdf = bsdf.at(&si);
     let (ne, nb) = (ds.emitter_samples, ds.bsdf_samples);
     let sum = (ne + nb) as f32;
     let (frac_lum, frac_bsdf) = (ne as f32 / sum, nb as f32 / sum);
@@ -59,9 +59,9 @@ pub fn li(
             };
             let wo = si.to_local(ls.wi);
             let (f, bsdf_pdf) = if ls.delta {
-                (bsdf.eval_prepared(&si, &prep, wo), 0.0)
+                (bsdf.eval(&si, wo), 0.0)
             } else {
-                bsdf.eval_pdf_prepared(&si, &prep, wo)
+                bsdf.eval_pdf(&si, wo)
             };
             if f == Spectrum::ZERO || ls.weight == Spectrum::ZERO || occluded(rs, &si, &ls, stats) {
                 continue;
@@ -80,7 +80,7 @@ pub fn li(
         for _ in 0..nb {
             let u1 = rng.next_f32();
             let u2 = rng.next_2d();
-            let Some((bs, weight)) = bsdf.sample_prepared(&si, &prep, u1, u2) else {
+            let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
                 continue;
             };
             if weight == Spectrum::ZERO {

@@ -121,8 +121,9 @@ impl PathTracer {
             let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
                 break;
             };
-            // Per-hit state shared by the calls below (a BTF model's view lookup and texels).
-            let prep = bsdf.prepare(&si);
+            // The BSDF at this hit: the calls below share its per-hit state (a BTF
+            // model's view lookup and texels).
+            let bsdf = bsdf.at(&si);
             // ------------------------- emitter sampling -------------------------
             if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
                 let u_sel = rng.next_f32();
@@ -131,9 +132,9 @@ impl PathTracer {
                     let wo = si.to_local(ls.wi);
                     // One call for both: BSDFs with a per-hit lookup (BTF) share it.
                     let (f, bsdf_pdf) = if ls.delta {
-                        (bsdf.eval_prepared(&si, &prep, wo), 0.0)
+                        (bsdf.eval(&si, wo), 0.0)
                     } else {
-                        bsdf.eval_pdf_prepared(&si, &prep, wo)
+                        bsdf.eval_pdf(&si, wo)
                     };
                     if f != Spectrum::ZERO
                         && ls.weight != Spectrum::ZERO
@@ -151,7 +152,7 @@ impl PathTracer {
             // -------------------------- BSDF sampling ---------------------------
             let u1 = rng.next_f32();
             let u2 = rng.next_2d();
-            let Some((bs, weight)) = bsdf.sample_prepared(&si, &prep, u1, u2) else {
+            let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
                 break;
             };
             let wo_world = si.to_world(bs.wo);

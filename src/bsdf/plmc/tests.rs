@@ -608,8 +608,8 @@ fn avx512_kernel_is_the_avx2_kernel() {
 }
 
 #[test]
-fn prepared_calls_equal_the_stateless_ones() {
-    use crate::bsdf::{Bsdf, Prepared};
+fn per_hit_calls_equal_the_stateless_ones() {
+    use crate::bsdf::{Bsdf, BsdfAt};
     let mut rng = Pcg32::new(8, 8);
     for (kind, space) in ALL {
         let f = fixture(kind, space);
@@ -623,16 +623,14 @@ fn prepared_calls_equal_the_stateless_ones() {
                 }
                 let wo = warp::square_to_uniform_sphere(rng.next_2d());
                 let si = SurfaceInteraction::for_tests(wi, rng.next_2d());
-                let prep = bsdf.prepare(&si);
-                assert_eq!(matches!(prep, Prepared::Plmc(_)), wi.z > 0.0);
-                assert_eq!(bsdf.eval_prepared(&si, &prep, wo), bsdf.eval(&si, wo));
-                assert_eq!(bsdf.pdf_prepared(&si, &prep, wo), bsdf.pdf(&si, wo));
-                assert_eq!(
-                    bsdf.eval_pdf_prepared(&si, &prep, wo),
-                    bsdf.eval_pdf(&si, wo)
-                );
+                let at = bsdf.at(&si);
+                assert_eq!(matches!(at, BsdfAt::Plmc(..)), wi.z > 0.0);
+                assert_eq!(at.flags(), bsdf.flags());
+                assert_eq!(at.eval(&si, wo), bsdf.eval(&si, wo));
+                assert_eq!(at.pdf(&si, wo), bsdf.pdf(&si, wo));
+                assert_eq!(at.eval_pdf(&si, wo), bsdf.eval_pdf(&si, wo));
                 let (u1, u2) = (rng.next_f32(), rng.next_2d());
-                let a = bsdf.sample_prepared(&si, &prep, u1, u2);
+                let a = at.sample(&si, u1, u2);
                 let s = bsdf.sample(&si, u1, u2);
                 assert_eq!(
                     a.map(|x| (x.0.wo, x.0.pdf, x.1)),

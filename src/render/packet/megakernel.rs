@@ -15,7 +15,7 @@
 
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
-use crate::bsdf::{Bsdf, BsdfFlags, BsdfSample, Prepared};
+use crate::bsdf::{BsdfAt, BsdfFlags, BsdfSample};
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
@@ -241,8 +241,8 @@ fn pass_through_emitter(rs: &RenderScene, pool: &mut PathPool, i: usize, stats: 
 struct Pending<'a> {
     slot: usize,
     si: SurfaceInteraction,
-    bsdf: &'a Bsdf,
-    prep: Prepared,
+    /// The lane's BSDF at `si`, with its per-hit state.
+    bsdf: BsdfAt<'a>,
     rng: Pcg32,
     /// The emitter sample of next-event estimation, if one was drawn.
     light: Option<LightSample>,
@@ -272,10 +272,10 @@ fn shade_batch(
     }
     // Emitter evaluation. The lanes of a batch share one BSDF: a fitted BTF's evaluations run
     // as one batch (16 per pass of its kernel), the others lane by lane.
-    let plmc = match lanes.iter().flatten().next().map(|p| p.bsdf) {
-        Some(Bsdf::Plmc(b)) => Some(b),
-        _ => None,
-    };
+    let plmc = lanes.iter().flatten().find_map(|p| match p.bsdf {
+        BsdfAt::Plmc(b, _) => Some(b),
+        BsdfAt::Stateless(_) => None,
+    });
     let mut evals = [None; LANES];
     if let Some(b) = plmc {
         let mut hits = [None; LANES];
@@ -286,7 +286,7 @@ fn shade_batch(
         for (l, p) in lanes.iter().enumerate() {
             if let Some(Pending {
                 light: Some(ls),
-                prep: Prepared::Plmc(h),
+                bsdf: BsdfAt::Plmc(_, h),
                 si,
                 ..
             }) = p
@@ -314,7 +314,7 @@ fn shade_batch(
     }
     for p in lanes.iter_mut() {
         if let Some(p) = p.take() {
-            let sampled = p.bsdf.sample_prepared(&p.si, &p.prep, p.u1, p.u2);
+            let sampled = p.bsdf.sample(&p.si, p.u1, p.u2);
             shade_back(pt, pool, p.slot, &p.si, p.rng, sampled, stats);
         }
     }
@@ -372,7 +372,7 @@ fn shade_front<'a>(
         return None;
     };
     let mut rng = pool.rng[i].clone();
-    let prep = bsdf.prepare(&si);
+    let bsdf = bsdf.at(&si);
     let mut light = None;
     if pt.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
         let u_sel = rng.next_f32();
@@ -386,7 +386,6 @@ fn shade_front<'a>(
         slot: i,
         si,
         bsdf,
-        prep,
         rng,
         light,
         u1,
@@ -405,15 +404,15 @@ fn next_event(
     stats: &mut TraceStats,
 ) {
     let Some(ls) = &p.light else { return };
-    let (si, bsdf, prep, i) = (&p.si, p.bsdf, &p.prep, p.slot);
+    let (si, bsdf, i) = (&p.si, &p.bsdf, p.slot);
     let (f, bsdf_pdf) = match eval {
         Some(e) => e,
         None => {
             let wo = si.to_local(ls.wi);
             if ls.delta {
-                (bsdf.eval_prepared(si, prep, wo), 0.0)
+                (bsdf.eval(si, wo), 0.0)
             } else {
-                bsdf.eval_pdf_prepared(si, prep, wo)
+                bsdf.eval_pdf(si, wo)
             }
         }
     };
