@@ -60,15 +60,17 @@ fn chi2_bsdf(bsdf: &Bsdf, wi: Vec3, samples: usize) -> Chi2Outcome {
         test_count: CHI2_TESTS,
         ..Default::default()
     };
+    // Through the per-hit object, as the integrators call a BSDF.
+    let at = bsdf.at(&si);
     t.run(
         |u1, u2| {
             let s1 = lobe_rng.next_f32();
             // As Mitsuba's chi2 BSDF adapter: a sample with zero weight counts as a failure.
-            bsdf.sample(&si, s1, Vec2::new(u1, u2))
+            at.sample(&si, s1, Vec2::new(u1, u2))
                 .filter(|(_, w)| w.max_element() > 0.0)
                 .map(|(bs, _)| bs.wo)
         },
-        |wo| bsdf.pdf(&si, wo),
+        |wo| at.pdf(&si, wo),
     )
 }
 

@@ -390,9 +390,12 @@ fn chi2_sampling_matches_pdf() {
         ..Default::default()
     };
     for (kind, space) in kinds {
-        let b = &fixture(kind, space).bsdf;
+        let bsdf = crate::bsdf::Bsdf::Plmc(fixture(kind, space).bsdf.clone());
         for &wi in &views {
             let s = SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6));
+            // Through the per-hit object (the PLM-C hit state), as the integrators call it.
+            let b = bsdf.at(&s);
+            assert!(matches!(b, crate::bsdf::BsdfAt::Plmc(..)));
             let mut lobe = Pcg32::new(17, 3);
             let out = t.run(
                 |u1, u2| {
