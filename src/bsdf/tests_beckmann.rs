@@ -66,6 +66,7 @@ fn chi2_cases(name: &str, cases: &[Bsdf], thetas: &[f32]) {
                 test_count: CHI2_TESTS,
                 ..Default::default()
             };
+            let b = b.at(&si);
             let r = t.run(
                 |u1, u2| {
                     b.sample(&si, lobe_rng.next_f32(), Vec2::new(u1, u2))
