@@ -124,6 +124,16 @@ impl PlmcBsdf {
         Some(self.hit_at(si, self.prefetch))
     }
 
+    /// [`PlmcBsdf::prepare`] without the prefetch: the stateless calls, made once, use the hit
+    /// at once.
+    #[inline]
+    fn prepare_unfetched(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        Some(self.hit_at(si, false))
+    }
+
     /// The view lookup and texel addressing of `si` (wi above the horizon), with the texels'
     /// index entries prefetched first when `prefetch` is set.
     #[inline]
@@ -169,13 +179,10 @@ impl PlmcBsdf {
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
     #[inline]
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
+        match self.prepare_unfetched(si) {
+            Some(hit) => self.eval_hit(&hit, wo),
+            None => Spectrum::ZERO,
         }
-        let m = &*self.material;
-        let (vi, vw) = m.view_lookup(si.wi);
-        let (t, n) = self.texels(si.uv);
-        Spectrum::from(m.eval_b_with_views(vi, vw, wo, &t[..n])) * INV_PI
     }
 
     /// [`PlmcBsdf::eval`] at a prepared hit (the same value).
@@ -191,11 +198,8 @@ impl PlmcBsdf {
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
     #[inline]
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let (vi, vw) = self.material.view_lookup(si.wi);
-        self.material.sampler.pdf(vi, vw, wo)
+        self.prepare_unfetched(si)
+            .map_or(0.0, |hit| self.pdf_hit(&hit, wo))
     }
 
     /// [`PlmcBsdf::pdf`] at a prepared hit (the same value).
@@ -210,10 +214,8 @@ impl PlmcBsdf {
     /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        self.eval_pdf_hit_inner(&self.hit_at(si, false), wo)
+        self.prepare_unfetched(si)
+            .map_or((Spectrum::ZERO, 0.0), |hit| self.eval_pdf_hit(&hit, wo))
     }
 
     /// [`PlmcBsdf::eval_pdf`] at a prepared hit (the same values).
@@ -299,10 +301,7 @@ impl PlmcBsdf {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        if si.wi.z <= 0.0 {
-            return None;
-        }
-        self.sample_hit(&self.hit_at(si, false), sample1, sample2)
+        self.sample_hit(&self.prepare_unfetched(si)?, sample1, sample2)
     }
 
     /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).
