@@ -1,5 +1,5 @@
 //! Ray traversal throughput on a displaced sphere of ~130k triangles, incoherent random rays:
-//! closest-hit and shadow rays through btfpt's `Accel` (4-wide BVH over obvhs's BVH2 build),
+//! closest-hit and shadow rays through btfpt's `Accel` (8-wide BVH over obvhs's BVH2 build),
 //! and, in the same run for a side-by-side ratio, the same queries through obvhs 0.4's own
 //! CWBVH traversal (what `Accel` used before). Measured in thread CPU time, so the numbers
 //! hold on a shared machine; throughput is rays per CPU second.

@@ -1,0 +1,353 @@
+//! Accel against brute force: every ISA build of the 8-wide traversal, degenerate directions,
+//! sparse nodes, barycentrics, the stack spill.
+
+use super::node::Node8;
+use super::stack::{Entry, Stack};
+use super::tri::Tri;
+use super::*;
+use crate::math::simd::{self, Isa};
+
+fn quad(z: f32) -> Mesh {
+    Mesh {
+        name: "quad".into(),
+        positions: vec![
+            Vec3::new(-1.0, -1.0, z),
+            Vec3::new(1.0, -1.0, z),
+            Vec3::new(1.0, 1.0, z),
+            Vec3::new(-1.0, 1.0, z),
+        ],
+        indices: vec![[0, 1, 2], [0, 2, 3]],
+        ..Default::default()
+    }
+}
+
+#[test]
+fn closest_hit_maps_back_to_mesh_and_triangle() {
+    let meshes = vec![quad(0.0), quad(2.0)];
+    let accel = Accel::build(&meshes);
+    assert_eq!(accel.triangle_count(), 4);
+    let h = accel
+        .intersect(Vec3::new(0.5, -0.2, 5.0), -Vec3::Z, f32::INFINITY) // (−0, −0, −1)
+        .unwrap();
+    assert_eq!(h.mesh, 1);
+    assert_eq!(h.prim, 0);
+    assert!((h.t - 3.0).abs() < 1e-5);
+    let h = accel
+        .intersect(Vec3::new(-0.5, 0.2, -5.0), Vec3::Z, f32::INFINITY)
+        .unwrap();
+    assert_eq!((h.mesh, h.prim), (0, 1));
+    assert!(
+        accel
+            .intersect(Vec3::new(3.0, 0.0, 5.0), -Vec3::Z, 100.0)
+            .is_none()
+    );
+    assert!(
+        accel
+            .intersect(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 2.5)
+            .is_none()
+    );
+    assert!(accel.occluded(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 3.5));
+    assert!(!accel.occluded(Vec3::new(0.5, 0.0, 5.0), -Vec3::Z, 2.9));
+    let (lo, hi) = accel.bounds();
+    assert_eq!(lo, Vec3::new(-1.0, -1.0, 0.0));
+    assert_eq!(hi, Vec3::new(1.0, 1.0, 2.0));
+}
+
+/// Brute force over every triangle with the same intersection routine.
+fn brute(meshes: &[Mesh], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, u32, u32, Vec2)> {
+    let mut best: Option<(f32, u32, u32, Vec2)> = None;
+    for (mi, m) in meshes.iter().enumerate() {
+        for (ti, idx) in m.indices.iter().enumerate() {
+            let p = idx.map(|i| m.positions[i as usize]);
+            let lim = best.map_or(tmax, |b| b.0);
+            if let Some((t, u, v)) = Tri::new(p[0], p[1], p[2]).intersect(o.into(), d.into(), lim) {
+                best = Some((t, mi as u32, ti as u32, Vec2::new(u, v)));
+            }
+        }
+    }
+    best
+}
+
+/// Every instruction set this CPU can run the traversal in: the portable (baseline) build
+/// always, the AVX2 build (and the AVX-512 selector, which runs it) when `simd::isa()` allows.
+fn isas() -> Vec<Isa> {
+    match simd::isa() {
+        Isa::Avx512 => vec![Isa::Portable, Isa::Avx2, Isa::Avx512],
+        Isa::Avx2 => vec![Isa::Portable, Isa::Avx2],
+        Isa::Portable => vec![Isa::Portable],
+    }
+}
+
+/// Checks closest and any hits of `rays` (o, d, tmax) through the traversal built for `isa`
+/// against brute force; returns the hits, for comparing builds bit for bit.
+fn check_rays(
+    accel: &Accel,
+    meshes: &[Mesh],
+    isa: Isa,
+    rays: &[(Vec3, Vec3, f32)],
+) -> Vec<Option<Hit>> {
+    let mut out = Vec::with_capacity(rays.len());
+    for (k, &(o, d, tmax)) in rays.iter().enumerate() {
+        let want = brute(meshes, o, d, tmax);
+        let got = accel.intersect_isa(isa, o, d, tmax);
+        assert_eq!(
+            accel.occluded_isa(isa, o, d, tmax),
+            want.is_some(),
+            "{isa:?} ray {k}: {o:?} {d:?}"
+        );
+        match (want, got) {
+            (None, None) => {}
+            (Some((t, m, p, b)), Some(h)) => {
+                assert!(
+                    (h.t - t).abs() <= 1e-5 * t.max(1.0),
+                    "{isa:?} ray {k}: {h:?} vs {t}"
+                );
+                if (h.mesh, h.prim) != (m, p) {
+                    // Only a tie (shared edge/vertex at the same t) may pick another triangle.
+                    assert!((h.t - t).abs() <= 1e-6 * t.max(1.0), "{isa:?} ray {k}");
+                } else {
+                    assert!((h.b - b).length() < 1e-5, "{isa:?} ray {k}");
+                }
+            }
+            (w, g) => panic!("{isa:?} ray {k} {o:?} {d:?}: brute {w:?} vs bvh {g:?}"),
+        }
+        out.push(got);
+    }
+    out
+}
+
+/// Runs `check_rays` for every instruction set and requires the same bits from all of them.
+fn check_all_isas(accel: &Accel, meshes: &[Mesh], rays: &[(Vec3, Vec3, f32)]) -> usize {
+    let portable = check_rays(accel, meshes, Isa::Portable, rays);
+    for isa in isas() {
+        assert_eq!(check_rays(accel, meshes, isa, rays), portable, "{isa:?}");
+    }
+    portable.iter().filter(|h| h.is_some()).count()
+}
+
+#[test]
+fn wide_bvh_matches_brute_force() {
+    use crate::geometry::generate::sphere_displaced;
+    use crate::math::warp::square_to_uniform_sphere;
+    // A bumpy sphere (~2k triangles, deep enough for several wide levels) plus an
+    // axis-aligned box of quads, so zero direction components and ±0.0 meet slab planes.
+    let mut meshes = vec![sphere_displaced(
+        Vec3::ZERO,
+        1.0,
+        24,
+        48,
+        false,
+        true,
+        |d| 0.1 * (7.0 * d.x).sin() * (5.0 * d.y).cos(),
+    )];
+    for (z, s) in [(1.5f32, 1.0f32), (-1.5, 2.0)] {
+        let mut q = quad(z);
+        q.positions
+            .iter_mut()
+            .for_each(|p| *p *= Vec3::new(s, s, 1.0));
+        meshes.push(q);
+    }
+    let accel = Accel::build(&meshes);
+    assert!(accel.nodes.len() > 20);
+    let mut rng = crate::math::Pcg32::new(7, 9);
+    let mut rays = Vec::new();
+    for k in 0..4000 {
+        let o = square_to_uniform_sphere(rng.next_2d()) * (0.5 + 3.0 * rng.next_f32());
+        let mut d = (square_to_uniform_sphere(rng.next_2d()) * 0.8 - o).normalize();
+        if k % 4 == 0 {
+            // Axis-aligned directions with signed zeros.
+            let a = (k / 4) % 3;
+            let s = if (k / 12) % 2 == 0 { 1.0 } else { -1.0 };
+            d = Vec3::ZERO;
+            d[a] = s;
+            if k % 8 == 0 {
+                d = -d; // the zero components become −0.0
+            }
+        }
+        let tmax = if k % 3 == 0 { 2.0 } else { f32::INFINITY };
+        rays.push((o, d, tmax));
+    }
+    let hits = check_all_isas(&accel, &meshes, &rays);
+    assert!(
+        hits > 1500,
+        "only {hits} hits: the test rays miss too often"
+    );
+}
+
+#[test]
+fn degenerate_directions_on_slab_planes() {
+    // A 3 × 3 × 3 lattice of unit quads facing ±z (and their transposes facing x and y), so
+    // node boxes share planes at integer coordinates. Origins on those planes with zero
+    // direction components give (b − o)·(1/d) = 0·∞ = NaN slab distances, which the test
+    // must ignore, not turn into misses or hits.
+    let mut meshes = Vec::new();
+    for i in -1..=1 {
+        for j in -1..=1 {
+            for k in [-2.0f32, 0.0, 2.0] {
+                let (x, y) = (i as f32 * 2.0, j as f32 * 2.0);
+                let q = |f: &dyn Fn(f32, f32) -> Vec3| Mesh {
+                    positions: vec![
+                        f(x - 0.5, y - 0.5),
+                        f(x + 0.5, y - 0.5),
+                        f(x + 0.5, y + 0.5),
+                        f(x - 0.5, y + 0.5),
+                    ],
+                    indices: vec![[0, 1, 2], [0, 2, 3]],
+                    ..Default::default()
+                };
+                meshes.push(q(&|a, b| Vec3::new(a, b, k)));
+                meshes.push(q(&|a, b| Vec3::new(k + 0.25, a, b)));
+                meshes.push(q(&|a, b| Vec3::new(b, k - 0.25, a)));
+            }
+        }
+    }
+    let accel = Accel::build(&meshes);
+    let planes = [
+        -3.0f32, -2.5, -2.0, -1.5, -0.5, 0.0, 0.5, 1.5, 2.0, 2.25, 2.5, 3.0,
+    ];
+    let mut rays = Vec::new();
+    let mut rng = crate::math::Pcg32::new(5, 11);
+    for a in 0..3 {
+        for s in [1.0f32, -1.0] {
+            for zero in [0.0f32, -0.0] {
+                for _ in 0..120 {
+                    // Axis direction: the other two components are ±0.0.
+                    let mut d = Vec3::splat(zero);
+                    d[a] = s;
+                    let mut o = Vec3::ZERO;
+                    for b in 0..3 {
+                        o[b] = if rng.next_f32() < 0.7 {
+                            planes[(rng.next_f32() * planes.len() as f32) as usize % planes.len()]
+                        } else {
+                            rng.next_f32() * 6.0 - 3.0
+                        };
+                    }
+                    o[a] = -s * 4.0;
+                    rays.push((o, d, f32::INFINITY));
+                    rays.push((o, d, 1.0 + 6.0 * rng.next_f32()));
+                    // Diagonal in a plane: one zero component.
+                    let mut d2 = Vec3::splat(s);
+                    d2[a] = zero;
+                    let o2 = o + d2 * -4.0;
+                    rays.push((o2, d2.normalize(), f32::INFINITY));
+                }
+            }
+        }
+    }
+    // Rays starting exactly on a box face, going along it.
+    rays.push((Vec3::new(-0.5, -4.0, 0.0), Vec3::Y, f32::INFINITY));
+    rays.push((Vec3::new(0.5, 0.5, -4.0), Vec3::Z, f32::INFINITY));
+    rays.push((Vec3::new(2.5, 2.5, 4.0), -Vec3::Z, f32::INFINITY));
+    let hits = check_all_isas(&accel, &meshes, &rays);
+    assert!(
+        hits > rays.len() / 5,
+        "only {hits} of {} rays hit",
+        rays.len()
+    );
+}
+
+/// Occupied child slots of a node (empty slots keep u32::MAX).
+fn occupied(n: &Node8) -> usize {
+    n.child.iter().filter(|&&c| c != u32::MAX).count()
+}
+
+#[test]
+fn sparse_nodes_match_brute_force() {
+    use crate::math::warp::square_to_uniform_sphere;
+    // Scenes too small to fill eight slots: one triangle, two quads, a few scattered
+    // triangles (a root with fewer than eight children, leaves with fewer than eight lanes).
+    let mut rng = crate::math::Pcg32::new(1, 3);
+    let mut scattered = Vec::new();
+    for _ in 0..12 {
+        let c = square_to_uniform_sphere(rng.next_2d()) * 2.0;
+        let e = square_to_uniform_sphere(rng.next_2d()) * 0.3;
+        let f = square_to_uniform_sphere(rng.next_2d()) * 0.3;
+        scattered.push(Mesh {
+            positions: vec![c, c + e, c + f],
+            indices: vec![[0, 1, 2]],
+            ..Default::default()
+        });
+    }
+    let one = vec![Mesh {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        indices: vec![[0, 1, 2]],
+        ..Default::default()
+    }];
+    for meshes in [one, vec![quad(0.0), quad(3.0)], scattered] {
+        let accel = Accel::build(&meshes);
+        assert!(accel.nodes.iter().all(|n| occupied(n) >= 1));
+        assert!(occupied(&accel.nodes[0]) < super::node::WIDTH);
+        let mut rays = Vec::new();
+        for k in 0..600 {
+            let o = square_to_uniform_sphere(rng.next_2d()) * 4.0;
+            let t = square_to_uniform_sphere(rng.next_2d()) * 0.5 * rng.next_f32();
+            let tmax = if k % 2 == 0 { f32::INFINITY } else { 4.0 };
+            rays.push((o, (t - o).normalize(), tmax));
+        }
+        check_all_isas(&accel, &meshes, &rays);
+    }
+}
+
+#[test]
+fn hit_barycentrics_match_shading() {
+    let meshes = vec![Mesh {
+        positions: vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.1),
+            Vec3::new(0.0, 2.0, -0.1),
+        ],
+        indices: vec![[0, 1, 2]],
+        ..Default::default()
+    }];
+    let accel = Accel::build(&meshes);
+    let o = Vec3::new(0.3, 0.5, 2.0);
+    let d = Vec3::new(0.1, 0.2, -1.0).normalize();
+    let h = accel.intersect(o, d, f32::INFINITY).unwrap();
+    let p = &meshes[0].positions;
+    let b = crate::geometry::shading::barycentrics(p[0], p[1], p[2], o, d);
+    assert!((h.b - b).length() < 1e-6, "{:?} vs {b:?}", h.b);
+    let x = p[0] * (1.0 - b.x - b.y) + p[1] * b.x + p[2] * b.y;
+    assert!((o + d * h.t - x).length() < 1e-5);
+}
+
+#[test]
+fn stack_is_lifo_across_the_heap_spill() {
+    let mut st = Stack::new();
+    for i in 0..100u32 {
+        st.push(Entry {
+            node: i,
+            t: i as f32,
+        });
+    }
+    for i in (0..100u32).rev() {
+        assert_eq!(st.pop().map(|e| e.node), Some(i));
+    }
+    assert!(st.pop().is_none());
+}
+
+#[test]
+fn empty_scene_never_hits() {
+    let accel = Accel::build(&[]);
+    assert!(
+        accel
+            .intersect(Vec3::ZERO, Vec3::Z, f32::INFINITY)
+            .is_none()
+    );
+    assert!(!accel.occluded(Vec3::ZERO, Vec3::Z, f32::INFINITY));
+}
+
+#[test]
+fn offset_origin_escapes_the_surface() {
+    let meshes = vec![quad(0.0)];
+    let accel = Accel::build(&meshes);
+    let mut rng = crate::math::Pcg32::new(3, 4);
+    for _ in 0..2000 {
+        let p = Vec3::new(rng.next_f32() * 1.8 - 0.9, rng.next_f32() * 1.8 - 0.9, 0.0);
+        let d = crate::math::warp::square_to_uniform_sphere(rng.next_2d());
+        if d.z.abs() < 1e-3 {
+            continue;
+        }
+        let o = offset_origin(p, Vec3::Z, d);
+        assert!(accel.intersect(o, d, f32::INFINITY).is_none());
+    }
+}

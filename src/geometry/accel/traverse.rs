@@ -1,0 +1,156 @@
+//! Front-to-back traversal of the 8-wide BVH, compiled twice: with AVX2 enabled over [`Avx8`]
+//! (one ymm register per 8-lane step; picked when `simd::isa()` reports AVX2 or AVX-512) and
+//! in the baseline build over [`Sse8`] (two SSE halves), so a baseline (SSE2) binary still
+//! runs 8-wide code on AVX2 machines.
+//!
+//! Not `isa_dispatch!`: that macro compiles one body for every ISA, while here the body's
+//! lane type differs per build (explicit AVX intrinsics only exist in the AVX2 one).
+
+#[cfg(target_arch = "x86_64")]
+use super::lanes::Avx8;
+use super::lanes::{F8, Sse8};
+use super::node::{Node8, RayBox, WIDTH};
+use super::stack::{Entry, Stack};
+use super::tri::{LANES, TriPack};
+use crate::math::Vec3;
+use crate::math::simd::Isa;
+
+/// A traversal result: (triangle slot = packet · LANES + lane, t, b1, b2).
+pub(super) type SlotHit = (u32, f32, f32, f32);
+
+/// Closest hit (`ANY` = false) or any hit (`ANY` = true) in (0, tmax] of `o + t d` among
+/// `tris` under `nodes` (root first), with the traversal built for `isa` (callers pass
+/// `simd::isa()` or, in tests, what it allows).
+#[inline]
+pub(super) fn run<const ANY: bool>(
+    isa: Isa,
+    nodes: &[Node8],
+    tris: &[TriPack],
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> Option<SlotHit> {
+    match isa {
+        // SAFETY: `Isa::Avx512`/`Avx2` come only from `simd::isa()`, which checked AVX2 on this
+        // CPU (AVX-512 implies it there).
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512 | Isa::Avx2 => unsafe { run_avx2::<ANY>(nodes, tris, o, d, tmax) },
+        _ => traverse::<ANY, Sse8>(nodes, tris, o, d, tmax),
+    }
+}
+
+/// [`traverse`] over [`Avx8`] lanes, compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn run_avx2<const ANY: bool>(
+    nodes: &[Node8],
+    tris: &[TriPack],
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> Option<SlotHit> {
+    traverse::<ANY, Avx8>(nodes, tris, o, d, tmax)
+}
+
+/// Front-to-back traversal. Closest hit (`ANY` = false): (triangle slot, t, b1, b2) of the
+/// nearest hit; any hit (`ANY` = true): the first hit found. Leaf children are intersected
+/// as soon as their box is entered (shrinking tmax); inner children are visited nearest
+/// first and the others stacked with their entry distance, dropped on pop once a closer
+/// hit is known.
+#[inline(always)]
+fn traverse<const ANY: bool, V: F8>(
+    nodes: &[Node8],
+    tris: &[TriPack],
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> Option<SlotHit> {
+    if nodes.is_empty() {
+        return None;
+    }
+    let rb = RayBox::<V>::new(o, d);
+    let da = [V::splat(d.x), V::splat(d.y), V::splat(d.z)];
+    let mut tmax = tmax;
+    let mut best: Option<(u32, f32, f32)> = None;
+    let mut stack = Stack::new();
+    let mut node = 0u32;
+    loop {
+        let n = &nodes[node as usize];
+        let (tn, mut mask) = rb.test(n, tmax);
+        let mut inner = [Entry { node: 0, t: 0.0 }; WIDTH];
+        let mut k = 0;
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let count = n.count[i];
+            if count == 0 {
+                inner[k] = Entry {
+                    node: n.child[i],
+                    t: tn[i],
+                };
+                k += 1;
+            } else {
+                let first = n.child[i] as usize;
+                for (j, tri) in tris[first..first + count as usize].iter().enumerate() {
+                    let h = tri.intersect(&rb.o, &da, tmax);
+                    if h.mask == 0 {
+                        continue;
+                    }
+                    // Nearest lane that hit (the lowest one on a tie).
+                    let mut m = h.mask;
+                    let mut lane = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    while m != 0 {
+                        let l = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        if h.t[l] < h.t[lane] {
+                            lane = l;
+                        }
+                    }
+                    let slot = (LANES * (first + j) + lane) as u32;
+                    if ANY {
+                        return Some((slot, h.t[lane], h.u[lane], h.v[lane]));
+                    }
+                    tmax = h.t[lane];
+                    best = Some((slot, h.u[lane], h.v[lane]));
+                }
+            }
+        }
+        // Sort the entered inner children farthest first (insertion sort, at most eight),
+        // dropping those entered beyond a hit found in a sibling leaf.
+        let mut m = 0;
+        for a in 0..k {
+            let e = inner[a];
+            if e.t > tmax {
+                continue;
+            }
+            let mut j = m;
+            while j > 0 && inner[j - 1].t < e.t {
+                inner[j] = inner[j - 1];
+                j -= 1;
+            }
+            inner[j] = e;
+            m += 1;
+        }
+        if m > 0 {
+            for e in &inner[..m - 1] {
+                stack.push(*e);
+            }
+            node = inner[m - 1].node;
+            continue;
+        }
+        loop {
+            match stack.pop() {
+                Some(e) if e.t <= tmax => {
+                    node = e.node;
+                    break;
+                }
+                Some(_) => {}
+                None => {
+                    let (i, u, v) = best?;
+                    return Some((i, tmax, u, v));
+                }
+            }
+        }
+    }
+}
