@@ -14,6 +14,7 @@
 
 use crate::btf::directions::DirectionInterp;
 use crate::math::distribution::Distribution1D;
+use crate::math::simd::lane::sin_cos;
 use crate::math::{INV_PI, INV_TWO_PI, Vec2, Vec3, warp};
 
 /// Probability of the uniform-hemisphere component of the sampling mixture (the defensive part).
@@ -155,7 +156,7 @@ impl BtfLightSampler {
                 // Grazing band, uniform in solid angle.
                 let z = self.band_cos * sample2.x;
                 let r = (1.0 - z * z).max(0.0).sqrt();
-                let (sp, cp) = (2.0 * std::f32::consts::PI * sample2.y).sin_cos();
+                let (sp, cp) = sin_cos(2.0 * std::f32::consts::PI * sample2.y);
                 (Vec3::new(r * cp, r * sp, z), None)
             }
         }

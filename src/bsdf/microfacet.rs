@@ -4,6 +4,7 @@
 //! either visible-normal sampling (Jakob's numerical inversion for Beckmann, Heitz 2018 for GGX)
 //! or sampling D(m) cos θ_m.
 
+use crate::math::simd::lane::sin_cos;
 use crate::math::special::{erf, erfinv};
 use crate::math::{PI, Vec2, Vec3, warp};
 
@@ -133,7 +134,7 @@ impl Microfacet {
         if !self.sample_visible {
             // Azimuth: identical for Beckmann and GGX.
             let (sin_phi, cos_phi, alpha_2) = if self.is_isotropic() {
-                let (s, c) = (2.0 * PI * u.y).sin_cos();
+                let (s, c) = sin_cos(2.0 * PI * u.y);
                 (s, c, au * au)
             } else {
                 let tmp = (av / au) * (2.0 * PI * u.y).tan();

@@ -3,6 +3,7 @@
 //! cone of directions toward the sphere from outside, uniform area from inside), so that a
 //! sphere costs one quadratic per ray instead of 65k triangles and matches Mitsuba exactly.
 
+use crate::math::simd::lane::sin_cos;
 use crate::math::{Frame, INV_PI, INV_TWO_PI, Mat3, Mat4, PI, Vec2, Vec3, warp};
 
 /// An analytic sphere in world space (Mitsuba `sphere`: centre, radius and the orientation of
@@ -168,7 +169,7 @@ impl Sphere {
             let cos_a = sin2 * inv_sin_max
                 + cos_t * (1.0 - sin2 * inv_sin_max * inv_sin_max).max(0.0).sqrt();
             let sin_a = (1.0 - cos_a * cos_a).max(0.0).sqrt();
-            let (sp, cp) = (u.y * 2.0 * PI).sin_cos();
+            let (sp, cp) = sin_cos(u.y * 2.0 * PI);
             let dir =
                 Frame::from_normal(-dc * inv_dc).to_world(Vec3::new(cp * sin_a, sp * sin_a, cos_a));
             (

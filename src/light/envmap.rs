@@ -15,6 +15,7 @@ use super::LightSample;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
 use crate::math::distribution::Distribution1D;
+use crate::math::simd::lane::sin_cos;
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::path::Path;
@@ -150,7 +151,7 @@ impl EnvMapLight {
         let cos_t = c0 + (c1 - c0) * uy;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
         let u_lat = (i as f32 + ux) / self.width as f32 + 0.5 / self.width as f32;
-        let (sp, cp) = (2.0 * PI * u_lat).sin_cos();
+        let (sp, cp) = sin_cos(2.0 * PI * u_lat);
         let local = Vec3::new(sin_t * sp, cos_t, -sin_t * cp);
         let d = (self.to_world * local).normalize_or_zero();
         let pdf = pj * pi / self.cell_solid_angle(j);

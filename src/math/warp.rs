@@ -1,6 +1,7 @@
 //! Warps from the unit square to sampling domains, with their pdfs (Mitsuba 3 `warp` conventions).
 
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
+use crate::math::simd::lane::sin_cos;
 use glam::{Vec2, Vec3};
 
 /// Concentric (Shirley–Chiu) map to the unit disk: low distortion, continuous.
@@ -16,7 +17,7 @@ pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
     } else {
         (b, (PI / 2.0) - (PI / 4.0) * (a / b))
     };
-    let (s, c) = phi.sin_cos();
+    let (s, c) = sin_cos(phi);
     Vec2::new(r * c, r * s)
 }
 
@@ -39,7 +40,7 @@ pub fn square_to_cosine_hemisphere_pdf(v: Vec3) -> f32 {
 pub fn square_to_uniform_hemisphere(u: Vec2) -> Vec3 {
     let z = u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = sin_cos(2.0 * PI * u.y);
     Vec3::new(r * c, r * s, z)
 }
 
@@ -54,7 +55,7 @@ pub fn square_to_uniform_hemisphere_pdf(v: Vec3) -> f32 {
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = sin_cos(2.0 * PI * u.y);
     Vec3::new(r * c, r * s, z)
 }
 
@@ -69,7 +70,7 @@ pub fn square_to_uniform_sphere_pdf() -> f32 {
 pub fn square_to_uniform_cone(u: Vec2, cos_cutoff: f32) -> Vec3 {
     let z = 1.0 - u.x * (1.0 - cos_cutoff);
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    let (s, c) = sin_cos(2.0 * PI * u.y);
     Vec3::new(r * c, r * s, z)
 }
 
