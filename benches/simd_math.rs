@@ -17,17 +17,6 @@ fn inputs(lo: f32, hi: f32) -> Vec<F32x16> {
         .collect()
 }
 
-fn isas() -> Vec<Isa> {
-    let mut v = vec![Isa::Portable];
-    if matches!(simd::isa(), Isa::Avx512 | Isa::Avx2) {
-        v.push(Isa::Avx2);
-    }
-    if simd::isa() == Isa::Avx512 {
-        v.push(Isa::Avx512);
-    }
-    v
-}
-
 fn bench(c: &mut Criterion<ThreadCpuTime>) {
     let angles = inputs(0.0, 2.0 * std::f32::consts::PI);
     let exps = inputs(-20.0, 20.0);
@@ -68,7 +57,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             acc
         })
     });
-    for isa in isas() {
+    for isa in Isa::available() {
         let name = format!("{isa:?}");
         g.bench_with_input(BenchmarkId::new("sin_cos/simd", &name), &isa, |b, &isa| {
             b.iter(|| {

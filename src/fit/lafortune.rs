@@ -511,12 +511,7 @@ mod tests {
         let y = curve(&truth, &f);
         let p = [0.5, 0.0, 0.0, 1.0, 2.0];
         let b = f.normal_kernel(&p, &y);
-        let usable: &[Isa] = match isa() {
-            Isa::Avx512 => &[Isa::Avx512, Isa::Avx2, Isa::Portable],
-            Isa::Avx2 => &[Isa::Avx2, Isa::Portable],
-            Isa::Portable => &[Isa::Portable],
-        };
-        for &i in usable {
+        for i in Isa::available() {
             f.isa = i;
             let a = f.normal(&p, &y);
             assert_eq!(a.sse.to_bits(), b.sse.to_bits(), "{i:?}");

@@ -5,7 +5,7 @@ use super::node::Node8;
 use super::stack::{Entry, Stack};
 use super::tri::Tri;
 use super::*;
-use crate::math::simd::{self, Isa};
+use crate::math::simd::Isa;
 
 fn quad(z: f32) -> Mesh {
     Mesh {
@@ -68,16 +68,6 @@ fn brute(meshes: &[Mesh], o: Vec3, d: Vec3, tmax: f32) -> Option<(f32, u32, u32,
     best
 }
 
-/// Every instruction set this CPU can run the traversal in: the portable (baseline) build
-/// always, the AVX2 build (and the AVX-512 selector, which runs it) when `simd::isa()` allows.
-fn isas() -> Vec<Isa> {
-    match simd::isa() {
-        Isa::Avx512 => vec![Isa::Portable, Isa::Avx2, Isa::Avx512],
-        Isa::Avx2 => vec![Isa::Portable, Isa::Avx2],
-        Isa::Portable => vec![Isa::Portable],
-    }
-}
-
 /// Checks closest and any hits of `rays` (o, d, tmax) through the traversal built for `isa`
 /// against brute force; returns the hits, for comparing builds bit for bit.
 fn check_rays(
@@ -118,8 +108,8 @@ fn check_rays(
 
 /// Runs `check_rays` for every instruction set and requires the same bits from all of them.
 fn check_all_isas(accel: &Accel, meshes: &[Mesh], rays: &[(Vec3, Vec3, f32)]) -> usize {
-    let portable = check_rays(accel, meshes, Isa::Portable, rays);
-    for isa in isas() {
+    let portable = check_rays(accel, meshes, Isa::PORTABLE, rays);
+    for isa in Isa::available() {
         assert_eq!(check_rays(accel, meshes, isa, rays), portable, "{isa:?}");
     }
     portable.iter().filter(|h| h.is_some()).count()

@@ -13,7 +13,7 @@ use super::node::{Node8, RayBox, WIDTH};
 use super::stack::{Entry, Stack};
 use super::tri::{LANES, TriPack};
 use crate::math::Vec3;
-use crate::math::simd::Isa;
+use crate::math::simd::{Isa, Level};
 
 /// A traversal result: (triangle slot = packet · LANES + lane, t, b1, b2).
 pub(super) type SlotHit = (u32, f32, f32, f32);
@@ -30,11 +30,11 @@ pub(super) fn run<const ANY: bool>(
     d: Vec3,
     tmax: f32,
 ) -> Option<SlotHit> {
-    match isa {
-        // SAFETY: `Isa::Avx512`/`Avx2` come only from `simd::isa()`, which checked AVX2 on this
-        // CPU (AVX-512 implies it there).
+    match isa.level() {
+        // SAFETY: an `Isa` of these levels is made only by `simd::isa()` / `Isa::available`,
+        // which checked AVX2 on this CPU (AVX-512 implies it there).
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512 | Isa::Avx2 => unsafe { run_avx2::<ANY>(nodes, tris, o, d, tmax) },
+        Level::Avx512 | Level::Avx2 => unsafe { run_avx2::<ANY>(nodes, tris, o, d, tmax) },
         _ => traverse::<ANY, Sse8>(nodes, tris, o, d, tmax),
     }
 }

@@ -18,15 +18,41 @@ pub const WIDTH: usize = 16;
 /// Sixteen f32 lanes.
 pub type F32x16 = [f32; WIDTH];
 
-/// The instruction set the 16-lane loops are compiled for.
+/// An instruction-set level a kernel is built for (what dispatch matches on).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Isa {
+pub enum Level {
     /// AVX-512F (+ AVX2, FMA available but unused): one instruction per 16 lanes.
     Avx512,
     /// AVX2: two 8-lane halves.
     Avx2,
     /// The baseline build (SSE2 on x86-64, or whatever the target has).
     Portable,
+}
+
+/// An instruction set this CPU runs. Made only by [`isa`] and [`Isa::available`] (and the
+/// always-safe [`Isa::PORTABLE`]), so the dispatchers may run a `#[target_feature]` build for
+/// its level: safe code cannot name a level the CPU lacks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Isa(Level);
+
+impl Isa {
+    /// The baseline build, which every CPU runs.
+    pub const PORTABLE: Isa = Isa(Level::Portable);
+
+    /// The level the kernels run at.
+    #[inline]
+    pub fn level(self) -> Level {
+        self.0
+    }
+
+    /// Every instruction set this CPU runs, the portable one first (to compare the builds).
+    pub fn available() -> Vec<Isa> {
+        match isa().0 {
+            Level::Avx512 => vec![Isa::PORTABLE, Isa(Level::Avx2), Isa(Level::Avx512)],
+            Level::Avx2 => vec![Isa::PORTABLE, Isa(Level::Avx2)],
+            Level::Portable => vec![Isa::PORTABLE],
+        }
+    }
 }
 
 /// The best instruction set of this CPU, detected once.
@@ -39,13 +65,13 @@ fn detect() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
         if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx2") {
-            return Isa::Avx512;
+            return Isa(Level::Avx512);
         }
         if is_x86_feature_detected!("avx2") {
-            return Isa::Avx2;
+            return Isa(Level::Avx2);
         }
     }
-    Isa::Portable
+    Isa::PORTABLE
 }
 
 /// Defines a public 16-lane function `$name(isa, x) -> ($out)` from a one-lane body, with an
@@ -75,13 +101,13 @@ macro_rules! lanes16 {
             fn avx2(x: &F32x16) -> $out {
                 body(x)
             }
-            match isa {
-                // SAFETY: `Isa::Avx512`/`Avx2` come only from `detect`, which checked the
-                // features on this CPU (callers pass `isa()`; tests pass what `isa()` allows).
+            match isa.level() {
+                // SAFETY: an `Isa` of these levels is made only by `detect` / `Isa::available`,
+                // which checked the features on this CPU.
                 #[cfg(target_arch = "x86_64")]
-                Isa::Avx512 => unsafe { avx512(x) },
+                Level::Avx512 => unsafe { avx512(x) },
                 #[cfg(target_arch = "x86_64")]
-                Isa::Avx2 => unsafe { avx2(x) },
+                Level::Avx2 => unsafe { avx2(x) },
                 _ => body(x),
             }
         }
@@ -103,7 +129,7 @@ macro_rules! lanes16 {
 /// Defines `$name(isa, args…)`: the `#[inline(always)]` function `$body` run in a build for
 /// `isa` (AVX-512, AVX2 or the baseline one). For kernels whose loops are written with fixed
 /// lane-split sums and no fused multiply-adds, so every build returns the same bits; callers pass
-/// [`isa()`] (tests may pass any instruction set `isa()` allows).
+/// [`isa()`] (tests may pass any of [`Isa::available`]).
 #[macro_export]
 macro_rules! isa_dispatch {
     ($(#[$doc:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) -> $out:ty = $body:path;) => {
@@ -120,13 +146,13 @@ macro_rules! isa_dispatch {
             fn avx2($($arg: $ty),*) -> $out {
                 $body($($arg),*)
             }
-            match isa {
-                // SAFETY: `Isa::Avx512`/`Avx2` come only from `simd::isa()`, which checked the
-                // features on this CPU (callers pass `isa()` or what it allows).
+            match isa.level() {
+                // SAFETY: an `Isa` of these levels is made only by `simd::isa()` /
+                // `Isa::available`, which checked the features on this CPU.
                 #[cfg(target_arch = "x86_64")]
-                $crate::math::simd::Isa::Avx512 => unsafe { avx512($($arg),*) },
+                $crate::math::simd::Level::Avx512 => unsafe { avx512($($arg),*) },
                 #[cfg(target_arch = "x86_64")]
-                $crate::math::simd::Isa::Avx2 => unsafe { avx2($($arg),*) },
+                $crate::math::simd::Level::Avx2 => unsafe { avx2($($arg),*) },
                 _ => $body($($arg),*),
             }
         }

@@ -1,17 +1,5 @@
 use super::*;
 
-/// Every ISA this CPU has, plus the portable build.
-fn isas() -> Vec<Isa> {
-    let mut v = vec![Isa::Portable];
-    if matches!(isa(), Isa::Avx512 | Isa::Avx2) {
-        v.push(Isa::Avx2);
-    }
-    if isa() == Isa::Avx512 {
-        v.push(Isa::Avx512);
-    }
-    v
-}
-
 /// Runs `f` over `xs` in 16-lane batches (the tail padded with the last value).
 fn batched(xs: &[f32], mut f: impl FnMut(&F32x16, usize)) {
     for (k, c) in xs.chunks(WIDTH).enumerate() {
@@ -32,7 +20,7 @@ fn sin_cos_matches_f64_and_is_identical_on_every_isa() {
     let mut xs = sweep(-100.0, 100.0, 200_001);
     xs.extend([0.0, -0.0, 1e-30, std::f32::consts::PI, 8192.0, -8192.0]);
     let mut first: Option<Vec<u32>> = None;
-    for isa in isas() {
+    for isa in Isa::available() {
         let mut bits = Vec::new();
         let mut worst = 0.0f64;
         batched(&xs, |x, _| {
@@ -70,7 +58,7 @@ fn exp2_and_log2_match_f64_and_are_identical_on_every_isa() {
         ])
         .collect();
     let mut first: Option<Vec<u32>> = None;
-    for isa in isas() {
+    for isa in Isa::available() {
         let mut bits = Vec::new();
         let mut worst_exp = 0.0f64;
         batched(&xs, |x, _| {
