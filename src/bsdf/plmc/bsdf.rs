@@ -118,26 +118,17 @@ impl PlmcBsdf {
     /// the lookup overlaps with them.
     #[inline]
     pub fn prepare(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
+        self.hit_at(si, self.prefetch)
+    }
+
+    /// The view lookup and texel addressing of `si` (None below the horizon), with the texels'
+    /// index entries prefetched first when `prefetch` is set (the stateless calls, which use
+    /// the hit at once, do not).
+    #[inline]
+    fn hit_at(&self, si: &SurfaceInteraction, prefetch: bool) -> Option<PlmcHit> {
         if si.wi.z <= 0.0 {
             return None;
         }
-        Some(self.hit_at(si, self.prefetch))
-    }
-
-    /// [`PlmcBsdf::prepare`] without the prefetch: the stateless calls, made once, use the hit
-    /// at once.
-    #[inline]
-    fn prepare_unfetched(&self, si: &SurfaceInteraction) -> Option<PlmcHit> {
-        if si.wi.z <= 0.0 {
-            return None;
-        }
-        Some(self.hit_at(si, false))
-    }
-
-    /// The view lookup and texel addressing of `si` (wi above the horizon), with the texels'
-    /// index entries prefetched first when `prefetch` is set.
-    #[inline]
-    fn hit_at(&self, si: &SurfaceInteraction, prefetch: bool) -> PlmcHit {
         let (texels, n) = self.texels(si.uv);
         if prefetch {
             for &(texel, _) in &texels[..n] {
@@ -145,23 +136,15 @@ impl PlmcBsdf {
             }
         }
         let (vi, vw) = self.material.view_lookup(si.wi);
-        PlmcHit {
+        Some(PlmcHit {
             vi,
             vw,
             texels,
             n: n as u8,
-        }
+        })
     }
 
-    /// f·cos θ_o and the pdf at `wo` for a prepared hit: one light-triangulation search serves
-    /// both (the model and its sampling tables share the light direction set).
-    #[inline]
-    fn eval_pdf_hit_inner(&self, hit: &PlmcHit, wo: Vec3) -> (Spectrum, f32) {
-        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
-        self.eval_pdf_located(hit, wo, located)
-    }
-
-    /// [`PlmcBsdf::eval_pdf_hit_inner`] with `wo` already located in the light triangulation.
+    /// [`PlmcBsdf::eval_pdf_hit`] with `wo` already located in the light triangulation.
     #[inline]
     fn eval_pdf_located(
         &self,
@@ -179,7 +162,7 @@ impl PlmcBsdf {
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
     #[inline]
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        match self.prepare_unfetched(si) {
+        match self.hit_at(si, false) {
             Some(hit) => self.eval_hit(&hit, wo),
             None => Spectrum::ZERO,
         }
@@ -198,7 +181,7 @@ impl PlmcBsdf {
     /// Solid-angle pdf of [`PlmcBsdf::sample`].
     #[inline]
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        self.prepare_unfetched(si)
+        self.hit_at(si, false)
             .map_or(0.0, |hit| self.pdf_hit(&hit, wo))
     }
 
@@ -214,7 +197,7 @@ impl PlmcBsdf {
     /// `(eval, pdf)` sharing the view lookup and the light search.
     #[inline]
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        self.prepare_unfetched(si)
+        self.hit_at(si, false)
             .map_or((Spectrum::ZERO, 0.0), |hit| self.eval_pdf_hit(&hit, wo))
     }
 
@@ -224,7 +207,10 @@ impl PlmcBsdf {
         if wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
-        self.eval_pdf_hit_inner(hit, wo)
+        // One light-triangulation search serves both (the model and its sampling tables share
+        // the light direction set).
+        let located = self.material.sampler.light_interp().locate([wo.x, wo.y]);
+        self.eval_pdf_located(hit, wo, located)
     }
 
     /// [`PlmcBsdf::eval_pdf_hit`] of up to [`BATCH`] (hit, ω_l) pairs at once, the same values;
@@ -301,7 +287,7 @@ impl PlmcBsdf {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        self.sample_hit(&self.prepare_unfetched(si)?, sample1, sample2)
+        self.sample_hit(&self.hit_at(si, false)?, sample1, sample2)
     }
 
     /// [`PlmcBsdf::sample`] at a prepared hit (the same sample and weight).
