@@ -74,6 +74,23 @@ impl BsdfAt<'_> {
         }
     }
 
+    /// (f, pdf) toward an emitter sample's local direction `wo`, as next-event estimation
+    /// needs them: the pdf only for a light that BSDF sampling can also hit (`delta` false),
+    /// else 0 without computing it.
+    #[inline]
+    pub fn eval_for_light(
+        &self,
+        si: &SurfaceInteraction,
+        wo: Vec3,
+        delta: bool,
+    ) -> (Spectrum, f32) {
+        if delta {
+            (self.eval(si, wo), 0.0)
+        } else {
+            self.eval_pdf(si, wo)
+        }
+    }
+
     /// [`Bsdf::sample`] at this point: (sample, weight = eval / pdf).
     #[inline]
     pub fn sample(

@@ -58,11 +58,7 @@ pub fn li(
                 continue;
             };
             let wo = si.to_local(ls.wi);
-            let (f, bsdf_pdf) = if ls.delta {
-                (bsdf.eval(&si, wo), 0.0)
-            } else {
-                bsdf.eval_pdf(&si, wo)
-            };
+            let (f, bsdf_pdf) = bsdf.eval_for_light(&si, wo, ls.delta);
             if f == Spectrum::ZERO || ls.weight == Spectrum::ZERO || occluded(rs, &si, &ls, stats) {
                 continue;
             }

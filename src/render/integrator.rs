@@ -131,11 +131,7 @@ impl PathTracer {
                 if let Some(ls) = lights.sample(si.p, u_sel, u) {
                     let wo = si.to_local(ls.wi);
                     // One call for both: BSDFs with a per-hit lookup (BTF) share it.
-                    let (f, bsdf_pdf) = if ls.delta {
-                        (bsdf.eval(&si, wo), 0.0)
-                    } else {
-                        bsdf.eval_pdf(&si, wo)
-                    };
+                    let (f, bsdf_pdf) = bsdf.eval_for_light(&si, wo, ls.delta);
                     if f != Spectrum::ZERO
                         && ls.weight != Spectrum::ZERO
                         && !occluded(rs, &si, &ls, stats)

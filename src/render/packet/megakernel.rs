@@ -409,11 +409,7 @@ fn next_event(
         Some(e) => e,
         None => {
             let wo = si.to_local(ls.wi);
-            if ls.delta {
-                (bsdf.eval(si, wo), 0.0)
-            } else {
-                bsdf.eval_pdf(si, wo)
-            }
+            bsdf.eval_for_light(si, wo, ls.delta)
         }
     };
     if f == Spectrum::ZERO || ls.weight == Spectrum::ZERO {
