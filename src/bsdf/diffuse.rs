@@ -21,17 +21,11 @@ impl Diffuse {
     }
 
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
-        }
-        self.reflectance.eval(si.uv) * (INV_PI * wo.z)
+        eval_local(self.reflectance.eval(si.uv), si.wi, wo)
     }
 
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        if si.wi.z <= 0.0 {
-            return 0.0;
-        }
-        warp::square_to_cosine_hemisphere_pdf(wo)
+        pdf_local(si.wi, wo)
     }
 
     pub fn sample(
@@ -40,14 +34,7 @@ impl Diffuse {
         _sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        if si.wi.z <= 0.0 {
-            return None;
-        }
-        let wo = warp::square_to_cosine_hemisphere(sample2);
-        let pdf = warp::square_to_cosine_hemisphere_pdf(wo);
-        if pdf <= 0.0 {
-            return None;
-        }
+        let (wo, pdf) = sample_local(si.wi, sample2)?;
         let s = BsdfSample {
             wo,
             pdf,
@@ -56,4 +43,38 @@ impl Diffuse {
         };
         Some((s, self.reflectance.eval(si.uv)))
     }
+}
+
+/// f · cos θ_o of albedo `r` for local directions `wi` (toward the viewer) and `wo` (black
+/// from below). The arithmetic of [`Diffuse::eval`], which the packet kernel runs per lane.
+#[inline(always)]
+pub fn eval_local(r: Spectrum, wi: Vec3, wo: Vec3) -> Spectrum {
+    if wi.z <= 0.0 || wo.z <= 0.0 {
+        return Spectrum::ZERO;
+    }
+    r * (INV_PI * wo.z)
+}
+
+/// Solid-angle pdf of [`sample_local`] producing `wo` seen from `wi` (local directions).
+#[inline(always)]
+pub fn pdf_local(wi: Vec3, wo: Vec3) -> f32 {
+    if wi.z <= 0.0 {
+        return 0.0;
+    }
+    warp::square_to_cosine_hemisphere_pdf(wo)
+}
+
+/// Cosine-weighted direction and its pdf from the unit square sample `u`; None from below the
+/// surface (the weight is the albedo).
+#[inline(always)]
+pub fn sample_local(wi: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
+    if wi.z <= 0.0 {
+        return None;
+    }
+    let wo = warp::square_to_cosine_hemisphere(u);
+    let pdf = warp::square_to_cosine_hemisphere_pdf(wo);
+    if pdf <= 0.0 {
+        return None;
+    }
+    Some((wo, pdf))
 }

@@ -53,37 +53,53 @@ pub fn eval_position_normals(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Ve
 #[inline]
 pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2, Vec3, Vec3) {
     let [i0, i1, i2] = mesh.indices[prim as usize].map(|i| i as usize);
-    let (p0, p1, p2) = (mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]);
+    let p = [mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]];
+    let normals =
+        (!mesh.normals.is_empty()).then(|| [mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]]);
+    let uvs = (!mesh.uvs.is_empty()).then(|| [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]]);
+    triangle_surface(p, normals, uvs, b)
+}
+
+/// [`eval_triangle`] on a triangle's gathered vertices (positions, optional unit normals and
+/// uvs): the arithmetic the packet kernels run lane by lane, so both give the same bits.
+#[inline(always)]
+pub fn triangle_surface(
+    [p0, p1, p2]: [Vec3; 3],
+    normals: Option<[Vec3; 3]>,
+    uvs: Option<[Vec2; 3]>,
+    b: Vec2,
+) -> (Vec3, Vec3, Vec3, Vec2, Vec3, Vec3) {
     let b0 = 1.0 - b.x - b.y;
     let p = p0 * b0 + p1 * b.x + p2 * b.y;
     let dp0 = p1 - p0;
     let dp1 = p2 - p0;
     let n = dp0.cross(dp1).normalize_or_zero();
-    let ns = if mesh.normals.is_empty() {
-        n
-    } else {
-        let s = mesh.normals[i0] * b0 + mesh.normals[i1] * b.x + mesh.normals[i2] * b.y;
-        let s = s.normalize_or_zero();
-        if s == Vec3::ZERO { n } else { s }
+    let ns = match normals {
+        None => n,
+        Some([n0, n1, n2]) => {
+            let s = n0 * b0 + n1 * b.x + n2 * b.y;
+            let s = s.normalize_or_zero();
+            if s == Vec3::ZERO { n } else { s }
+        }
     };
-    let (uv, dpdu, dpdv) = if mesh.uvs.is_empty() {
-        (b, dp0, dp1)
-    } else {
-        let (t0, t1, t2) = (mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]);
-        let uv = t0 * b0 + t1 * b.x + t2 * b.y;
-        let duv0 = t1 - t0;
-        let duv1 = t2 - t0;
-        let det = duv0.x * duv1.y - duv0.y * duv1.x;
-        if det != 0.0 && det.is_finite() {
-            let inv = 1.0 / det;
-            (
-                uv,
-                (dp0 * duv1.y - dp1 * duv0.y) * inv,
-                (dp1 * duv0.x - dp0 * duv1.x) * inv,
-            )
-        } else {
-            let f = Frame::from_normal(n);
-            (uv, f.s, f.t)
+    let (uv, dpdu, dpdv) = match uvs {
+        None => (b, dp0, dp1),
+        Some([t0, t1, t2]) => {
+            let uv = t0 * b0 + t1 * b.x + t2 * b.y;
+            let duv0 = t1 - t0;
+            let duv1 = t2 - t0;
+            let det = duv0.x * duv1.y - duv0.y * duv1.x;
+            if det != 0.0 && det.is_finite() {
+                let inv = 1.0 / det;
+                (
+                    uv,
+                    (dp0 * duv1.y - dp1 * duv0.y) * inv,
+                    (dp1 * duv0.x - dp0 * duv1.x) * inv,
+                )
+            } else {
+                let f = Frame::from_normal(n);
+                (uv, f.s, f.t)
+            }
         }
     };
     (p, n, ns, uv, dpdu, dpdv)

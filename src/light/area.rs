@@ -45,30 +45,23 @@ impl AreaLight {
     /// Samples a point on the mesh as seen from `p` (pdf in solid angle, no selection).
     #[inline]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let (t, _, ux) = self.tris.sample(u.x);
+        let (tri, ux) = self.pick(u.x);
         let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
-        let (pl, ng, ns) = self.geo[t].eval(b);
-        let to = pl - p;
-        let d2 = to.length_squared();
-        if !(d2 > 0.0) {
-            return None;
-        }
-        let dist = d2.sqrt();
-        let wi = to / dist;
-        let cos_l = -ns.dot(wi);
-        // One-sided: emits toward the side of the shading normal.
-        if !(cos_l > 0.0) {
-            return None;
-        }
-        let pdf = self.inv_area * d2 / cos_l;
-        Some(LightSample {
-            wi,
-            dist,
-            n_geo: ng,
-            weight: self.radiance / pdf,
-            pdf,
-            delta: false,
-        })
+        sample_toward(self.radiance, self.inv_area, p, tri.eval(b))
+    }
+
+    /// The triangle that sample number `ux` selects (by area) and `ux` rescaled to [0, 1)
+    /// within it, for the triangle's own warp.
+    #[inline]
+    pub fn pick(&self, ux: f32) -> (&AreaTri, f32) {
+        let (t, _, ux) = self.tris.sample(ux);
+        (&self.geo[t], ux)
+    }
+
+    /// 1 / total area (1/m²).
+    #[inline]
+    pub fn inv_area(&self) -> f32 {
+        self.inv_area
     }
 
     /// `sel` × the solid-angle pdf with which [`AreaLight::sample_li`] from `p_ref` produces the
@@ -85,18 +78,52 @@ impl AreaLight {
     }
 }
 
+/// The rest of [`AreaLight::sample_li`] once the point is placed: `(pl, ng, ns)` (position,
+/// geometric and shading normal) seen from `p`, for a light of `radiance` and 1/area
+/// `inv_area`. None below the light's horizon or at zero distance. Shared with the packet
+/// kernels, which run it lane by lane.
+#[inline(always)]
+pub fn sample_toward(
+    radiance: Spectrum,
+    inv_area: f32,
+    p: Vec3,
+    (pl, ng, ns): (Vec3, Vec3, Vec3),
+) -> Option<LightSample> {
+    let to = pl - p;
+    let d2 = to.length_squared();
+    if !(d2 > 0.0) {
+        return None;
+    }
+    let dist = d2.sqrt();
+    let wi = to / dist;
+    let cos_l = -ns.dot(wi);
+    // One-sided: emits toward the side of the shading normal.
+    if !(cos_l > 0.0) {
+        return None;
+    }
+    let pdf = inv_area * d2 / cos_l;
+    Some(LightSample {
+        wi,
+        dist,
+        n_geo: ng,
+        weight: radiance / pdf,
+        pdf,
+        delta: false,
+    })
+}
+
 /// One triangle of an area light, pre-gathered for sampling.
 #[derive(Clone, Debug)]
 pub struct AreaTri {
     /// First vertex and the edges to the second and third.
-    p0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
+    pub p0: Vec3,
+    pub e1: Vec3,
+    pub e2: Vec3,
     /// Unit geometric normal (from the winding).
-    ng: Vec3,
+    pub ng: Vec3,
     /// Vertex normals if they are not all equal to `ng` (then the shading normal is
     /// interpolated as in [`crate::geometry::shading::eval_position_normals`]); None for flat triangles.
-    normals: Option<[Vec3; 3]>,
+    pub normals: Option<[Vec3; 3]>,
 }
 
 impl AreaTri {
@@ -127,17 +154,30 @@ impl AreaTri {
 
     /// Position, geometric and shading normal at barycentrics `b`.
     #[inline]
-    fn eval(&self, b: Vec2) -> (Vec3, Vec3, Vec3) {
-        let p = self.p0 + self.e1 * b.x + self.e2 * b.y;
-        let ns = match &self.normals {
-            None => self.ng,
-            Some([n0, n1, n2]) => {
-                let s = (*n0 * (1.0 - b.x - b.y) + *n1 * b.x + *n2 * b.y).normalize_or_zero();
-                if s == Vec3::ZERO { self.ng } else { s }
-            }
-        };
-        (p, self.ng, ns)
+    pub fn eval(&self, b: Vec2) -> (Vec3, Vec3, Vec3) {
+        tri_point(self.p0, self.e1, self.e2, self.ng, self.normals, b)
     }
+}
+
+/// [`AreaTri::eval`] on the triangle's fields (for the packet kernels' lane loops).
+#[inline(always)]
+pub fn tri_point(
+    p0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    ng: Vec3,
+    normals: Option<[Vec3; 3]>,
+    b: Vec2,
+) -> (Vec3, Vec3, Vec3) {
+    let p = p0 + e1 * b.x + e2 * b.y;
+    let ns = match normals {
+        None => ng,
+        Some([n0, n1, n2]) => {
+            let s = (n0 * (1.0 - b.x - b.y) + n1 * b.x + n2 * b.y).normalize_or_zero();
+            if s == Vec3::ZERO { ng } else { s }
+        }
+    };
+    (p, ng, ns)
 }
 
 #[cfg(test)]

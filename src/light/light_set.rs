@@ -13,6 +13,14 @@ use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::{Spectrum, Vec2, Vec3};
 use crate::scene::{Emitter, Scene};
 
+/// A light's sample with the selection probability `sel` folded in (pdf × sel, weight / sel).
+#[inline(always)]
+pub fn with_selection(mut s: LightSample, sel: f32) -> LightSample {
+    s.pdf *= sel;
+    s.weight /= sel;
+    s
+}
+
 /// All emitters of a scene plus the lookups the integrator needs.
 #[derive(Clone, Debug)]
 pub struct LightSet {
@@ -108,7 +116,7 @@ impl LightSet {
 
     /// Probability of selecting any one emitter (uniform, as Mitsuba).
     #[inline]
-    fn select_pdf(&self) -> f32 {
+    pub fn select_pdf(&self) -> f32 {
         1.0 / self.lights.len() as f32
     }
 
@@ -119,9 +127,9 @@ impl LightSet {
         if n == 0 {
             return None;
         }
-        let idx = ((u_sel * n as f32) as usize).min(n - 1);
+        let idx = self.select(u_sel);
         let sel = self.select_pdf();
-        let mut s = match &self.lights[idx] {
+        let s = match &self.lights[idx] {
             Light::Area(l) => l.sample_li(p, u)?,
             Light::SphereArea(l) => l.sample_li(p, u)?,
             Light::Point(l) => l.sample_li(p)?,
@@ -130,9 +138,23 @@ impl LightSet {
             Light::Constant(l) => l.sample_li(u),
             Light::EnvMap(l) => l.sample_li(u)?,
         };
-        s.pdf *= sel;
-        s.weight /= sel;
-        Some(s)
+        Some(with_selection(s, sel))
+    }
+
+    /// The emitter that sample number `u_sel` selects (uniformly); the lights must not be empty.
+    #[inline]
+    pub fn select(&self, u_sel: f32) -> usize {
+        let n = self.lights.len();
+        ((u_sel * n as f32) as usize).min(n - 1)
+    }
+
+    /// The area light (on a triangle mesh) of mesh `mesh`, if it has one.
+    #[inline]
+    pub fn area_light_of(&self, mesh: u32) -> Option<&AreaLight> {
+        match &self.lights[self.mesh_light[mesh as usize]? as usize] {
+            Light::Area(l) => Some(l),
+            _ => None,
+        }
     }
 
     /// Radiance emitted by the surface at `si` toward `si.wi` (0 unless the mesh has an area

@@ -220,14 +220,25 @@ pub(super) fn shadow_segment(
     si: &crate::geometry::intersection::SurfaceInteraction,
     ls: &crate::light::LightSample,
 ) -> Option<(Vec3, Vec3, f32)> {
-    let so = offset_origin(si.p, si.n, ls.wi);
+    shadow_segment_from(si.p, si.n, ls)
+}
+
+/// [`shadow_segment`] from the point `p` with unit geometric normal `n` (the packet kernels'
+/// lane loops call this).
+#[inline(always)]
+pub(super) fn shadow_segment_from(
+    p: Vec3,
+    n: Vec3,
+    ls: &crate::light::LightSample,
+) -> Option<(Vec3, Vec3, f32)> {
+    let so = offset_origin(p, n, ls.wi);
     if !ls.dist.is_finite() {
         return Some((so, ls.wi, f32::INFINITY));
     }
     let target = if ls.n_geo != Vec3::ZERO {
-        offset_origin(si.p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
+        offset_origin(p + ls.wi * ls.dist, ls.n_geo, -ls.wi)
     } else {
-        si.p + ls.wi * ls.dist
+        p + ls.wi * ls.dist
     };
     let to = target - so;
     let len = to.length();

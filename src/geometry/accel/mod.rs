@@ -26,7 +26,6 @@ use super::Mesh;
 use super::sphere::Sphere;
 use crate::math::simd::{self, Isa};
 use crate::math::{Vec2, Vec3};
-use glam::Vec3A;
 use node::Node8;
 use obvhs::BvhBuildParams;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
@@ -217,9 +216,10 @@ const OFFSET_SCALE: f32 = 1.0 / 65536.0;
 /// Moves a surface point off its surface along the geometric normal `n`, to the side `d` points
 /// to, by an amount that grows with the coordinates' magnitude, so that a ray spawned there does
 /// not re-hit the surface it starts on.
-#[inline]
+/// (Scalar `Vec3` arithmetic, so the packet kernels' lane loops vectorise it to the same bits.)
+#[inline(always)]
 pub fn offset_origin(p: Vec3, n: Vec3, d: Vec3) -> Vec3 {
-    let mag = 1.0 + Vec3A::from(p).abs().max_element();
+    let mag = 1.0 + p.abs().max_element();
     let off = n * (mag * OFFSET_SCALE);
     if n.dot(d) >= 0.0 { p + off } else { p - off }
 }
