@@ -2,6 +2,7 @@
 
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
 
 /// Ideal diffuse reflector with a (possibly textured) albedo.
@@ -77,4 +78,33 @@ pub fn sample_local(wi: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
         return None;
     }
     Some((wo, pdf))
+}
+
+/// [`eval_local`] per lane.
+#[inline(always)]
+pub fn eval_local_x(r: V3x, wi: V3x, wo: V3x) -> V3x {
+    let zero = Fx::splat(0.0);
+    let below = wi.z.le(zero).or(wo.z.le(zero));
+    V3x::select(below, V3x::ZERO, r.scale(INV_PI * wo.z))
+}
+
+/// [`pdf_local`] per lane.
+#[inline(always)]
+pub fn pdf_local_x(wi: V3x, wo: V3x) -> Fx {
+    let zero = Fx::splat(0.0);
+    Fx::select(
+        wi.z.le(zero),
+        zero,
+        warp::square_to_cosine_hemisphere_pdf_x(wo),
+    )
+}
+
+/// [`sample_local`] per lane: (wo, pdf, valid), valid false where that returns None.
+#[inline(always)]
+pub fn sample_local_x(wi: V3x, u: V2x) -> (V3x, Fx, Mx) {
+    let zero = Fx::splat(0.0);
+    let wo = warp::square_to_cosine_hemisphere_x(u);
+    let pdf = warp::square_to_cosine_hemisphere_pdf_x(wo);
+    let ok = wi.z.le(zero).not().and(pdf.le(zero).not());
+    (wo, pdf, ok)
 }

@@ -4,6 +4,8 @@
 
 use super::accel::Hit;
 use super::{Mesh, SurfaceInteraction};
+use crate::math::frame::FrameX;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Frame, Vec2, Vec3};
 
 /// Barycentrics (b1, b2) of the point where the line `o + t d` meets the plane of (p0, p1, p2)
@@ -103,6 +105,47 @@ pub fn triangle_surface(
         }
     };
     (p, n, ns, uv, dpdu, dpdv)
+}
+
+/// [`triangle_surface`] per lane: `has_normals` / `has_uvs` say which lanes' `normals` /
+/// `uvs` are real (the others are ignored). Returns (p, n_geo, n_shading, uv, dpdu, dpdv).
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+pub fn triangle_surface_x(
+    [p0, p1, p2]: [V3x; 3],
+    has_normals: Mx,
+    [n0, n1, n2]: [V3x; 3],
+    has_uvs: Mx,
+    [t0, t1, t2]: [V2x; 3],
+    b: V2x,
+) -> (V3x, V3x, V3x, V2x, V3x, V3x) {
+    let b0 = 1.0 - b.x - b.y;
+    let p = p0.scale(b0).add(p1.scale(b.x)).add(p2.scale(b.y));
+    let dp0 = p1.sub(p0);
+    let dp1 = p2.sub(p0);
+    let n = dp0.cross(dp1).normalize_or_zero();
+    let s = n0.scale(b0).add(n1.scale(b.x)).add(n2.scale(b.y));
+    let s = s.normalize_or_zero();
+    let ns = V3x::select(has_normals.and(s.is_zero().not()), s, n);
+    let uv = t0.scale(b0).add(t1.scale(b.x)).add(t2.scale(b.y));
+    let duv0 = t1.sub(t0);
+    let duv1 = t2.sub(t0);
+    let det = duv0.x * duv1.y - duv0.y * duv1.x;
+    let det_ok = det.ne(Fx::splat(0.0)).and(det.is_finite());
+    let inv = 1.0 / det;
+    let du = dp0.scale(duv1.y).sub(dp1.scale(duv0.y)).scale(inv);
+    let dv = dp1.scale(duv0.x).sub(dp0.scale(duv1.x)).scale(inv);
+    let f = FrameX::from_normal(n);
+    let du = V3x::select(det_ok, du, f.s);
+    let dv = V3x::select(det_ok, dv, f.t);
+    (
+        p,
+        n,
+        ns,
+        V2x::select(has_uvs, uv, b),
+        V3x::select(has_uvs, du, dp0),
+        V3x::select(has_uvs, dv, dp1),
+    )
 }
 
 /// The full interaction for a hit of the unit-direction ray `o + t d` (the hit's barycentrics

@@ -4,9 +4,10 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::LightSample;
+use super::{LightSample, LightSampleX};
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::distribution::Distribution1D;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3, warp};
 
 /// Uniform area sampling over one emissive mesh (triangles chosen by area).
@@ -112,6 +113,33 @@ pub fn sample_toward(
     })
 }
 
+/// [`sample_toward`] per lane: (sample, valid) where valid is false for the lanes whose
+/// sample is None (their values are not meaningful).
+#[inline(always)]
+pub fn sample_toward_x(
+    radiance: V3x,
+    inv_area: Fx,
+    p: V3x,
+    (pl, ng, ns): (V3x, V3x, V3x),
+) -> (LightSampleX, Mx) {
+    let to = pl.sub(p);
+    let d2 = to.length_squared();
+    let dist = d2.sqrt();
+    let wi = to.div(dist);
+    let cos_l = -ns.dot(wi);
+    let ok = d2.gt(Fx::splat(0.0)).and(cos_l.gt(Fx::splat(0.0)));
+    let pdf = inv_area * d2 / cos_l;
+    let s = LightSampleX {
+        wi,
+        dist,
+        n_geo: ng,
+        weight: radiance.div(pdf),
+        pdf,
+        delta: Mx::splat(false),
+    };
+    (s, ok)
+}
+
 /// One triangle of an area light, pre-gathered for sampling.
 #[derive(Clone, Debug)]
 pub struct AreaTri {
@@ -177,6 +205,27 @@ pub fn tri_point(
             if s == Vec3::ZERO { ng } else { s }
         }
     };
+    (p, ng, ns)
+}
+
+/// [`tri_point`] per lane; `has_normals` marks the lanes with vertex normals.
+#[inline(always)]
+pub fn tri_point_x(
+    p0: V3x,
+    e1: V3x,
+    e2: V3x,
+    ng: V3x,
+    has_normals: Mx,
+    [n0, n1, n2]: [V3x; 3],
+    b: V2x,
+) -> (V3x, V3x, V3x) {
+    let p = p0.add(e1.scale(b.x)).add(e2.scale(b.y));
+    let s = n0
+        .scale(1.0 - b.x - b.y)
+        .add(n1.scale(b.x))
+        .add(n2.scale(b.y))
+        .normalize_or_zero();
+    let ns = V3x::select(has_normals.and(s.is_zero().not()), s, ng);
     (p, ng, ns)
 }
 

@@ -141,11 +141,12 @@ impl LightSet {
         Some(with_selection(s, sel))
     }
 
-    /// The emitter that sample number `u_sel` selects (uniformly); the lights must not be empty.
+    /// The index in `lights` of the emitter that sample number `u_sel` selects (uniformly; 0
+    /// when there are none).
     #[inline]
     pub fn select(&self, u_sel: f32) -> usize {
         let n = self.lights.len();
-        ((u_sel * n as f32) as usize).min(n - 1)
+        ((u_sel * n as f32) as usize).min(n.saturating_sub(1))
     }
 
     /// The area light (on a triangle mesh) of mesh `mesh`, if it has one.

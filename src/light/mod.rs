@@ -11,6 +11,7 @@ pub mod point;
 pub mod sphere_area;
 pub mod spot;
 
+use crate::math::simd::wide::{Fx, Mx, V3x};
 use crate::math::{Spectrum, Vec3};
 pub use area::AreaLight;
 pub use constant::ConstantLight;
@@ -31,6 +32,53 @@ pub enum Light {
     Directional(DirectionalLight),
     Constant(ConstantLight),
     EnvMap(Box<EnvMapLight>),
+}
+
+/// 16 [`LightSample`]s, one per lane (the packet kernels' form).
+#[derive(Clone, Copy, Debug)]
+pub struct LightSampleX {
+    pub wi: V3x,
+    pub dist: Fx,
+    pub n_geo: V3x,
+    pub weight: V3x,
+    pub pdf: Fx,
+    pub delta: Mx,
+}
+
+impl LightSampleX {
+    /// Stores lane `l` of `s` (the scalar sample of an emitter the kernel does not sample itself).
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, s: &LightSample) {
+        self.wi.set(l, s.wi);
+        self.dist.0[l] = s.dist;
+        self.n_geo.set(l, s.n_geo);
+        self.weight.set(l, s.weight);
+        self.pdf.0[l] = s.pdf;
+        self.delta.0[l] = s.delta;
+    }
+
+    /// [`crate::light::light_set::with_selection`] per lane.
+    #[inline(always)]
+    pub fn with_selection(mut self, sel: f32) -> LightSampleX {
+        self.pdf = self.pdf * sel;
+        self.weight = self.weight.div(Fx::splat(sel));
+        self
+    }
+
+    /// Lanes of `a` where `m`, of `b` elsewhere.
+    #[inline(always)]
+    pub fn select(m: Mx, a: &LightSampleX, b: &LightSampleX) -> LightSampleX {
+        LightSampleX {
+            wi: V3x::select(m, a.wi, b.wi),
+            dist: Fx::select(m, a.dist, b.dist),
+            n_geo: V3x::select(m, a.n_geo, b.n_geo),
+            weight: V3x::select(m, a.weight, b.weight),
+            pdf: Fx::select(m, a.pdf, b.pdf),
+            delta: Mx(std::array::from_fn(|i| {
+                if m.0[i] { a.delta.0[i] } else { b.delta.0[i] }
+            })),
+        }
+    }
 }
 
 /// The result of sampling a light from a reference point.

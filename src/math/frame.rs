@@ -1,5 +1,6 @@
 //! Orthonormal frames: the local shading space in which BSDFs and BTFs are evaluated (z = normal).
 
+use crate::math::simd::wide::{Fx, V3x};
 use glam::Vec3;
 
 /// An orthonormal basis (s, t, n); local coordinates are (x along s, y along t, z along n).
@@ -48,6 +49,61 @@ impl Frame {
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z
+    }
+}
+
+/// 16 frames, one per lane: [`Frame`]'s constructors and transforms on [`V3x`], the same bits
+/// per lane (the packet kernels' twin of [`Frame`]).
+#[derive(Clone, Copy, Debug)]
+pub struct FrameX {
+    pub s: V3x,
+    pub t: V3x,
+    pub n: V3x,
+}
+
+impl FrameX {
+    /// [`Frame::from_normal`] per lane.
+    #[inline(always)]
+    pub fn from_normal(n: V3x) -> Self {
+        let sign = n.z.sign_of();
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = V3x::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = V3x::new(b, sign + n.y * n.y * a, -n.y);
+        FrameX { s, t, n }
+    }
+
+    /// [`Frame::from_normal_tangent`] per lane.
+    #[inline(always)]
+    pub fn from_normal_tangent(n: V3x, dpdu: V3x) -> Self {
+        let s = dpdu.sub(n.scale(n.dot(dpdu)));
+        let len2 = s.length_squared();
+        let bad = len2
+            .ne(len2)
+            .or(len2.le(Fx::splat(1e-20)))
+            .or(len2.is_finite().not());
+        let s = s.div(len2.sqrt());
+        let fb = FrameX::from_normal(n);
+        FrameX {
+            s: V3x::select(bad, fb.s, s),
+            t: V3x::select(bad, fb.t, n.cross(s)),
+            n,
+        }
+    }
+
+    /// World → local per lane.
+    #[inline(always)]
+    pub fn to_local(&self, v: V3x) -> V3x {
+        V3x::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+
+    /// Local → world per lane.
+    #[inline(always)]
+    pub fn to_world(&self, v: V3x) -> V3x {
+        self.s
+            .scale(v.x)
+            .add(self.t.scale(v.y))
+            .add(self.n.scale(v.z))
     }
 }
 

@@ -2,6 +2,7 @@
 
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 use crate::math::simd::lane::sin_cos;
+use crate::math::simd::wide::{Fx, V2x, V3x};
 use glam::{Vec2, Vec3};
 
 /// Concentric (Shirley–Chiu) map to the unit disk: low distortion, continuous.
@@ -89,6 +90,43 @@ pub fn square_to_uniform_cone_pdf(v: Vec3, cos_cutoff: f32) -> f32 {
 pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
     let t = (1.0 - u.x).sqrt();
     Vec2::new(1.0 - t, u.y * t)
+}
+
+/// [`square_to_uniform_triangle`] per lane.
+#[inline(always)]
+pub fn square_to_uniform_triangle_x(u: V2x) -> V2x {
+    let t = (1.0 - u.x).sqrt();
+    V2x {
+        x: 1.0 - t,
+        y: u.y * t,
+    }
+}
+
+/// [`square_to_cosine_hemisphere`] per lane.
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_x(u: V2x) -> V3x {
+    let a = 2.0 * u.x - 1.0;
+    let b = 2.0 * u.y - 1.0;
+    let zero = Fx::splat(0.0);
+    let center = a.eq(zero).and(b.eq(zero));
+    let first = (a * a).gt(b * b);
+    let r = Fx::select(first, a, b);
+    let phi = Fx::select(
+        first,
+        (PI / 4.0) * (b / a),
+        (PI / 2.0) - (PI / 4.0) * (a / b),
+    );
+    let (s, c) = phi.sin_cos();
+    let dx = Fx::select(center, zero, r * c);
+    let dy = Fx::select(center, zero, r * s);
+    let z = (1.0 - (dx * dx + dy * dy)).max(zero).sqrt();
+    V3x::new(dx, dy, z)
+}
+
+/// [`square_to_cosine_hemisphere_pdf`] per lane.
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_pdf_x(v: V3x) -> Fx {
+    Fx::select(v.z.gt(Fx::splat(0.0)), v.z * INV_PI, Fx::splat(0.0))
 }
 
 #[cfg(test)]

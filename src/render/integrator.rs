@@ -10,7 +10,10 @@
 use super::RenderScene;
 use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
+use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::surface_interaction;
+use crate::light::LightSampleX;
+use crate::math::simd::wide::{Fx, Mx, V3x};
 use crate::math::{Pcg32, Spectrum, Vec3};
 use crate::scene::{DirectSettings, IntegratorSettings};
 use crate::{Error, Result};
@@ -245,6 +248,29 @@ pub(super) fn shadow_segment_from(
     (len > 0.0).then(|| (so, to / len, len * (1.0 - 1e-4)))
 }
 
+/// [`shadow_segment_from`] per lane: (origin, direction, extent, valid); valid is false where
+/// that returns None.
+#[inline(always)]
+pub(super) fn shadow_segment_from_x(p: V3x, n: V3x, ls: &LightSampleX) -> (V3x, V3x, Fx, Mx) {
+    let so = offset_origin_x(p, n, ls.wi);
+    let infinite = ls.dist.is_finite().not();
+    let at = p.add(ls.wi.scale(ls.dist));
+    let target = V3x::select(
+        ls.n_geo.is_zero(),
+        at,
+        offset_origin_x(at, ls.n_geo, ls.wi.neg()),
+    );
+    let to = target.sub(so);
+    let len = to.length();
+    let ok = len.gt(Fx::splat(0.0));
+    (
+        so,
+        V3x::select(infinite, ls.wi, to.div(len)),
+        Fx::select(infinite, Fx::splat(f32::INFINITY), len * (1.0 - 1e-4)),
+        infinite.or(ok),
+    )
+}
+
 /// True if the shadow ray from `si` to the emitter sample `ls` is blocked (one ray counted).
 pub(super) fn occluded(
     rs: &RenderScene,
@@ -254,6 +280,15 @@ pub(super) fn occluded(
 ) -> bool {
     stats.rays += 1;
     shadow_segment(si, ls).is_some_and(|(o, d, t)| rs.accel.occluded(o, d, t))
+}
+
+/// [`mis_weight`] per lane.
+#[inline(always)]
+pub fn mis_weight_x(pdf_a: Fx, pdf_b: Fx) -> Fx {
+    let a = pdf_a * pdf_a;
+    let b = pdf_b * pdf_b;
+    let w = a / (a + b);
+    Fx::select(w.is_finite(), w, Fx::splat(0.0))
 }
 
 /// Power heuristic with β = 2; 0 where undefined (Mitsuba's `mis_weight`).

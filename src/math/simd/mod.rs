@@ -9,6 +9,7 @@
 pub mod lane;
 #[cfg(target_arch = "x86_64")]
 pub mod transpose;
+pub mod wide;
 
 use std::sync::OnceLock;
 

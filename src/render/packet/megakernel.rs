@@ -13,9 +13,10 @@
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::diffuse::shade_diffuse;
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
-use crate::bsdf::{BsdfAt, BsdfFlags, BsdfSample};
+use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, BsdfSample};
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
@@ -96,6 +97,7 @@ pub fn trace_chunk(
     scratch.key.resize(pool.len(), 0);
     scratch.start.resize(nkeys + 1, 0);
     let mut next = 0u32;
+    let isa = crate::math::simd::isa();
     loop {
         // --------------------------------- refill ---------------------------------
         for g in 0..pool.len() / LANES {
@@ -190,9 +192,27 @@ pub fn trace_chunk(
             if a == b {
                 continue;
             }
+            // A diffuse BSDF's triangle lanes run its SoA kernel; the rest (analytic spheres,
+            // escaped rays, other BSDFs) are shaded lane by lane through the scalar code.
+            let diffuse = match k.checked_sub(1).map(|b| &rs.scene.bsdfs[b]) {
+                Some(Bsdf::Diffuse(d)) => Some(&d.reflectance),
+                _ => None,
+            };
+            let bucket = &mut scratch.order[a..b];
+            let split = match diffuse {
+                Some(_) => partition(bucket, |i| is_triangle_hit(rs, pool, i)),
+                None => 0,
+            };
+            let (soa, rest) = bucket.split_at(split);
             lanes.shade_active += (b - a) as u64;
-            lanes.shade_issued += (b - a).div_ceil(LANES) as u64 * LANES as u64;
-            for slots in scratch.order[a..b].chunks(LANES) {
+            lanes.shade_issued +=
+                (soa.len().div_ceil(LANES) + rest.len().div_ceil(LANES)) as u64 * LANES as u64;
+            if let Some(refl) = diffuse {
+                for slots in soa.chunks(LANES) {
+                    shade_diffuse(isa, rs, refl, pool, slots, stats);
+                }
+            }
+            for slots in rest.chunks(LANES) {
                 shade_batch(rs, pt, pool, slots, stats);
             }
         }
@@ -221,6 +241,25 @@ pub fn trace_chunk(
             }
         }
     }
+}
+
+/// Moves the slots for which `keep` holds to the front of `v` (in no particular order) and
+/// returns how many there are.
+fn partition(v: &mut [u32], keep: impl Fn(usize) -> bool) -> usize {
+    let mut k = 0;
+    for j in 0..v.len() {
+        if keep(v[j] as usize) {
+            v.swap(j, k);
+            k += 1;
+        }
+    }
+    k
+}
+
+/// True if slot `i`'s ray hit a triangle (not an analytic sphere).
+#[inline]
+fn is_triangle_hit(rs: &RenderScene, pool: &PathPool, i: usize) -> bool {
+    pool.hit[i].is_some_and(|h| rs.scene.meshes[h.mesh as usize].sphere.is_none())
 }
 
 /// A camera ray hit an area emitter with `hide_emitters`: continue the same ray behind it

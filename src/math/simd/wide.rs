@@ -1,0 +1,449 @@
+//! Sixteen-lane values for the packet kernels written as straight-line code: [`Fx`] (f32),
+//! [`Mx`] (a lane mask), [`V2x`] and [`V3x`] (vectors, one [`Fx`] per component). Every
+//! operation is a loop over the 16 lanes marked `#[inline(always)]`, which LLVM turns into one
+//! AVX-512 instruction (two AVX2 ones) inside a `#[target_feature]` build
+//! ([`crate::isa_dispatch`]) and into plain loops elsewhere.
+//!
+//! The vector operations round exactly like glam's scalar `Vec3`/`Vec2` ones (the same
+//! operations in the same order, no fused multiply-adds), so a lane computes the bits the scalar
+//! code computes; branches become [`Fx::select`] of both sides, which is the same value.
+
+use super::WIDTH;
+use glam::{Vec2, Vec3};
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+const W: usize = WIDTH;
+
+/// 16 f32 lanes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fx(pub [f32; W]);
+
+/// A per-lane condition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mx(pub [bool; W]);
+
+#[inline(always)]
+fn map(f: impl Fn(usize) -> f32) -> Fx {
+    Fx(std::array::from_fn(f))
+}
+
+#[inline(always)]
+fn mask(f: impl Fn(usize) -> bool) -> Mx {
+    Mx(std::array::from_fn(f))
+}
+
+impl Fx {
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: f32) -> Fx {
+        Fx([v; W])
+    }
+
+    /// √ per lane (correctly rounded, as `f32::sqrt`).
+    #[inline(always)]
+    pub fn sqrt(self) -> Fx {
+        map(|i| self.0[i].sqrt())
+    }
+
+    /// |x| per lane.
+    #[inline(always)]
+    pub fn abs(self) -> Fx {
+        map(|i| self.0[i].abs())
+    }
+
+    /// `if a < b { a } else { b }`: `f32::min(a, b)` for a non-NaN `b`.
+    #[inline(always)]
+    pub fn min(self, b: Fx) -> Fx {
+        map(|i| {
+            if self.0[i] < b.0[i] {
+                self.0[i]
+            } else {
+                b.0[i]
+            }
+        })
+    }
+
+    /// `if a > b { a } else { b }`: glam's `max_element` step, `f32::max(a, b)` for a non-NaN `b`.
+    #[inline(always)]
+    pub fn max(self, b: Fx) -> Fx {
+        map(|i| {
+            if self.0[i] > b.0[i] {
+                self.0[i]
+            } else {
+                b.0[i]
+            }
+        })
+    }
+
+    /// Lanes of `a` where `m`, of `b` elsewhere.
+    #[inline(always)]
+    pub fn select(m: Mx, a: Fx, b: Fx) -> Fx {
+        map(|i| if m.0[i] { a.0[i] } else { b.0[i] })
+    }
+
+    #[inline(always)]
+    pub fn lt(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] < b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn le(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] <= b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn gt(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] > b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn ge(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] >= b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn eq(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] == b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn ne(self, b: Fx) -> Mx {
+        mask(|i| self.0[i] != b.0[i])
+    }
+
+    /// Neither infinite nor NaN (`f32::is_finite`).
+    #[inline(always)]
+    pub fn is_finite(self) -> Mx {
+        mask(|i| self.0[i].abs() < f32::INFINITY)
+    }
+
+    /// `f32::copysign(1.0, x)` per lane.
+    #[inline(always)]
+    pub fn sign_of(self) -> Fx {
+        map(|i| 1.0f32.copysign(self.0[i]))
+    }
+
+    /// (sin x, cos x) per lane by [`super::lane::sin_cos`].
+    #[inline(always)]
+    pub fn sin_cos(self) -> (Fx, Fx) {
+        let mut s = [0.0; W];
+        let mut c = [0.0; W];
+        for i in 0..W {
+            (s[i], c[i]) = super::lane::sin_cos(self.0[i]);
+        }
+        (Fx(s), Fx(c))
+    }
+}
+
+macro_rules! fx_op {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl $tr for Fx {
+            type Output = Fx;
+            #[inline(always)]
+            fn $f(self, b: Fx) -> Fx {
+                map(|i| self.0[i] $op b.0[i])
+            }
+        }
+        impl $tr<f32> for Fx {
+            type Output = Fx;
+            #[inline(always)]
+            fn $f(self, b: f32) -> Fx {
+                map(|i| self.0[i] $op b)
+            }
+        }
+        impl $tr<Fx> for f32 {
+            type Output = Fx;
+            #[inline(always)]
+            fn $f(self, b: Fx) -> Fx {
+                map(|i| self $op b.0[i])
+            }
+        }
+    };
+}
+fx_op!(Add, add, +);
+fx_op!(Sub, sub, -);
+fx_op!(Mul, mul, *);
+fx_op!(Div, div, /);
+
+impl Neg for Fx {
+    type Output = Fx;
+    #[inline(always)]
+    fn neg(self) -> Fx {
+        map(|i| -self.0[i])
+    }
+}
+
+// Named methods, not operator traits: the twins of scalar code read left to right in the
+// order glam evaluates, and a mask is not an integer.
+#[allow(clippy::should_implement_trait)]
+impl Mx {
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: bool) -> Mx {
+        Mx([v; W])
+    }
+
+    #[inline(always)]
+    pub fn and(self, b: Mx) -> Mx {
+        mask(|i| self.0[i] & b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn or(self, b: Mx) -> Mx {
+        mask(|i| self.0[i] | b.0[i])
+    }
+
+    #[inline(always)]
+    pub fn not(self) -> Mx {
+        mask(|i| !self.0[i])
+    }
+}
+
+/// 16 2-vectors, one [`Fx`] per component.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct V2x {
+    pub x: Fx,
+    pub y: Fx,
+}
+
+// Named methods, not operator traits: the twins of scalar code read left to right in the
+// order glam evaluates, and a mask is not an integer.
+#[allow(clippy::should_implement_trait)]
+impl V2x {
+    pub const ZERO: V2x = V2x {
+        x: Fx([0.0; W]),
+        y: Fx([0.0; W]),
+    };
+
+    #[inline(always)]
+    pub fn get(&self, l: usize) -> Vec2 {
+        Vec2::new(self.x.0[l], self.y.0[l])
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, v: Vec2) {
+        self.x.0[l] = v.x;
+        self.y.0[l] = v.y;
+    }
+
+    /// `Vec2 * f32` per lane.
+    #[inline(always)]
+    pub fn scale(self, s: Fx) -> V2x {
+        V2x {
+            x: self.x * s,
+            y: self.y * s,
+        }
+    }
+
+    #[inline(always)]
+    pub fn add(self, b: V2x) -> V2x {
+        V2x {
+            x: self.x + b.x,
+            y: self.y + b.y,
+        }
+    }
+
+    #[inline(always)]
+    pub fn sub(self, b: V2x) -> V2x {
+        V2x {
+            x: self.x - b.x,
+            y: self.y - b.y,
+        }
+    }
+
+    /// Lanes of `a` where `m`, of `b` elsewhere.
+    #[inline(always)]
+    pub fn select(m: Mx, a: V2x, b: V2x) -> V2x {
+        V2x {
+            x: Fx::select(m, a.x, b.x),
+            y: Fx::select(m, a.y, b.y),
+        }
+    }
+}
+
+/// 16 3-vectors, one [`Fx`] per component.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct V3x {
+    pub x: Fx,
+    pub y: Fx,
+    pub z: Fx,
+}
+
+// Named methods, not operator traits: the twins of scalar code read left to right in the
+// order glam evaluates, and a mask is not an integer.
+#[allow(clippy::should_implement_trait)]
+impl V3x {
+    pub const ZERO: V3x = V3x {
+        x: Fx([0.0; W]),
+        y: Fx([0.0; W]),
+        z: Fx([0.0; W]),
+    };
+
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: Vec3) -> V3x {
+        V3x {
+            x: Fx::splat(v.x),
+            y: Fx::splat(v.y),
+            z: Fx::splat(v.z),
+        }
+    }
+
+    #[inline(always)]
+    pub fn new(x: Fx, y: Fx, z: Fx) -> V3x {
+        V3x { x, y, z }
+    }
+
+    #[inline(always)]
+    pub fn get(&self, l: usize) -> Vec3 {
+        Vec3::new(self.x.0[l], self.y.0[l], self.z.0[l])
+    }
+
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, v: Vec3) {
+        self.x.0[l] = v.x;
+        self.y.0[l] = v.y;
+        self.z.0[l] = v.z;
+    }
+
+    /// `Vec3 * f32` per lane.
+    #[inline(always)]
+    pub fn scale(self, s: Fx) -> V3x {
+        V3x::new(self.x * s, self.y * s, self.z * s)
+    }
+
+    /// `Vec3 / f32` per lane (a division per component, as glam).
+    #[inline(always)]
+    pub fn div(self, s: Fx) -> V3x {
+        V3x::new(self.x / s, self.y / s, self.z / s)
+    }
+
+    /// Component-wise product.
+    #[inline(always)]
+    pub fn mul(self, b: V3x) -> V3x {
+        V3x::new(self.x * b.x, self.y * b.y, self.z * b.z)
+    }
+
+    #[inline(always)]
+    pub fn add(self, b: V3x) -> V3x {
+        V3x::new(self.x + b.x, self.y + b.y, self.z + b.z)
+    }
+
+    #[inline(always)]
+    pub fn sub(self, b: V3x) -> V3x {
+        V3x::new(self.x - b.x, self.y - b.y, self.z - b.z)
+    }
+
+    #[inline(always)]
+    pub fn neg(self) -> V3x {
+        V3x::new(-self.x, -self.y, -self.z)
+    }
+
+    /// (x·x' + y·y') + z·z', glam's order.
+    #[inline(always)]
+    pub fn dot(self, b: V3x) -> Fx {
+        (self.x * b.x) + (self.y * b.y) + (self.z * b.z)
+    }
+
+    /// glam's cross product.
+    #[inline(always)]
+    pub fn cross(self, b: V3x) -> V3x {
+        V3x::new(
+            self.y * b.z - b.y * self.z,
+            self.z * b.x - b.z * self.x,
+            self.x * b.y - b.x * self.y,
+        )
+    }
+
+    #[inline(always)]
+    pub fn length_squared(self) -> Fx {
+        self.dot(self)
+    }
+
+    #[inline(always)]
+    pub fn length(self) -> Fx {
+        self.dot(self).sqrt()
+    }
+
+    /// glam's `normalize_or_zero`: v · (1/|v|) where that reciprocal is finite and positive.
+    #[inline(always)]
+    pub fn normalize_or_zero(self) -> V3x {
+        let rcp = 1.0 / self.length();
+        let ok = rcp.is_finite().and(rcp.gt(Fx::splat(0.0)));
+        V3x::select(ok, self.scale(rcp), V3x::ZERO)
+    }
+
+    /// All three components are 0 (`v == Vec3::ZERO`).
+    #[inline(always)]
+    pub fn is_zero(self) -> Mx {
+        let z = Fx::splat(0.0);
+        self.x.eq(z).and(self.y.eq(z)).and(self.z.eq(z))
+    }
+
+    /// glam's `abs().max_element()`: max(|x|, max(|y|, |z|)).
+    #[inline(always)]
+    pub fn abs_max_element(self) -> Fx {
+        self.x.abs().max(self.y.abs().max(self.z.abs()))
+    }
+
+    /// glam's `max_element`: max(x, max(y, z)).
+    #[inline(always)]
+    pub fn max_element(self) -> Fx {
+        self.x.max(self.y.max(self.z))
+    }
+
+    /// Lanes of `a` where `m`, of `b` elsewhere.
+    #[inline(always)]
+    pub fn select(m: Mx, a: V3x, b: V3x) -> V3x {
+        V3x::new(
+            Fx::select(m, a.x, b.x),
+            Fx::select(m, a.y, b.y),
+            Fx::select(m, a.z, b.z),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lane operations give glam's scalar bits, including where a branch would be taken.
+    #[test]
+    fn lanes_round_like_glam() {
+        let mut rng = crate::math::Pcg32::new(5, 9);
+        let mut a = V3x::ZERO;
+        let mut b = V3x::ZERO;
+        let mut av = [Vec3::ZERO; W];
+        let mut bv = [Vec3::ZERO; W];
+        for _ in 0..200 {
+            for l in 0..W {
+                let mut r = || (rng.next_f32() - 0.5) * 10.0;
+                av[l] = Vec3::new(r(), r(), r());
+                bv[l] = Vec3::new(r(), r(), r());
+                if l == 3 {
+                    av[l] = Vec3::ZERO;
+                }
+                a.set(l, av[l]);
+                b.set(l, bv[l]);
+            }
+            let dot = a.dot(b);
+            let cross = a.cross(b);
+            let norm = a.normalize_or_zero();
+            let sc = a.scale(dot);
+            let dv = a.div(dot);
+            for l in 0..W {
+                assert_eq!(dot.0[l].to_bits(), av[l].dot(bv[l]).to_bits());
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(bits(cross.get(l)), bits(av[l].cross(bv[l])));
+                assert_eq!(bits(norm.get(l)), bits(av[l].normalize_or_zero()));
+                assert_eq!(bits(sc.get(l)), bits(av[l] * av[l].dot(bv[l])));
+                assert_eq!(bits(dv.get(l)), bits(av[l] / av[l].dot(bv[l])));
+                assert_eq!(a.abs_max_element().0[l], av[l].abs().max_element());
+                assert_eq!(a.max_element().0[l], av[l].max_element());
+                assert_eq!(a.length().0[l], av[l].length());
+                assert_eq!(a.is_zero().0[l], av[l] == Vec3::ZERO);
+                assert_eq!(a.x.min(Fx::splat(0.95)).0[l], av[l].x.min(0.95));
+            }
+        }
+    }
+}

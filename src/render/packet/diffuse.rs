@@ -1,0 +1,296 @@
+//! The packet integrator's kernel for the `diffuse` BSDF on triangles: one batch of up to
+//! [`LANES`] paths shaded in structure-of-arrays, stage by stage (surface interaction → emission
+//! with MIS → emitter sample → BSDF evaluation and shadow ray → BSDF sample → throughput and
+//! Russian roulette → continuation ray). The stages are straight-line code on 16-lane values
+//! ([`crate::math::simd::wide`]), one AVX-512 instruction (two AVX2 ones) per operation in the
+//! build [`crate::isa_dispatch`] picks.
+//!
+//! Every lane runs the scalar integrator's arithmetic through the `_x` twins of its helpers
+//! ([`triangle_surface_x`], [`FrameX`], [`sample_toward_x`], [`eval_local_x`], …), which round
+//! like them, on the same random stream, so a lane's path is the same bits as
+//! [`crate::render::integrator::PathTracer::li`]'s (`tests/render_packet.rs` compares them).
+//! What is not arithmetic stays scalar per lane: the gathers (mesh vertices, the pool's slots),
+//! the random numbers, emitter selection, the area light's triangle search, textured albedo,
+//! emission at emitter hits, and emitters other than triangle-mesh area lights (sampled through
+//! [`crate::light::LightSet::sample`]).
+
+// `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use super::lanes::LANES;
+use super::pool::{PathPool, Shadow};
+use crate::bsdf::Texture;
+use crate::bsdf::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
+use crate::geometry::SurfaceInteraction;
+use crate::geometry::accel::offset_origin_x;
+use crate::geometry::shading::triangle_surface_x;
+use crate::light::area::{sample_toward_x, tri_point_x};
+use crate::light::{Light, LightSampleX};
+use crate::math::frame::FrameX;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::{Frame, Pcg32, Spectrum, Vec2, warp};
+use crate::render::RenderScene;
+use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
+
+const L: usize = LANES;
+
+crate::isa_dispatch! {
+    /// Shades the lanes `slots` of the pool (all hit a triangle of a mesh whose BSDF is a
+    /// `diffuse` of albedo `refl`; at most [`LANES`]) one path segment on: what
+    /// [`super::megakernel`]'s per-lane shading does for them, in SoA.
+    pub fn shade_diffuse(
+        rs: &RenderScene,
+        refl: &Texture,
+        pool: &mut PathPool,
+        slots: &[u32],
+        stats: &mut TraceStats,
+    ) -> () = shade;
+}
+
+#[inline(always)]
+fn shade(
+    rs: &RenderScene,
+    refl: &Texture,
+    pool: &mut PathPool,
+    slots: &[u32],
+    stats: &mut TraceStats,
+) {
+    let n = slots.len();
+    if n == 0 {
+        return;
+    }
+    debug_assert!(n <= L);
+    let pt = &rs.integrator;
+    let meshes = &rs.scene.meshes;
+    let lights = &rs.lights;
+    let zero = Fx::splat(0.0);
+
+    // ------------------------------ gather (scalar) ------------------------------
+    // Lanes past n replay the last real lane; their results are never written back.
+    let mut slot = [0usize; L];
+    let mut tp = [V3x::ZERO; 3];
+    let mut tn = [V3x::ZERO; 3];
+    let mut tuv = [V2x::ZERO; 3];
+    let mut has_n = Mx::splat(false);
+    let mut has_uv = Mx::splat(false);
+    let mut bary = V2x::ZERO;
+    let mut hit_t = [0f32; L];
+    let mut mesh_id = [0u32; L];
+    let mut prim = [0u32; L];
+    let mut ray_d = V3x::ZERO;
+    let mut throughput = V3x::ZERO;
+    let mut eta = Fx::splat(1.0);
+    for l in 0..L {
+        let i = slots[l.min(n - 1)] as usize;
+        slot[l] = i;
+        let Some(h) = pool.hit[i] else { continue };
+        let m = &meshes[h.mesh as usize];
+        let v = m.indices[h.prim as usize].map(|k| k as usize);
+        for k in 0..3 {
+            tp[k].set(l, m.positions[v[k]]);
+        }
+        if !m.normals.is_empty() {
+            has_n.0[l] = true;
+            for k in 0..3 {
+                tn[k].set(l, m.normals[v[k]]);
+            }
+        }
+        if !m.uvs.is_empty() {
+            has_uv.0[l] = true;
+            for k in 0..3 {
+                tuv[k].set(l, m.uvs[v[k]]);
+            }
+        }
+        bary.set(l, h.b);
+        hit_t[l] = h.t;
+        mesh_id[l] = h.mesh;
+        prim[l] = h.prim;
+        ray_d.set(l, pool.ray_d.get(i));
+        throughput.set(l, pool.throughput.get(i));
+        eta.0[l] = pool.eta[i];
+    }
+
+    // ------------------------- surface interaction (SoA) -------------------------
+    let (p, ng, ns, uv, dpdu, dpdv) = triangle_surface_x(tp, has_n, tn, has_uv, tuv, bary);
+    let frame = FrameX::from_normal_tangent(ns, dpdu);
+    let wi = frame.to_local(ray_d.neg());
+    let si_at = |l: usize| SurfaceInteraction {
+        p: p.get(l),
+        t: hit_t[l],
+        n: ng.get(l),
+        sh_frame: Frame {
+            s: frame.s.get(l),
+            t: frame.t.get(l),
+            n: frame.n.get(l),
+        },
+        uv: uv.get(l),
+        dpdu: dpdu.get(l),
+        dpdv: dpdv.get(l),
+        wi: wi.get(l),
+        mesh: mesh_id[l],
+        prim: prim[l],
+    };
+
+    // ------- emission with MIS, depth limit, random numbers, emitter choice (scalar) -------
+    let mut live = [false; L];
+    let mut rng: [Pcg32; L] = std::array::from_fn(|l| pool.rng[slot[l]].clone());
+    let mut u_light = V2x::ZERO;
+    let mut u_bsdf = V2x::ZERO;
+    let mut albedo = V3x::ZERO;
+    // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
+    // and lanes with the finished sample of any other emitter (in `other`).
+    let mut is_area = Mx::splat(false);
+    let mut is_other = Mx::splat(false);
+    let mut other = LightSampleX {
+        wi: V3x::splat(crate::math::Vec3::Z),
+        dist: Fx::splat(1.0),
+        n_geo: V3x::ZERO,
+        weight: V3x::ZERO,
+        pdf: Fx::splat(1.0),
+        delta: Mx::splat(false),
+    };
+    let (mut lp0, mut le1, mut le2, mut lng) = (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
+    let mut ln = [V3x::ZERO; 3];
+    let mut l_has_n = Mx::splat(false);
+    let mut l_rad = V3x::ZERO;
+    let mut l_inv_area = zero;
+    for l in 0..n {
+        let i = slot[l];
+        if lights.is_emissive(mesh_id[l]) {
+            let si = si_at(l);
+            let le = lights.area_radiance(meshes, &si);
+            if le != Spectrum::ZERO {
+                let em_pdf = if pool.prev_delta[i] || !pt.nee {
+                    0.0
+                } else {
+                    lights.pdf_area_hit(pool.prev_p.get(i), &si)
+                };
+                let r = pool.result.get(i)
+                    + pool.throughput.get(i) * le * mis_weight(pool.prev_pdf[i], em_pdf);
+                pool.result.set(i, r);
+            }
+        }
+        if pool.depth[i].saturating_add(1) >= pt.max_depth {
+            pool.ending[i] = true;
+            continue;
+        }
+        live[l] = true;
+        albedo.set(l, refl.eval(uv.get(l)));
+        let r = &mut rng[l];
+        // Diffuse is smooth: next-event estimation runs wherever the integrator has it on.
+        if pt.nee {
+            let u_sel = r.next_f32();
+            let u = r.next_2d();
+            match lights.lights.get(lights.select(u_sel)) {
+                None => {}
+                Some(Light::Area(a)) => {
+                    let (tri, ux) = a.pick(u.x);
+                    lp0.set(l, tri.p0);
+                    le1.set(l, tri.e1);
+                    le2.set(l, tri.e2);
+                    lng.set(l, tri.ng);
+                    if let Some(nv) = tri.normals {
+                        l_has_n.0[l] = true;
+                        for (k, v) in nv.into_iter().enumerate() {
+                            ln[k].set(l, v);
+                        }
+                    }
+                    l_rad.set(l, a.radiance);
+                    l_inv_area.0[l] = a.inv_area();
+                    u_light.set(l, Vec2::new(ux, u.y));
+                    is_area.0[l] = true;
+                }
+                Some(_) => {
+                    if let Some(ls) = lights.sample(p.get(l), u_sel, u) {
+                        other.set(l, &ls);
+                        is_other.0[l] = true;
+                    }
+                }
+            }
+        }
+        // Evaluating the emitter sample draws no random numbers, so these follow at once
+        // (the first is the lobe choice, which a diffuse BSDF does not use).
+        let _u1 = r.next_f32();
+        u_bsdf.set(l, r.next_2d());
+    }
+
+    // ------------------------- area-light samples (SoA) -------------------------
+    let b = warp::square_to_uniform_triangle_x(u_light);
+    let at = tri_point_x(lp0, le1, le2, lng, l_has_n, ln, b);
+    let (area, area_ok) = sample_toward_x(l_rad, l_inv_area, p, at);
+    let sel = if lights.is_empty() {
+        1.0
+    } else {
+        lights.select_pdf()
+    };
+    let ls = LightSampleX::select(is_area, &area.with_selection(sel), &other);
+    let has_light = is_area.and(area_ok).or(is_other);
+
+    // ------------------ BSDF evaluation, MIS and the shadow ray (SoA) ------------------
+    let wo = frame.to_local(ls.wi);
+    let f = eval_local_x(albedo, wi, wo);
+    let delta = ls.delta;
+    let bsdf_pdf = Fx::select(delta, zero, pdf_local_x(wi, wo));
+    let mis = Fx::select(delta, Fx::splat(1.0), mis_weight_x(ls.pdf, bsdf_pdf));
+    let shadow_on = has_light.and(f.is_zero().or(ls.weight.is_zero()).not());
+    let contribution = throughput.mul(f).mul(ls.weight).scale(mis);
+    let (sh_o, sh_d, sh_t, sh_test) = shadow_segment_from_x(p, ng, &ls);
+
+    // --------------------- BSDF sample and throughput (SoA) ---------------------
+    let (wo_s, s_pdf, sampled) = sample_local_x(wi, u_bsdf);
+    let wo_world = frame.to_world(wo_s);
+    // The albedo is the sample's weight; a diffuse sample keeps η (× 1).
+    let new_tp = throughput.mul(albedo);
+    let t_max = new_tp.max_element();
+    let q = (t_max * eta * eta).min(Fx::splat(0.95));
+    let rr_tp = new_tp.div(q);
+    let new_o = offset_origin_x(p, ng, wo_world);
+
+    // --------------- Russian roulette (scalar draws) and write-back ---------------
+    for l in 0..n {
+        let i = slot[l];
+        if live[l] {
+            if shadow_on.0[l] {
+                stats.rays += 1;
+                pool.shadow_c.set(i, contribution.get(l));
+                pool.shadow[i] = if sh_test.0[l] {
+                    pool.shadow_o.set(i, sh_o.get(l));
+                    pool.shadow_d.set(i, sh_d.get(l));
+                    pool.shadow_t[i] = sh_t.0[l];
+                    Shadow::Test
+                } else {
+                    Shadow::Unoccluded
+                };
+            }
+            if !sampled.0[l] {
+                pool.ending[i] = true;
+            } else {
+                let depth = pool.depth[i] + 1;
+                pool.depth[i] = depth;
+                pool.prev_p.set(i, p.get(l));
+                pool.prev_pdf[i] = s_pdf.0[l];
+                pool.prev_delta[i] = false;
+                let mut alive = true;
+                let mut tpl = new_tp.get(l);
+                if depth >= pt.rr_depth {
+                    if !(rng[l].next_f32() < q.0[l]) {
+                        alive = false;
+                    } else {
+                        tpl = rr_tp.get(l);
+                    }
+                }
+                pool.throughput.set(i, tpl);
+                if !alive || !(t_max.0[l] > 0.0) {
+                    pool.ending[i] = true;
+                } else {
+                    pool.ray_o.set(i, new_o.get(l));
+                    pool.ray_d.set(i, wo_world.get(l));
+                    pool.ray_t[i] = f32::INFINITY;
+                    pool.passthrough[i] = false;
+                    stats.rays += 1;
+                }
+            }
+        }
+        pool.rng[i] = rng[l].clone();
+    }
+}
