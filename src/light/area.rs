@@ -59,6 +59,19 @@ impl AreaLight {
         (&self.geo[t], ux)
     }
 
+    /// [`AreaLight::pick`] for 16 lanes: the triangle indices and the re-scaled numbers.
+    #[inline(always)]
+    pub fn pick_x(&self, ux: Fx) -> ([u32; 16], Fx) {
+        let (t, _, ux) = self.tris.sample_x(ux);
+        (t, ux)
+    }
+
+    /// Triangle `t` (an index [`AreaLight::pick_x`] returned).
+    #[inline]
+    pub fn triangle(&self, t: u32) -> &AreaTri {
+        &self.geo[t as usize]
+    }
+
     /// 1 / total area (1/m²).
     #[inline]
     pub fn inv_area(&self) -> f32 {

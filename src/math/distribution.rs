@@ -4,11 +4,17 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::math::simd::WIDTH;
+use crate::math::simd::wide::Fx;
+
 /// A discrete distribution over `n` bins proportional to non-negative weights.
 #[derive(Clone, Debug)]
 pub struct Distribution1D {
     /// Normalised cumulative sums; `cdf[i]` = P(bin < i + 1), last entry exactly 1.
     cdf: Vec<f32>,
+    /// `cdf` shifted right by one with a leading 0 (`lower[i]` = P(bin < i)): each bin's lower
+    /// edge without a branch on i = 0.
+    lower: Vec<f32>,
     /// Probability of each bin.
     pmf: Vec<f32>,
     /// Guide table: entry i is the bin sampled at u = i / len, so a sample starts its scan next
@@ -48,7 +54,11 @@ impl Distribution1D {
                 cdf.partition_point(|&c| c <= u).min(n - 1) as u32
             })
             .collect();
+        let lower = std::iter::once(0.0)
+            .chain(cdf[..n - 1].iter().copied())
+            .collect();
         Some(Distribution1D {
+            lower,
             cdf,
             pmf,
             guide,
@@ -85,10 +95,13 @@ impl Distribution1D {
         let n = self.cdf.len();
         let cell = ((u.max(0.0) * n as f32) as usize).min(n - 1);
         let mut t = self.guide[cell] as usize;
-        while t > 0 && self.cdf[t - 1] > u {
+        // The loop conditions are written without short-circuits (both sides are in bounds):
+        // a well-guided search takes neither loop, so the one branch of each predicts, where
+        // `t > 0 &&` / `t + 1 < n &&` branched on which bin u fell in.
+        while (t > 0) & (self.lower[t] > u) {
             t -= 1;
         }
-        while t + 1 < n && self.cdf[t] <= u {
+        while (t + 1 < n) & (self.cdf[t] <= u) {
             t += 1;
         }
         t
@@ -102,7 +115,7 @@ impl Distribution1D {
         while self.pmf[i] == 0.0 && i > 0 {
             i -= 1;
         }
-        let lo = if i == 0 { 0.0 } else { self.cdf[i - 1] };
+        let lo = self.lower[i];
         let p = self.pmf[i];
         let rem = if p > 0.0 {
             ((u - lo) / p).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
@@ -110,6 +123,57 @@ impl Distribution1D {
             0.5
         };
         (i, p, rem)
+    }
+}
+
+impl Distribution1D {
+    /// [`Distribution1D::sample`] for 16 lanes at once (the packet kernels' twin): per lane
+    /// (bin, its probability, u re-scaled), the same values; a lane whose search needs a step
+    /// takes it in a loop that runs until no lane does.
+    #[inline(always)]
+    pub fn sample_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
+        let n = self.cdf.len();
+        let last = n - 1;
+        let mut t: [usize; WIDTH] = std::array::from_fn(|l| {
+            let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
+            self.guide[cell] as usize
+        });
+        // The bounds hold by construction (guide entries and the loops stay in 0..n).
+        let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(std::array::from_fn(|l| v[t[l].min(last)]));
+        loop {
+            let lo = gather(&self.lower, &t);
+            let back: [bool; WIDTH] = std::array::from_fn(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
+            if !back.contains(&true) {
+                break;
+            }
+            t = std::array::from_fn(|l| t[l] - back[l] as usize);
+        }
+        loop {
+            let c = gather(&self.cdf, &t);
+            let fwd: [bool; WIDTH] = std::array::from_fn(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
+            if !fwd.contains(&true) {
+                break;
+            }
+            t = std::array::from_fn(|l| t[l] + fwd[l] as usize);
+        }
+        loop {
+            let p = gather(&self.pmf, &t);
+            let zero: [bool; WIDTH] = std::array::from_fn(|l| (p.0[l] == 0.0) & (t[l] > 0));
+            if !zero.contains(&true) {
+                break;
+            }
+            t = std::array::from_fn(|l| t[l] - zero[l] as usize);
+        }
+        let lo = gather(&self.lower, &t);
+        let p = gather(&self.pmf, &t);
+        let rem = Fx(std::array::from_fn(|l| {
+            if p.0[l] > 0.0 {
+                ((u.0[l] - lo.0[l]) / p.0[l]).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+            } else {
+                0.5
+            }
+        }));
+        (t.map(|i| i as u32), p, rem)
     }
 }
 
@@ -158,6 +222,36 @@ mod tests {
             for u in us {
                 let want = d.cdf.partition_point(|&c| c <= u).min(n - 1);
                 assert_eq!(d.search(u), want, "n={n} u={u}");
+            }
+        }
+    }
+
+    /// The 16-lane search returns the scalar one's bins, probabilities and re-scaled numbers,
+    /// also at the cdf steps, with zero bins, and for out-of-range u.
+    #[test]
+    fn sample_x_is_sample_per_lane() {
+        let mut rng = crate::math::Pcg32::new(7, 1);
+        for w in [
+            vec![1.0, 1.0],
+            vec![1.0, 0.0, 3.0, f64::NAN, -2.0, 0.5],
+            vec![5.0],
+            (0..100).map(|i| ((i * 37) % 11) as f64).collect(),
+        ] {
+            let d = Distribution1D::new(w).unwrap();
+            let mut us: Vec<f32> = (0..400).map(|_| rng.next_f32()).collect();
+            us.extend(d.cdf.iter().copied());
+            us.extend(d.cdf.iter().map(|c| c.next_down()));
+            us.extend([0.0, -0.5, 1.0, 1.5, f32::NAN]);
+            for c in us.chunks(WIDTH) {
+                let mut u = Fx::splat(0.25);
+                u.0[..c.len()].copy_from_slice(c);
+                let (i, p, r) = d.sample_x(u);
+                for l in 0..c.len() {
+                    let (si, sp, sr) = d.sample(u.0[l]);
+                    assert_eq!(i[l] as usize, si, "u = {}", u.0[l]);
+                    assert_eq!(p.0[l].to_bits(), sp.to_bits());
+                    assert_eq!(r.0[l].to_bits(), sr.to_bits(), "u = {}", u.0[l]);
+                }
             }
         }
     }

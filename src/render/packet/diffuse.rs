@@ -28,7 +28,7 @@ use crate::light::area::{sample_toward_x, tri_point_x};
 use crate::light::{Light, LightSampleX};
 use crate::math::frame::FrameX;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
-use crate::math::{Frame, Pcg32, Spectrum, Vec2, warp};
+use crate::math::{Frame, Pcg32, Spectrum, warp};
 use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
 
@@ -154,6 +154,7 @@ fn shade(
     let mut l_has_n = Mx::splat(false);
     let mut l_rad = V3x::ZERO;
     let mut l_inv_area = zero;
+    let mut area_light = [u32::MAX; L];
     for l in 0..n {
         let i = slot[l];
         if lights.is_emissive(mesh_id[l]) {
@@ -183,21 +184,9 @@ fn shade(
             let u = r.next_2d();
             match lights.lights.get(lights.select(u_sel)) {
                 None => {}
-                Some(Light::Area(a)) => {
-                    let (tri, ux) = a.pick(u.x);
-                    lp0.set(l, tri.p0);
-                    le1.set(l, tri.e1);
-                    le2.set(l, tri.e2);
-                    lng.set(l, tri.ng);
-                    if let Some(nv) = tri.normals {
-                        l_has_n.0[l] = true;
-                        for (k, v) in nv.into_iter().enumerate() {
-                            ln[k].set(l, v);
-                        }
-                    }
-                    l_rad.set(l, a.radiance);
-                    l_inv_area.0[l] = a.inv_area();
-                    u_light.set(l, Vec2::new(ux, u.y));
+                Some(Light::Area(_)) => {
+                    area_light[l] = lights.select(u_sel) as u32;
+                    u_light.set(l, u);
                     is_area.0[l] = true;
                 }
                 Some(_) => {
@@ -212,6 +201,48 @@ fn shade(
         // (the first is the lobe choice, which a diffuse BSDF does not use).
         let _u1 = r.next_f32();
         u_bsdf.set(l, r.next_2d());
+    }
+
+    // ----------- area lights: triangle by area (SoA if the lanes share a light) -----------
+    let first = area_light.iter().copied().find(|&a| a != u32::MAX);
+    if let Some(first) = first {
+        let area_of = |k: u32| match lights.lights.get(k as usize) {
+            Some(Light::Area(a)) => Some(a),
+            _ => None,
+        };
+        let shared = area_light.iter().all(|&a| a == u32::MAX || a == first);
+        let mut tri_of = [0u32; L];
+        if shared && let Some(a) = area_of(first) {
+            let (t, ux) = a.pick_x(u_light.x);
+            tri_of = t;
+            u_light.x = ux;
+        } else {
+            for l in 0..L {
+                if let Some(a) = area_of(area_light[l]) {
+                    let (t, ux) = a.pick_x(Fx::splat(u_light.x.0[l]));
+                    tri_of[l] = t[0];
+                    u_light.x.0[l] = ux.0[0];
+                }
+            }
+        }
+        for l in 0..L {
+            let Some(a) = area_of(area_light[l]) else {
+                continue;
+            };
+            let tri = a.triangle(tri_of[l]);
+            lp0.set(l, tri.p0);
+            le1.set(l, tri.e1);
+            le2.set(l, tri.e2);
+            lng.set(l, tri.ng);
+            if let Some(nv) = tri.normals {
+                l_has_n.0[l] = true;
+                for (k, v) in nv.into_iter().enumerate() {
+                    ln[k].set(l, v);
+                }
+            }
+            l_rad.set(l, a.radiance);
+            l_inv_area.0[l] = a.inv_area();
+        }
     }
 
     // ------------------------- area-light samples (SoA) -------------------------
