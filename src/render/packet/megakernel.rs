@@ -13,10 +13,10 @@
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::diffuse::shade_diffuse;
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
-use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, BsdfSample};
+use super::shade::shade_triangles;
+use crate::bsdf::{BsdfAt, BsdfFlags, BsdfSample};
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
@@ -192,14 +192,11 @@ pub fn trace_chunk(
             if a == b {
                 continue;
             }
-            // A diffuse BSDF's triangle lanes run its SoA kernel; the rest (analytic spheres,
-            // escaped rays, other BSDFs) are shaded lane by lane through the scalar code.
-            let diffuse = match k.checked_sub(1).map(|b| &rs.scene.bsdfs[b]) {
-                Some(Bsdf::Diffuse(d)) => Some(&d.reflectance),
-                _ => None,
-            };
+            // Triangle lanes of a BSDF run the SoA kernel; the rest (analytic spheres and
+            // escaped rays) are shaded lane by lane through the scalar code.
+            let bsdf = k.checked_sub(1).map(|b| &rs.scene.bsdfs[b]);
             let bucket = &mut scratch.order[a..b];
-            let split = match diffuse {
+            let split = match bsdf {
                 Some(_) => partition(bucket, |i| is_triangle_hit(rs, pool, i)),
                 None => 0,
             };
@@ -207,9 +204,9 @@ pub fn trace_chunk(
             lanes.shade_active += (b - a) as u64;
             lanes.shade_issued +=
                 (soa.len().div_ceil(LANES) + rest.len().div_ceil(LANES)) as u64 * LANES as u64;
-            if let Some(refl) = diffuse {
+            if let Some(bsdf) = bsdf {
                 for slots in soa.chunks(LANES) {
-                    shade_diffuse(isa, rs, refl, pool, slots, stats);
+                    shade_triangles(isa, rs, bsdf, pool, slots, stats);
                 }
             }
             for slots in rest.chunks(LANES) {

@@ -6,10 +6,10 @@
 //! replays the scalar integrator on the same random stream, the same samples as `--integrator
 //! scalar` up to floating-point association in the batched kernels.
 
-pub mod diffuse;
 pub mod lanes;
 pub mod megakernel;
 pub mod pool;
+pub mod shade;
 
 pub use lanes::{LANES, LaneCounters, LaneStats};
 pub use megakernel::PacketOptions;

@@ -1,26 +1,28 @@
-//! The packet integrator's kernel for the `diffuse` BSDF on triangles: one batch of up to
-//! [`LANES`] paths shaded in structure-of-arrays, stage by stage (surface interaction → emission
-//! with MIS → emitter sample → BSDF evaluation and shadow ray → BSDF sample → throughput and
-//! Russian roulette → continuation ray). The stages are straight-line code on 16-lane values
-//! ([`crate::math::simd::wide`]), one AVX-512 instruction (two AVX2 ones) per operation in the
-//! build [`crate::isa_dispatch`] picks.
+//! The packet integrator's shading kernel for lanes that hit triangles: one batch of up to
+//! [`LANES`] paths that share a BSDF, shaded in structure-of-arrays stage by stage (surface
+//! interaction → emission with MIS → emitter sample → BSDF evaluation → MIS and the shadow
+//! ray → BSDF sample → throughput and Russian roulette → continuation ray). The BSDF-independent
+//! stages are straight-line code on 16-lane values ([`crate::math::simd::wide`]), one AVX-512
+//! instruction (two AVX2 ones) per operation in the build [`crate::isa_dispatch`] picks. The
+//! BSDF's own stages run as its batched kernel where it has one — SoA for `diffuse`
+//! ([`eval_local_x`], [`sample_local_x`]), 16 evaluations per pass for a fitted BTF
+//! ([`PlmcBsdf::eval_pdf_batch`]) — and lane by lane through [`BsdfAt`] for the others.
 //!
 //! Every lane runs the scalar integrator's arithmetic through the `_x` twins of its helpers
-//! ([`triangle_surface_x`], [`FrameX`], [`sample_toward_x`], [`eval_local_x`], …), which round
-//! like them, on the same random stream, so a lane's path is the same bits as
+//! ([`triangle_surface_x`], [`FrameX`], [`sample_toward_x`], …), which round like them, on the
+//! same random stream, so a lane's path is the same bits as
 //! [`crate::render::integrator::PathTracer::li`]'s (`tests/render_packet.rs` compares them).
 //! What is not arithmetic stays scalar per lane: the gathers (mesh vertices, the pool's slots),
-//! the random numbers, emitter selection, the area light's triangle search, textured albedo,
-//! emission at emitter hits, and emitters other than triangle-mesh area lights (sampled through
-//! [`crate::light::LightSet::sample`]).
+//! the random numbers, emitter selection, emission at emitter hits, and emitters other than
+//! triangle-mesh area lights (sampled through [`crate::light::LightSet::sample`]).
 
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::lanes::LANES;
 use super::pool::{PathPool, Shadow};
-use crate::bsdf::Texture;
 use crate::bsdf::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
+use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PlmcBsdf};
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::triangle_surface_x;
@@ -35,26 +37,42 @@ use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_seg
 const L: usize = LANES;
 
 crate::isa_dispatch! {
-    /// Shades the lanes `slots` of the pool (all hit a triangle of a mesh whose BSDF is a
-    /// `diffuse` of albedo `refl`; at most [`LANES`]) one path segment on: what
-    /// [`super::megakernel`]'s per-lane shading does for them, in SoA.
-    pub fn shade_diffuse(
+    /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a triangle of a mesh
+    /// whose BSDF is `bsdf`) one path segment on: what the scalar integrator's loop body does
+    /// for each, in SoA.
+    pub fn shade_triangles(
         rs: &RenderScene,
-        refl: &Texture,
+        bsdf: &Bsdf,
         pool: &mut PathPool,
         slots: &[u32],
         stats: &mut TraceStats,
     ) -> () = shade;
 }
 
+/// The batched form a BSDF's own stages take.
+#[derive(Clone, Copy)]
+enum Kind<'a> {
+    /// SoA twins of the scalar diffuse code.
+    Diffuse,
+    /// A fitted BTF: emitter evaluations 16 per pass of its batched kernel.
+    Plmc(&'a PlmcBsdf),
+    /// Lane by lane through the scalar code.
+    Scalar,
+}
+
 #[inline(always)]
 fn shade(
     rs: &RenderScene,
-    refl: &Texture,
+    bsdf: &Bsdf,
     pool: &mut PathPool,
     slots: &[u32],
     stats: &mut TraceStats,
 ) {
+    let kind = match bsdf {
+        Bsdf::Diffuse(_) => Kind::Diffuse,
+        Bsdf::Plmc(b) => Kind::Plmc(b),
+        _ => Kind::Scalar,
+    };
     let n = slots.len();
     if n == 0 {
         return;
@@ -133,9 +151,12 @@ fn shade(
 
     // ------- emission with MIS, depth limit, random numbers, emitter choice (scalar) -------
     let mut live = [false; L];
+    // Each live lane's BSDF at its hit, with its per-hit state.
+    let mut at_l: [Option<BsdfAt>; L] = [None; L];
     let mut rng: [Pcg32; L] = std::array::from_fn(|l| pool.rng[slot[l]].clone());
     let mut u_light = V2x::ZERO;
     let mut u_bsdf = V2x::ZERO;
+    let mut u_lobe = zero;
     let mut albedo = V3x::ZERO;
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
@@ -176,10 +197,15 @@ fn shade(
             continue;
         }
         live[l] = true;
-        albedo.set(l, refl.eval(uv.get(l)));
+        let si = si_at(l);
+        let at = bsdf.at(&si);
+        if let Bsdf::Diffuse(d) = bsdf {
+            albedo.set(l, d.reflectance.eval(si.uv));
+        }
+        let smooth = at.flags().has(BsdfFlags::SMOOTH);
+        at_l[l] = Some(at);
         let r = &mut rng[l];
-        // Diffuse is smooth: next-event estimation runs wherever the integrator has it on.
-        if pt.nee {
+        if pt.nee && smooth {
             let u_sel = r.next_f32();
             let u = r.next_2d();
             match lights.lights.get(lights.select(u_sel)) {
@@ -197,9 +223,8 @@ fn shade(
                 }
             }
         }
-        // Evaluating the emitter sample draws no random numbers, so these follow at once
-        // (the first is the lobe choice, which a diffuse BSDF does not use).
-        let _u1 = r.next_f32();
+        // Evaluating the emitter sample draws no random numbers, so these follow at once.
+        u_lobe.0[l] = r.next_f32();
         u_bsdf.set(l, r.next_2d());
     }
 
@@ -257,21 +282,68 @@ fn shade(
     let ls = LightSampleX::select(is_area, &area.with_selection(sel), &other);
     let has_light = is_area.and(area_ok).or(is_other);
 
-    // ------------------ BSDF evaluation, MIS and the shadow ray (SoA) ------------------
+    // --------------------------- BSDF evaluation ---------------------------
     let wo = frame.to_local(ls.wi);
-    let f = eval_local_x(albedo, wi, wo);
     let delta = ls.delta;
-    let bsdf_pdf = Fx::select(delta, zero, pdf_local_x(wi, wo));
+    let (f, bsdf_pdf) = match kind {
+        Kind::Diffuse => (
+            eval_local_x(albedo, wi, wo),
+            Fx::select(delta, zero, pdf_local_x(wi, wo)),
+        ),
+        Kind::Plmc(_) | Kind::Scalar => {
+            let (mut f, mut pdf) = match kind {
+                Kind::Plmc(b) => eval_plmc(b, &at_l, has_light, wo, delta),
+                _ => (V3x::ZERO, zero),
+            };
+            for l in 0..n {
+                // (A fitted BTF's lanes with per-hit state were evaluated in the batch.)
+                if let (true, Some(at @ BsdfAt::Stateless(_))) = (has_light.0[l], &at_l[l]) {
+                    let (fl, pl) = at.eval_for_light(&si_at(l), wo.get(l), delta.0[l]);
+                    f.set(l, fl);
+                    pdf.0[l] = pl;
+                }
+            }
+            (f, pdf)
+        }
+    };
+
+    // ---------------------- MIS and the shadow ray (SoA) ----------------------
     let mis = Fx::select(delta, Fx::splat(1.0), mis_weight_x(ls.pdf, bsdf_pdf));
     let shadow_on = has_light.and(f.is_zero().or(ls.weight.is_zero()).not());
     let contribution = throughput.mul(f).mul(ls.weight).scale(mis);
     let (sh_o, sh_d, sh_t, sh_test) = shadow_segment_from_x(p, ng, &ls);
 
-    // --------------------- BSDF sample and throughput (SoA) ---------------------
-    let (wo_s, s_pdf, sampled) = sample_local_x(wi, u_bsdf);
+    // ------------------------------ BSDF sample ------------------------------
+    // (local direction, pdf, weight, η, delta lobe) per lane; `sampled` false where it failed.
+    let (wo_s, s_pdf, weight, s_eta, s_delta, sampled) = match kind {
+        Kind::Diffuse => {
+            let (wo, pdf, ok) = sample_local_x(wi, u_bsdf);
+            // The albedo is the weight; a diffuse sample keeps η (× 1) and is not a delta lobe.
+            (wo, pdf, albedo, Fx::splat(1.0), Mx::splat(false), ok)
+        }
+        Kind::Plmc(_) | Kind::Scalar => {
+            let (mut wo, mut pdf, mut w) =
+                (V3x::splat(crate::math::Vec3::Z), Fx::splat(1.0), V3x::ZERO);
+            let (mut e, mut dl, mut ok) = (Fx::splat(1.0), Mx::splat(false), Mx::splat(false));
+            for l in 0..n {
+                let Some(at) = &at_l[l] else { continue };
+                if let Some((bs, wl)) = at.sample(&si_at(l), u_lobe.0[l], u_bsdf.get(l)) {
+                    wo.set(l, bs.wo);
+                    pdf.0[l] = bs.pdf;
+                    w.set(l, wl);
+                    e.0[l] = bs.eta;
+                    dl.0[l] = bs.sampled.has(BsdfFlags::DELTA);
+                    ok.0[l] = true;
+                }
+            }
+            (wo, pdf, w, e, dl, ok)
+        }
+    };
+
+    // ------------------------ throughput, continuation (SoA) ------------------------
     let wo_world = frame.to_world(wo_s);
-    // The albedo is the sample's weight; a diffuse sample keeps η (× 1).
-    let new_tp = throughput.mul(albedo);
+    let new_tp = throughput.mul(weight);
+    let eta = eta * s_eta;
     let t_max = new_tp.max_element();
     let q = (t_max * eta * eta).min(Fx::splat(0.95));
     let rr_tp = new_tp.div(q);
@@ -300,7 +372,8 @@ fn shade(
                 pool.depth[i] = depth;
                 pool.prev_p.set(i, p.get(l));
                 pool.prev_pdf[i] = s_pdf.0[l];
-                pool.prev_delta[i] = false;
+                pool.prev_delta[i] = s_delta.0[l];
+                pool.eta[i] = eta.0[l];
                 let mut alive = true;
                 let mut tpl = new_tp.get(l);
                 if depth >= pt.rr_depth {
@@ -324,4 +397,36 @@ fn shade(
         }
         pool.rng[i] = rng[l].clone();
     }
+}
+
+/// The emitter evaluations of a fitted-BTF batch: (f, pdf) per lane for the lanes in `want`
+/// whose BSDF kept its per-hit state (the rest through the scalar code), 16 per pass of the
+/// batched kernel; the pdf is 0 for delta lights.
+#[inline(always)]
+fn eval_plmc(b: &PlmcBsdf, at_l: &[Option<BsdfAt>; L], want: Mx, wo: V3x, delta: Mx) -> (V3x, Fx) {
+    let (mut f, mut pdf) = (V3x::ZERO, Fx::splat(0.0));
+    let mut hits = [None; L];
+    let mut at = [0usize; L];
+    let mut wq = [crate::math::Vec3::ZERO; L];
+    let mut want_pdf = [false; L];
+    let mut m = 0;
+    for l in 0..L {
+        if let (true, Some(BsdfAt::Plmc(_, h))) = (want.0[l], &at_l[l]) {
+            hits[m] = Some(*h);
+            at[m] = l;
+            wq[m] = wo.get(l);
+            want_pdf[m] = !delta.0[l];
+            m += 1;
+        }
+    }
+    if let Some(first) = hits[0] {
+        let hits = hits.map(|h| h.unwrap_or(first));
+        let mut out = [(Spectrum::ZERO, 0.0); L];
+        b.eval_pdf_batch(&hits[..m], &wq[..m], &want_pdf[..m], &mut out[..m]);
+        for j in 0..m {
+            f.set(at[j], out[j].0);
+            pdf.0[at[j]] = out[j].1;
+        }
+    }
+    (f, pdf)
 }
