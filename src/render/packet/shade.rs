@@ -197,13 +197,19 @@ fn shade(
             continue;
         }
         live[l] = true;
-        let si = si_at(l);
-        let at = bsdf.at(&si);
-        if let Bsdf::Diffuse(d) = bsdf {
-            albedo.set(l, d.reflectance.eval(si.uv));
-        }
-        let smooth = at.flags().has(BsdfFlags::SMOOTH);
-        at_l[l] = Some(at);
+        let smooth = match bsdf {
+            // Diffuse is smooth, and its SoA stages need only the albedo.
+            Bsdf::Diffuse(d) => {
+                albedo.set(l, d.reflectance.eval(uv.get(l)));
+                true
+            }
+            _ => {
+                let at = bsdf.at(&si_at(l));
+                let smooth = at.flags().has(BsdfFlags::SMOOTH);
+                at_l[l] = Some(at);
+                smooth
+            }
+        };
         let r = &mut rng[l];
         if pt.nee && smooth {
             let u_sel = r.next_f32();
