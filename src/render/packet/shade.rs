@@ -1,5 +1,6 @@
-//! The packet integrator's shading kernel for lanes that hit triangles: one batch of up to
-//! [`LANES`] paths that share a BSDF, shaded in structure-of-arrays stage by stage (surface
+//! The packet integrator's shading kernel for lanes that hit a surface: one batch of up to
+//! [`LANES`] paths that share a BSDF (on triangles or analytic spheres, whose surface point
+//! comes from the scalar code), shaded in structure-of-arrays stage by stage (surface
 //! interaction → emission with MIS → emitter sample → BSDF evaluation → MIS and the shadow
 //! ray → BSDF sample → throughput and Russian roulette → continuation ray). The BSDF-independent
 //! stages are straight-line code on 16-lane values ([`crate::math::simd::wide`]), one AVX-512
@@ -37,10 +38,10 @@ use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_seg
 const L: usize = LANES;
 
 crate::isa_dispatch! {
-    /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a triangle of a mesh
-    /// whose BSDF is `bsdf`) one path segment on: what the scalar integrator's loop body does
-    /// for each, in SoA.
-    pub fn shade_triangles(
+    /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a surface whose BSDF
+    /// is `bsdf`) one path segment on: what the scalar integrator's loop body does for each,
+    /// in SoA.
+    pub fn shade_hits(
         rs: &RenderScene,
         bsdf: &Bsdf,
         pool: &mut PathPool,
@@ -98,11 +99,34 @@ fn shade(
     let mut ray_d = V3x::ZERO;
     let mut throughput = V3x::ZERO;
     let mut eta = Fx::splat(1.0);
+    let mut is_sphere = Mx::splat(false);
+    let (mut sph_p, mut sph_n, mut sph_du, mut sph_dv) =
+        (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
+    let mut sph_uv = V2x::ZERO;
     for l in 0..L {
         let i = slots[l.min(n - 1)] as usize;
         slot[l] = i;
         let Some(h) = pool.hit[i] else { continue };
         let m = &meshes[h.mesh as usize];
+        bary.set(l, h.b);
+        hit_t[l] = h.t;
+        mesh_id[l] = h.mesh;
+        prim[l] = h.prim;
+        ray_d.set(l, pool.ray_d.get(i));
+        throughput.set(l, pool.throughput.get(i));
+        eta.0[l] = pool.eta[i];
+        if let Some(sphere) = &m.sphere {
+            // An analytic sphere's surface comes from the scalar code; the frame and the rest
+            // are the same SoA stages.
+            let (sp, sn, suv, sdu, sdv) = sphere.surface(pool.ray_o.get(i), ray_d.get(l), h.t);
+            is_sphere.0[l] = true;
+            sph_p.set(l, sp);
+            sph_n.set(l, sn);
+            sph_uv.set(l, suv);
+            sph_du.set(l, sdu);
+            sph_dv.set(l, sdv);
+            continue;
+        }
         let v = m.indices[h.prim as usize].map(|k| k as usize);
         for k in 0..3 {
             tp[k].set(l, m.positions[v[k]]);
@@ -119,17 +143,17 @@ fn shade(
                 tuv[k].set(l, m.uvs[v[k]]);
             }
         }
-        bary.set(l, h.b);
-        hit_t[l] = h.t;
-        mesh_id[l] = h.mesh;
-        prim[l] = h.prim;
-        ray_d.set(l, pool.ray_d.get(i));
-        throughput.set(l, pool.throughput.get(i));
-        eta.0[l] = pool.eta[i];
     }
 
     // ------------------------- surface interaction (SoA) -------------------------
     let (p, ng, ns, uv, dpdu, dpdv) = triangle_surface_x(tp, has_n, tn, has_uv, tuv, bary);
+    // (A sphere's shading normal is its geometric one.)
+    let p = V3x::select(is_sphere, sph_p, p);
+    let ng = V3x::select(is_sphere, sph_n, ng);
+    let ns = V3x::select(is_sphere, sph_n, ns);
+    let uv = V2x::select(is_sphere, sph_uv, uv);
+    let dpdu = V3x::select(is_sphere, sph_du, dpdu);
+    let dpdv = V3x::select(is_sphere, sph_dv, dpdv);
     let frame = FrameX::from_normal_tangent(ns, dpdu);
     let wi = frame.to_local(ray_d.neg());
     let si_at = |l: usize| SurfaceInteraction {
