@@ -74,9 +74,7 @@ impl LightSampleX {
             n_geo: V3x::select(m, a.n_geo, b.n_geo),
             weight: V3x::select(m, a.weight, b.weight),
             pdf: Fx::select(m, a.pdf, b.pdf),
-            delta: Mx(std::array::from_fn(|i| {
-                if m.0[i] { a.delta.0[i] } else { b.delta.0[i] }
-            })),
+            delta: m.and(a.delta).or(m.not().and(b.delta)),
         }
     }
 }

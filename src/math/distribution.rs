@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::math::simd::WIDTH;
-use crate::math::simd::wide::Fx;
+use crate::math::simd::wide::{Fx, lanes};
 
 /// A discrete distribution over `n` bins proportional to non-negative weights.
 #[derive(Clone, Debug)]
@@ -134,39 +134,39 @@ impl Distribution1D {
     pub fn sample_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
         let n = self.cdf.len();
         let last = n - 1;
-        let mut t: [usize; WIDTH] = std::array::from_fn(|l| {
+        let mut t: [usize; WIDTH] = lanes(|l| {
             let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
             self.guide[cell] as usize
         });
         // The bounds hold by construction (guide entries and the loops stay in 0..n).
-        let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(std::array::from_fn(|l| v[t[l].min(last)]));
+        let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
         loop {
             let lo = gather(&self.lower, &t);
-            let back: [bool; WIDTH] = std::array::from_fn(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
+            let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
             if !back.contains(&true) {
                 break;
             }
-            t = std::array::from_fn(|l| t[l] - back[l] as usize);
+            t = lanes(|l| t[l] - back[l] as usize);
         }
         loop {
             let c = gather(&self.cdf, &t);
-            let fwd: [bool; WIDTH] = std::array::from_fn(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
+            let fwd: [bool; WIDTH] = lanes(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
             if !fwd.contains(&true) {
                 break;
             }
-            t = std::array::from_fn(|l| t[l] + fwd[l] as usize);
+            t = lanes(|l| t[l] + fwd[l] as usize);
         }
         loop {
             let p = gather(&self.pmf, &t);
-            let zero: [bool; WIDTH] = std::array::from_fn(|l| (p.0[l] == 0.0) & (t[l] > 0));
+            let zero: [bool; WIDTH] = lanes(|l| (p.0[l] == 0.0) & (t[l] > 0));
             if !zero.contains(&true) {
                 break;
             }
-            t = std::array::from_fn(|l| t[l] - zero[l] as usize);
+            t = lanes(|l| t[l] - zero[l] as usize);
         }
         let lo = gather(&self.lower, &t);
         let p = gather(&self.pmf, &t);
-        let rem = Fx(std::array::from_fn(|l| {
+        let rem = Fx(lanes(|l| {
             if p.0[l] > 0.0 {
                 ((u.0[l] - lo.0[l]) / p.0[l]).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
             } else {

@@ -20,6 +20,10 @@ pub fn mix64(mut z: u64) -> u64 {
 }
 
 impl Pcg32 {
+    /// An unseeded generator (state 0, stream 0): a placeholder for arrays of generators that
+    /// are overwritten before use.
+    pub const PLACEHOLDER: Pcg32 = Pcg32 { state: 0, inc: 1 };
+
     /// A generator with the given initial state and stream selector.
     pub fn new(init_state: u64, stream: u64) -> Self {
         let mut r = Pcg32 {

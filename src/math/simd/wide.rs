@@ -22,14 +22,34 @@ pub struct Fx(pub [f32; W]);
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Mx(pub [bool; W]);
 
+// Plain loops rather than `std::array::from_fn`, whose inner `try_from_fn` LLVM does not
+// always inline into the large kernels (a call per lane operation).
+/// `[f(0), …, f(15)]` as a plain loop (see above).
+#[inline(always)]
+pub fn lanes<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; W] {
+    let mut o = [T::default(); W];
+    for (i, v) in o.iter_mut().enumerate() {
+        *v = f(i);
+    }
+    o
+}
+
 #[inline(always)]
 fn map(f: impl Fn(usize) -> f32) -> Fx {
-    Fx(std::array::from_fn(f))
+    let mut o = [0.0; W];
+    for (i, v) in o.iter_mut().enumerate() {
+        *v = f(i);
+    }
+    Fx(o)
 }
 
 #[inline(always)]
 fn mask(f: impl Fn(usize) -> bool) -> Mx {
-    Mx(std::array::from_fn(f))
+    let mut o = [false; W];
+    for (i, v) in o.iter_mut().enumerate() {
+        *v = f(i);
+    }
+    Mx(o)
 }
 
 impl Fx {

@@ -177,7 +177,10 @@ fn shade(
     let mut live = [false; L];
     // Each live lane's BSDF at its hit, with its per-hit state.
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
-    let mut rng: [Pcg32; L] = std::array::from_fn(|l| pool.rng[slot[l]].clone());
+    let mut rng = [Pcg32::PLACEHOLDER; L];
+    for l in 0..L {
+        rng[l] = pool.rng[slot[l]].clone();
+    }
     let mut u_light = V2x::ZERO;
     let mut u_bsdf = V2x::ZERO;
     let mut u_lobe = zero;
