@@ -24,7 +24,9 @@ use btfpt::btf::locate16::LOCATE_LANES;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
 use btfpt::math::{Pcg32, Spectrum, Vec3};
 use btfpt::model::ModelKind;
+use btfpt::render::IntegratorKind;
 use btfpt::render::film::RenderState;
+use btfpt::render::packet::PacketOptions;
 #[path = "common/btf_scene.rs"]
 mod btf_scene;
 #[path = "common/cpu_time.rs"]
@@ -243,14 +245,20 @@ fn bench_render(c: &mut Criterion<ProcessCpuTime>) {
             ),
         ),
     ] {
-        let rs = scene(bsdf);
-        g.bench_function(name, |b| {
-            b.iter(|| {
-                let mut st = RenderState::new(settings).expect("settings");
-                pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
-                st.rays()
-            })
-        });
+        let mut rs = scene(bsdf);
+        for (suffix, kind) in [
+            ("", IntegratorKind::Scalar),
+            ("_packet", IntegratorKind::Packet(PacketOptions::default())),
+        ] {
+            rs.kind = kind;
+            g.bench_function(format!("{name}{suffix}"), |b| {
+                b.iter(|| {
+                    let mut st = RenderState::new(settings).expect("settings");
+                    pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
+                    st.rays()
+                })
+            });
+        }
     }
     g.finish();
 }

@@ -1,11 +1,13 @@
 //! End-to-end rendering of a small Cornell-box-like scene built in code (diffuse walls, an
 //! area light, two spheres): one 64×64 frame at 4 spp, single-threaded. Throughput is in
-//! pixel-samples per second.
+//! pixel-samples per second. The scalar and the packet integrator side by side (the same
+//! image bits): `cargo bench --bench render`.
 
 use btfpt::bsdf::{Bsdf, Diffuse, Texture};
 use btfpt::math::Spectrum;
-use btfpt::render::RenderScene;
 use btfpt::render::film::RenderState;
+use btfpt::render::packet::PacketOptions;
+use btfpt::render::{IntegratorKind, RenderScene};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use std::sync::atomic::AtomicBool;
 
@@ -31,20 +33,29 @@ fn cornell() -> RenderScene {
 }
 
 fn bench(c: &mut Criterion) {
-    let rs = cornell();
+    let mut rs = cornell();
     let settings = box_scene::settings();
     let pool = box_scene::single_thread_pool();
     let stop = AtomicBool::new(false);
     let mut g = c.benchmark_group("render");
     g.sample_size(20);
     g.throughput(Throughput::Elements(64 * 64 * 4));
-    g.bench_function("cornell_64x64_4spp_1thread", |b| {
-        b.iter(|| {
-            let mut st = RenderState::new(settings).expect("settings");
-            pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
-            st.rays()
-        })
-    });
+    for (name, kind) in [
+        ("cornell_64x64_4spp_1thread", IntegratorKind::Scalar),
+        (
+            "cornell_64x64_4spp_1thread_packet",
+            IntegratorKind::Packet(PacketOptions::default()),
+        ),
+    ] {
+        rs.kind = kind;
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let mut st = RenderState::new(settings).expect("settings");
+                pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
+                st.rays()
+            })
+        });
+    }
     g.finish();
 }
 
