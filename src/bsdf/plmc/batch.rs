@@ -6,6 +6,12 @@
 //! query: the 9 (view, channel) chains of 16 queries are independent, so their latencies and
 //! their cache misses (one index entry and 9 lobe records per query, random texels) overlap.
 //!
+//! Loads: the index entries and the bound `y_max` by 16-lane gathers; the lobe records (32
+//! bytes each) and polynomial rows by whole-record loads put side by side and turned into lanes
+//! by 16 × 16 register transposes. A 16-lane gather is microcoded on Zen 4 (several times the
+//! cost of 16 row loads plus their share of a transpose): reading the 45 record fields per
+//! pass by gathers cost about 13 ns per query of the 256² bench's ~60 ns kernel.
+//!
 //! Same arithmetic as `avx512::eval`, operation by operation (the same fused multiply-adds in
 //! the same order, the same clamps with the same operand order, its log2/exp2): each lane's
 //! result is the single-query kernel's to the last bit (tested in `tests.rs`).
@@ -59,8 +65,9 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         }
     }
     // SAFETY: every address is in bounds of its table by the checks above: index entry
-    // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..5 with i < k (u8 indices are
-    // < k by model validation, and k ≤ 256); polynomial row v·nl + l < polys.len() (64-byte
+    // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..8 with i < k (u8 indices are
+    // < k by model validation, and k ≤ 256), read whole by 32-byte aligned loads (`LobeRec` is
+    // 32-byte aligned); polynomial row v·nl + l < polys.len() (64-byte
     // aligned rows of 16 f32); bound rows v·nl + l < out_max.len() and v < y_max.len() (4 f32
     // each). Gather offsets fit i32 ([`fits`]). The stores go to locals.
     unsafe {
@@ -81,13 +88,17 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
         let v = [ldi(&vi[0]), ldi(&vi[1]), ldi(&vi[2])];
         // Every load that depends on the texel is issued first, in program order: the 3 index
         // entries (usually DRAM misses for a large material), then the 9 lobe records, so that
-        // the misses of all 16 queries are in flight together instead of view by view.
+        // the misses of all 16 queries are in flight together instead of view by view. The
+        // record offsets go through memory: each lane's records are read by scalar-addressed
+        // 32-byte loads, two (view, channel) pairs per 16 × 16 transpose.
         let mut ent = [_mm512_setzero_si512(); 3];
         for a in 0..3 {
             let off = _mm512_add_epi32(_mm512_mullo_epi32(tex, ci(nv as i32)), v[a]);
             ent[a] = _mm512_i32gather_epi32::<4>(off, index as *const _);
         }
         let mut lobes = [[[zero; 5]; 3]; 3];
+        // Record offsets (f32 units) of the 9 (view, channel) lobes per lane.
+        let mut offs = [[0i32; BATCH]; 9];
         for a in 0..3 {
             let rbase = _mm512_mullo_epi32(v[a], ci(3 * k as i32));
             let e = ent[a];
@@ -98,9 +109,36 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             ];
             for c in 0..3 {
                 let r = _mm512_add_epi32(_mm512_add_epi32(rbase, ci((c * k) as i32)), cls[c]);
-                let r = _mm512_slli_epi32::<3>(r);
-                for f in 0..5 {
-                    lobes[a][c][f] = gf(rec, _mm512_add_epi32(r, ci(f as i32)));
+                _mm512_storeu_si512(
+                    offs[3 * a + c].as_mut_ptr() as *mut _,
+                    _mm512_slli_epi32::<3>(r),
+                );
+            }
+        }
+        // Two (view, channel) pairs g0, g1 per transpose: row l holds lane l's record of g0
+        // (floats 0..8) and of g1 (8..16); after the transpose field f of g0 is `rows[f]`, of
+        // g1 `rows[8 + f]` (the ninth pair alone, its upper half zero).
+        for p in 0..5 {
+            let (g0, g1) = (2 * p, (2 * p + 1).min(8));
+            let mut rows = [zero; 16];
+            for (l, row) in rows.iter_mut().enumerate() {
+                let lo = _mm512_zextpd256_pd512(_mm256_load_pd(
+                    rec.add(offs[g0][l] as usize) as *const f64
+                ));
+                *row = _mm512_castpd_ps(if g1 == g0 {
+                    lo
+                } else {
+                    _mm512_insertf64x4::<1>(
+                        lo,
+                        _mm256_load_pd(rec.add(offs[g1][l] as usize) as *const f64),
+                    )
+                });
+            }
+            transpose16(&mut rows);
+            for f in 0..5 {
+                lobes[g0 / 3][g0 % 3][f] = rows[f];
+                if g1 != g0 {
+                    lobes[g1 / 3][g1 % 3][f] = rows[8 + f];
                 }
             }
         }

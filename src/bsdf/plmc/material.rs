@@ -64,7 +64,8 @@ impl PlmcMaterial {
             ModelKind::PlmC => {
                 let k = model.clusters.max(1);
                 let mut records = vec![LobeRec::default(); nv * 3 * k];
-                let mut idx16 = vec![[0u16; 4]; nv * texels];
+                // The final index when k > 256, on huge pages (see `huge_vec`).
+                let mut idx16 = huge_vec(nv * texels, std::iter::repeat_n([0u16; 4], nv * texels));
                 for (v, p) in model.params.iter().enumerate() {
                     let ViewParams::Clustered {
                         k: kv,
@@ -87,10 +88,12 @@ impl PlmcMaterial {
                     }
                 }
                 if k <= 256 {
-                    let index = idx16
-                        .iter()
-                        .map(|q| [q[0] as u8, q[1] as u8, q[2] as u8, 0])
-                        .collect();
+                    let index = huge_vec(
+                        idx16.len(),
+                        idx16
+                            .iter()
+                            .map(|q| [q[0] as u8, q[1] as u8, q[2] as u8, 0]),
+                    );
                     Params::Clustered8 { k, records, index }
                 } else {
                     Params::Clustered16 {
@@ -102,6 +105,7 @@ impl PlmcMaterial {
             }
             ModelKind::Lm | ModelKind::Plm => {
                 let mut lobes = Vec::with_capacity(nv * texels * 3);
+                advise_huge(&lobes, nv * texels * 3);
                 for (v, p) in model.params.iter().enumerate() {
                     let ViewParams::Texel(l) = p else {
                         return Err(Error::Invalid(format!(
@@ -255,6 +259,37 @@ impl PlmcMaterial {
         }
     }
 
+    /// Starts loading the index entries of `texel` for the views `vi` (one to three cache lines,
+    /// what an evaluation at that texel reads) without waiting; a no-op for per-texel models
+    /// and for out-of-range texels or views.
+    #[inline]
+    pub fn prefetch_views(&self, texel: usize, vi: [u32; 3]) {
+        let nv = self.n_views;
+        let ptr = |i: usize| -> Option<*const i8> {
+            match &self.params {
+                Params::Clustered8 { index, .. } => index.get(i).map(|e| e.as_ptr() as *const i8),
+                Params::Clustered16 { index, .. } => index.get(i).map(|e| e.as_ptr() as *const i8),
+                Params::Texel { .. } => None,
+            }
+        };
+        for v in vi {
+            if (v as usize) < nv
+                && let Some(p) = texel
+                    .checked_mul(nv)
+                    .and_then(|i| i.checked_add(v as usize))
+                    .and_then(ptr)
+            {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: a prefetch never faults, and `p` points into the index anyway.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p);
+                }
+                #[cfg(not(target_arch = "x86_64"))]
+                let _ = p;
+            }
+        }
+    }
+
     /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
     #[inline]
     pub fn view_lookup(&self, wi: Vec3) -> ([u32; 3], [f32; 3]) {
@@ -288,6 +323,40 @@ impl PlmcMaterial {
         let (li, lw) = self.light_lookup(wo);
         self.eval_b_with(vi, vw, li, lw, wo, texels)
     }
+}
+
+/// `items` (`len` of them) in a vector whose memory the kernel is asked, before it is first
+/// touched, to back with transparent huge pages (2 MB on x86_64 Linux, `MADV_HUGEPAGE`; only a
+/// hint, a no-op where THP is off or on other systems). For the index planes and per-texel
+/// lobes (tens to hundreds of MB read at random texels): with 4 KB pages nearly every texel
+/// misses the TLB, and its page walk (two-dimensional under virtualisation) stalls the index
+/// prefetch of `PlmcBsdf::prepare` and the kernels' first loads.
+pub(super) fn huge_vec<T>(len: usize, items: impl Iterator<Item = T>) -> Vec<T> {
+    let mut v = Vec::with_capacity(len);
+    advise_huge(&v, len);
+    v.extend(items);
+    debug_assert_eq!(v.len(), len);
+    v
+}
+
+/// Asks for transparent huge pages on the 2 MB-aligned part of the first `len` elements of
+/// `v`'s allocation (see [`huge_vec`]); call before the memory is first written.
+fn advise_huge<T>(v: &Vec<T>, len: usize) {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let bytes = len.min(v.capacity()) * std::mem::size_of::<T>();
+        let start = v.as_ptr() as usize;
+        let (a, b) = (start.next_multiple_of(HUGE), (start + bytes) / HUGE * HUGE);
+        if b > a {
+            // SAFETY: [a, b) lies inside the vector's allocation (a and b are page aligned);
+            // madvise changes only how the kernel backs those pages, never their contents or
+            // the mapping. Its result is ignored: it is a hint.
+            unsafe { libc::madvise(a as *mut libc::c_void, b - a, libc::MADV_HUGEPAGE) };
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = (v, len);
 }
 
 /// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact

@@ -745,3 +745,20 @@ fn batched_evaluation_is_the_single_query_evaluation_bit_for_bit() {
         }
     }
 }
+
+#[test]
+fn huge_page_tables_keep_their_contents_and_view_prefetches_never_fault() {
+    // 3 MB: spans a 2 MB-aligned block, so the madvise path runs.
+    let n = (3 << 20) / 4;
+    let f = |i: usize| (i as u32).wrapping_mul(2_654_435_761);
+    let v = super::material::huge_vec(n, (0..n).map(f));
+    assert_eq!(v.len(), n);
+    assert!(v.iter().enumerate().all(|(i, &x)| x == f(i)));
+    for (kind, space) in ALL {
+        let m = fixture(kind, space).bsdf.material();
+        let texels = m.width() * m.height();
+        for t in [0, texels - 1, texels, usize::MAX / 3] {
+            m.prefetch_views(t, [0, 80, u32::MAX]);
+        }
+    }
+}
