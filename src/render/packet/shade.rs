@@ -463,3 +463,6 @@ fn eval_plmc(b: &PlmcBsdf, at_l: &[Option<BsdfAt>; L], want: Mx, wo: V3x, delta:
     }
     (f, pdf)
 }
+
+#[cfg(test)]
+mod tests;
