@@ -122,7 +122,8 @@ pub fn trace_chunk(
                 }
             }
         }
-        // ------------------------------- traversal --------------------------------
+        // ------------- traversal, and each live slot's sort key (counted) -------------
+        scratch.start.iter_mut().for_each(|c| *c = 0);
         let mut live = 0u64;
         for g in 0..pool.len() / LANES {
             let mut n = 0;
@@ -131,12 +132,27 @@ pub fn trace_chunk(
                     continue;
                 }
                 n += 1;
-                pool.hit[i] = if pool.passthrough[i] && !(pool.ray_t[i] > 0.0) {
+                let hit = if pool.passthrough[i] && !(pool.ray_t[i] > 0.0) {
                     None
                 } else {
                     rs.accel
                         .intersect(pool.ray_o.get(i), pool.ray_d.get(i), pool.ray_t[i])
                 };
+                pool.hit[i] = hit;
+                let k = match hit {
+                    None => KEY_ESCAPED as u32,
+                    Some(h) => {
+                        if pt.hide_emitters && pool.depth[i] == 0 && rs.lights.is_emissive(h.mesh) {
+                            pass_through_emitter(rs, pool, i, stats);
+                            key_skip
+                        } else {
+                            // In range: RenderScene::new checked every mesh's BSDF index.
+                            1 + rs.scene.meshes[h.mesh as usize].bsdf
+                        }
+                    }
+                };
+                scratch.key[i] = k;
+                scratch.start[k as usize + 1] += 1;
             }
             if n > 0 {
                 lanes.issued += LANES as u64;
@@ -149,27 +165,7 @@ pub fn trace_chunk(
             break;
         }
         lanes.steps += 1;
-        // --------------------- sort live lanes by BSDF (counting) ---------------------
-        scratch.start.iter_mut().for_each(|c| *c = 0);
-        for i in 0..pool.len() {
-            if pool.job[i] == FREE {
-                continue;
-            }
-            let k = match pool.hit[i] {
-                None => KEY_ESCAPED as u32,
-                Some(h) => {
-                    if pt.hide_emitters && pool.depth[i] == 0 && rs.lights.is_emissive(h.mesh) {
-                        pass_through_emitter(rs, pool, i, stats);
-                        key_skip
-                    } else {
-                        // In range: RenderScene::new checked every mesh's BSDF index.
-                        1 + rs.scene.meshes[h.mesh as usize].bsdf
-                    }
-                }
-            };
-            scratch.key[i] = k;
-            scratch.start[k as usize + 1] += 1;
-        }
+        // ------------------------- sort live lanes by BSDF -------------------------
         for k in 0..nkeys {
             scratch.start[k + 1] += scratch.start[k];
         }
@@ -201,10 +197,10 @@ pub fn trace_chunk(
                 }
             }
         }
-        // ------------------------- batched any-hit shadow pass -------------------------
+        // ------------- batched any-hit shadow pass; write finished paths, free -------------
         for i in 0..pool.len() {
             let clear = match pool.shadow[i] {
-                Shadow::None => continue,
+                Shadow::None => false,
                 Shadow::Unoccluded => true,
                 Shadow::Test => {
                     !rs.accel
@@ -216,9 +212,6 @@ pub fn trace_chunk(
                 pool.result.set(i, r);
             }
             pool.shadow[i] = Shadow::None;
-        }
-        // ------------------------ write finished paths, free ------------------------
-        for i in 0..pool.len() {
             if pool.job[i] != FREE && pool.ending[i] {
                 out[pool.job[i] as usize] = pool.result.get(i);
                 pool.job[i] = FREE;
