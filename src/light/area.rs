@@ -46,17 +46,17 @@ impl AreaLight {
     /// Samples a point on the mesh as seen from `p` (pdf in solid angle, no selection).
     #[inline]
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let (tri, ux) = self.pick(u.x);
+        let (t, ux) = self.pick(u.x);
         let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
-        sample_toward(self.radiance, self.inv_area, p, tri.eval(b))
+        sample_toward(self.radiance, self.inv_area, p, self.triangle(t).eval(b))
     }
 
-    /// The triangle that sample number `ux` selects (by area) and `ux` rescaled to [0, 1)
-    /// within it, for the triangle's own warp.
+    /// The triangle (index for [`AreaLight::triangle`]) that sample number `ux` selects by
+    /// area, and `ux` rescaled to [0, 1) within it, for the triangle's own warp.
     #[inline]
-    pub fn pick(&self, ux: f32) -> (&AreaTri, f32) {
+    pub fn pick(&self, ux: f32) -> (u32, f32) {
         let (t, _, ux) = self.tris.sample(ux);
-        (&self.geo[t], ux)
+        (t as u32, ux)
     }
 
     /// [`AreaLight::pick`] for 16 lanes: the triangle indices and the re-scaled numbers.

@@ -149,15 +149,6 @@ impl LightSet {
         ((u_sel * n as f32) as usize).min(n.saturating_sub(1))
     }
 
-    /// The area light (on a triangle mesh) of mesh `mesh`, if it has one.
-    #[inline]
-    pub fn area_light_of(&self, mesh: u32) -> Option<&AreaLight> {
-        match &self.lights[self.mesh_light[mesh as usize]? as usize] {
-            Light::Area(l) => Some(l),
-            _ => None,
-        }
-    }
-
     /// Radiance emitted by the surface at `si` toward `si.wi` (0 unless the mesh has an area
     /// emitter and the direction is on the shading normal's side).
     #[inline]

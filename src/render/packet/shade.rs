@@ -23,12 +23,12 @@
 use super::lanes::LANES;
 use super::pool::{PathPool, Shadow};
 use crate::bsdf::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
-use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PlmcBsdf};
+use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PlmcBsdf, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::triangle_surface_x;
 use crate::light::area::{sample_toward_x, tri_point_x};
-use crate::light::{Light, LightSampleX};
+use crate::light::{AreaLight, Light, LightSampleX};
 use crate::math::frame::FrameX;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Frame, Pcg32, Spectrum, warp};
@@ -53,8 +53,8 @@ crate::isa_dispatch! {
 /// The batched form a BSDF's own stages take.
 #[derive(Clone, Copy)]
 enum Kind<'a> {
-    /// SoA twins of the scalar diffuse code.
-    Diffuse,
+    /// SoA twins of the scalar diffuse code, with the albedo texture.
+    Diffuse(&'a Texture),
     /// A fitted BTF: emitter evaluations 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
     /// Lane by lane through the scalar code.
@@ -70,7 +70,7 @@ fn shade(
     stats: &mut TraceStats,
 ) {
     let kind = match bsdf {
-        Bsdf::Diffuse(_) => Kind::Diffuse,
+        Bsdf::Diffuse(d) => Kind::Diffuse(&d.reflectance),
         Bsdf::Plmc(b) => Kind::Plmc(b),
         _ => Kind::Scalar,
     };
@@ -85,7 +85,7 @@ fn shade(
     let zero = Fx::splat(0.0);
 
     // ------------------------------ gather (scalar) ------------------------------
-    // Lanes past n replay the last real lane; their results are never written back.
+    // Lanes past n keep zeros: the SoA stages compute them too, and nothing reads the results.
     let mut slot = [0usize; L];
     let mut tp = [V3x::ZERO; 3];
     let mut tn = [V3x::ZERO; 3];
@@ -103,8 +103,8 @@ fn shade(
     let (mut sph_p, mut sph_n, mut sph_du, mut sph_dv) =
         (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
     let mut sph_uv = V2x::ZERO;
-    for l in 0..L {
-        let i = slots[l.min(n - 1)] as usize;
+    for (l, &i) in slots.iter().enumerate() {
+        let i = i as usize;
         slot[l] = i;
         let Some(h) = pool.hit[i] else { continue };
         let m = &meshes[h.mesh as usize];
@@ -178,7 +178,7 @@ fn shade(
     // Each live lane's BSDF at its hit, with its per-hit state.
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
     let mut rng = [Pcg32::PLACEHOLDER; L];
-    for l in 0..L {
+    for l in 0..n {
         rng[l] = pool.rng[slot[l]].clone();
     }
     let mut u_light = V2x::ZERO;
@@ -202,7 +202,8 @@ fn shade(
     let mut l_has_n = Mx::splat(false);
     let mut l_rad = V3x::ZERO;
     let mut l_inv_area = zero;
-    let mut area_light = [u32::MAX; L];
+    // The area light each lane's emitter sample picked, if it picked one.
+    let mut area: [Option<&AreaLight>; L] = [None; L];
     for l in 0..n {
         let i = slot[l];
         if lights.is_emissive(mesh_id[l]) {
@@ -224,13 +225,13 @@ fn shade(
             continue;
         }
         live[l] = true;
-        let smooth = match bsdf {
+        let smooth = match kind {
             // Diffuse is smooth, and its SoA stages need only the albedo.
-            Bsdf::Diffuse(d) => {
-                albedo.set(l, d.reflectance.eval(uv.get(l)));
+            Kind::Diffuse(reflectance) => {
+                albedo.set(l, reflectance.eval(uv.get(l)));
                 true
             }
-            _ => {
+            Kind::Plmc(_) | Kind::Scalar => {
                 let at = bsdf.at(&si_at(l));
                 let smooth = at.flags().has(BsdfFlags::SMOOTH);
                 at_l[l] = Some(at);
@@ -243,8 +244,8 @@ fn shade(
             let u = r.next_2d();
             match lights.lights.get(lights.select(u_sel)) {
                 None => {}
-                Some(Light::Area(_)) => {
-                    area_light[l] = lights.select(u_sel) as u32;
+                Some(Light::Area(a)) => {
+                    area[l] = Some(a);
                     u_light.set(l, u);
                     is_area.0[l] = true;
                 }
@@ -262,45 +263,37 @@ fn shade(
     }
 
     // ----------- area lights: triangle by area (SoA if the lanes share a light) -----------
-    let first = area_light.iter().copied().find(|&a| a != u32::MAX);
-    if let Some(first) = first {
-        let area_of = |k: u32| match lights.lights.get(k as usize) {
-            Some(Light::Area(a)) => Some(a),
-            _ => None,
+    let mut tri_of = [0u32; L];
+    match area.iter().flatten().next() {
+        None => {}
+        Some(&first) if area.iter().flatten().all(|&a| std::ptr::eq(a, first)) => {
+            (tri_of, u_light.x) = first.pick_x(u_light.x);
+        }
+        Some(_) => {
+            for l in 0..n {
+                if let Some(a) = area[l] {
+                    (tri_of[l], u_light.x.0[l]) = a.pick(u_light.x.0[l]);
+                }
+            }
+        }
+    }
+    for l in 0..n {
+        let Some(a) = area[l] else {
+            continue;
         };
-        let shared = area_light.iter().all(|&a| a == u32::MAX || a == first);
-        let mut tri_of = [0u32; L];
-        if shared && let Some(a) = area_of(first) {
-            let (t, ux) = a.pick_x(u_light.x);
-            tri_of = t;
-            u_light.x = ux;
-        } else {
-            for l in 0..L {
-                if let Some(a) = area_of(area_light[l]) {
-                    let (t, ux) = a.pick_x(Fx::splat(u_light.x.0[l]));
-                    tri_of[l] = t[0];
-                    u_light.x.0[l] = ux.0[0];
-                }
+        let tri = a.triangle(tri_of[l]);
+        lp0.set(l, tri.p0);
+        le1.set(l, tri.e1);
+        le2.set(l, tri.e2);
+        lng.set(l, tri.ng);
+        if let Some(nv) = tri.normals {
+            l_has_n.0[l] = true;
+            for (k, v) in nv.into_iter().enumerate() {
+                ln[k].set(l, v);
             }
         }
-        for l in 0..L {
-            let Some(a) = area_of(area_light[l]) else {
-                continue;
-            };
-            let tri = a.triangle(tri_of[l]);
-            lp0.set(l, tri.p0);
-            le1.set(l, tri.e1);
-            le2.set(l, tri.e2);
-            lng.set(l, tri.ng);
-            if let Some(nv) = tri.normals {
-                l_has_n.0[l] = true;
-                for (k, v) in nv.into_iter().enumerate() {
-                    ln[k].set(l, v);
-                }
-            }
-            l_rad.set(l, a.radiance);
-            l_inv_area.0[l] = a.inv_area();
-        }
+        l_rad.set(l, a.radiance);
+        l_inv_area.0[l] = a.inv_area();
     }
 
     // ------------------------- area-light samples (SoA) -------------------------
@@ -319,7 +312,7 @@ fn shade(
     let wo = frame.to_local(ls.wi);
     let delta = ls.delta;
     let (f, bsdf_pdf) = match kind {
-        Kind::Diffuse => (
+        Kind::Diffuse(_) => (
             eval_local_x(albedo, wi, wo),
             Fx::select(delta, zero, pdf_local_x(wi, wo)),
         ),
@@ -349,7 +342,7 @@ fn shade(
     // ------------------------------ BSDF sample ------------------------------
     // (local direction, pdf, weight, η, delta lobe) per lane; `sampled` false where it failed.
     let (wo_s, s_pdf, weight, s_eta, s_delta, sampled) = match kind {
-        Kind::Diffuse => {
+        Kind::Diffuse(_) => {
             let (wo, pdf, ok) = sample_local_x(wi, u_bsdf);
             // The albedo is the weight; a diffuse sample keeps η (× 1) and is not a delta lobe.
             (wo, pdf, albedo, Fx::splat(1.0), Mx::splat(false), ok)
