@@ -215,19 +215,10 @@ pub(super) fn camera_hit(
     (hit, ray_o)
 }
 
-/// The shadow segment from `si` to the emitter sample `ls`: (origin, unit direction, extent),
-/// both ends offset off their surfaces and the extent shortened by 1e-4 (∞ toward lights at
-/// infinity); None for a zero-length segment, which nothing can block. The scalar and the packet
-/// integrator trace exactly this ray.
-pub(super) fn shadow_segment(
-    si: &crate::geometry::intersection::SurfaceInteraction,
-    ls: &crate::light::LightSample,
-) -> Option<(Vec3, Vec3, f32)> {
-    shadow_segment_from(si.p, si.n, ls)
-}
-
-/// [`shadow_segment`] from the point `p` with unit geometric normal `n` (the packet kernels'
-/// lane loops call this).
+/// The shadow segment from the point `p` (unit geometric normal `n`) to the emitter sample
+/// `ls`: (origin, unit direction, extent), both ends offset off their surfaces and the extent
+/// shortened by 1e-4 (∞ toward lights at infinity); None for a zero-length segment, which
+/// nothing can block. The packet kernel traces exactly this ray ([`shadow_segment_from_x`]).
 #[inline(always)]
 pub(super) fn shadow_segment_from(
     p: Vec3,
@@ -279,7 +270,7 @@ pub(super) fn occluded(
     stats: &mut TraceStats,
 ) -> bool {
     stats.rays += 1;
-    shadow_segment(si, ls).is_some_and(|(o, d, t)| rs.accel.occluded(o, d, t))
+    shadow_segment_from(si.p, si.n, ls).is_some_and(|(o, d, t)| rs.accel.occluded(o, d, t))
 }
 
 /// [`mis_weight`] per lane.
