@@ -28,6 +28,11 @@ pub(super) trait F8: Copy {
     fn mul(self, b: Self) -> Self;
     /// Lane quotient.
     fn div(self, b: Self) -> Self;
+    /// |x| per lane.
+    fn abs(self) -> Self;
+    /// `self` with its sign flipped in the lanes where `s` has its sign bit set (`self ·
+    /// copysign(1, s)`, exact).
+    fn mul_sign(self, s: Self) -> Self;
     /// `self > b ? self : b` per lane (x86 maxps: `b` when either is NaN).
     fn max(self, b: Self) -> Self;
     /// `self < b ? self : b` per lane (x86 minps: `b` when either is NaN).
@@ -88,6 +93,17 @@ impl F8 for Sse8 {
     #[inline(always)]
     fn div(self, b: Self) -> Self {
         Sse8(self.0 / b.0, self.1 / b.1)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        Sse8(self.0.abs(), self.1.abs())
+    }
+    #[inline(always)]
+    fn mul_sign(self, s: Self) -> Self {
+        Sse8(
+            self.0 * Vec4::ONE.copysign(s.0),
+            self.1 * Vec4::ONE.copysign(s.1),
+        )
     }
     #[inline(always)]
     fn max(self, b: Self) -> Self {
@@ -175,6 +191,15 @@ mod avx {
         #[inline(always)]
         fn div(self, b: Self) -> Self {
             Avx8(unsafe { _mm256_div_ps(self.0, b.0) })
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            Avx8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+        #[inline(always)]
+        fn mul_sign(self, s: Self) -> Self {
+            let sign = unsafe { _mm256_and_ps(_mm256_set1_ps(-0.0), s.0) };
+            Avx8(unsafe { _mm256_xor_ps(self.0, sign) })
         }
         #[inline(always)]
         fn max(self, b: Self) -> Self {

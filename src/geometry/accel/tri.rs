@@ -60,7 +60,11 @@ impl TriPack {
     }
 
     /// Which lanes are hit at t in (0, tmax], with t, b1, b2 per lane, for the ray with origin
-    /// `o` and direction `d` splatted per axis. Same operations in the same order as
+    /// `o` and direction `d` splatted per axis. Division-free: the edge and distance tests run
+    /// on the numerators with the determinant's sign moved onto them (u·|det| ≥ 0, v·|det| ≥ 0,
+    /// (u + v)·|det| ≤ |det|, 0 < t·|det| ≤ tmax·|det|), so a packet that nobody hits (the
+    /// common case) costs no division; 1/|det| is taken only for a packet with a hit, and its
+    /// distances are tested against (0, tmax] once more. Same operations in the same order as
     /// [`Tri::intersect`] (no fused multiply-adds), so every build agrees.
     #[inline(always)]
     pub fn intersect<V: F8>(&self, o: &[V; 3], d: &[V; 3], tmax: f32) -> PackHit {
@@ -75,31 +79,34 @@ impl TriPack {
             d[0].mul(c[1]).sub(d[1].mul(c[0])),
         ];
         let n = ld(&self.n);
-        let inv_det = V::splat(1.0).div(dot(&n, d));
-        let u = dot(&r, &ld(&self.e2)).mul(inv_det);
-        let v = dot(&r, &ld(&self.e1)).mul(inv_det);
-        let t = dot(&n, &c).mul(inv_det);
+        let det = dot(&n, d);
+        let adet = det.abs();
+        let u = dot(&r, &ld(&self.e2)).mul_sign(det);
+        let v = dot(&r, &ld(&self.e1)).mul_sign(det);
+        let t = dot(&n, &c).mul_sign(det);
         let zero = V::splat(0.0);
-        let ok = u.ge(zero)
-            & v.ge(zero)
-            & u.add(v).le(V::splat(1.0))
-            & t.gt(zero)
-            & t.le(V::splat(tmax));
-        let mask = V::bitmask(ok);
-        if mask == 0 {
-            // The common case: skip spilling t, b1, b2.
+        let tmax = V::splat(tmax);
+        // (A zero determinant fails: u = v = 0 then, and 0 < t ≤ 0 cannot hold.)
+        let ok = u.ge(zero) & v.ge(zero) & u.add(v).le(adet) & t.gt(zero) & t.le(tmax.mul(adet));
+        if V::bitmask(ok) == 0 {
+            // The common case: no division, no spilling of t, b1, b2.
             return PackHit {
-                mask,
+                mask: 0,
                 t: [0.0; LANES],
                 u: [0.0; LANES],
                 v: [0.0; LANES],
             };
         }
+        let inv = V::splat(1.0).div(adet);
+        let t = t.mul(inv);
+        // Rounding t·|det| and tmax·|det| can pass a distance a little past tmax (or a
+        // tiny one that rounds to 0): the quotient is what the caller compares.
+        let ok = ok & t.gt(zero) & t.le(tmax);
         PackHit {
-            mask,
+            mask: V::bitmask(ok),
             t: t.to_array(),
-            u: u.to_array(),
-            v: v.to_array(),
+            u: u.mul(inv).to_array(),
+            v: v.mul(inv).to_array(),
         }
     }
 }
@@ -129,19 +136,23 @@ impl Tri {
         }
     }
 
-    /// (t, b1, b2) if the ray hits the triangle at t in (0, tmax]. A zero determinant gives an
-    /// infinite or NaN weight and fails the sign tests.
+    /// (t, b1, b2) if the ray hits the triangle at t in (0, tmax], by the division-free test of
+    /// [`TriPack::intersect`] (a zero determinant fails it).
     #[inline(always)]
     pub fn intersect(&self, o: Vec3A, d: Vec3A, tmax: f32) -> Option<(f32, f32, f32)> {
         let c = self.p0 - o;
         let r = d.cross(c);
-        let inv_det = 1.0 / self.n.dot(d);
-        let u = r.dot(self.e2) * inv_det;
-        let v = r.dot(self.e1) * inv_det;
-        if u >= 0.0 && v >= 0.0 && u + v <= 1.0 {
-            let t = self.n.dot(c) * inv_det;
+        let det = self.n.dot(d);
+        let s = 1.0f32.copysign(det);
+        let adet = det.abs();
+        let u = r.dot(self.e2) * s;
+        let v = r.dot(self.e1) * s;
+        let t = self.n.dot(c) * s;
+        if u >= 0.0 && v >= 0.0 && u + v <= adet && t > 0.0 && t <= tmax * adet {
+            let inv = 1.0 / adet;
+            let t = t * inv;
             if t > 0.0 && t <= tmax {
-                return Some((t, u, v));
+                return Some((t, u * inv, v * inv));
             }
         }
         None
