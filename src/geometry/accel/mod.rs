@@ -185,18 +185,17 @@ impl Accel {
         if self.nodes.is_empty() {
             return best;
         }
-        match traverse::run::<false>(isa, &self.nodes, &self.tris, o, d, tmax) {
-            Some((i, t, u, v)) => {
-                let [mesh, prim] = self.ids[i as usize];
-                Some(Hit {
-                    t,
-                    mesh,
-                    prim,
-                    b: Vec2::new(u, v),
-                })
-            }
-            None => best,
+        let h = traverse::run::<false>(isa, &self.nodes, &self.tris, o, d, tmax);
+        if !h.is_hit() {
+            return best;
         }
+        let [mesh, prim] = self.ids[h.slot as usize];
+        Some(Hit {
+            t: h.t,
+            mesh,
+            prim,
+            b: Vec2::new(h.u, h.v),
+        })
     }
 
     /// [`Accel::occluded`] with the traversal built for `isa` (one `simd::isa()` allows).
@@ -206,7 +205,7 @@ impl Accel {
             .iter()
             .any(|(s, _)| s.intersect(o, d, tmax).is_some())
             || (!self.nodes.is_empty()
-                && traverse::run::<true>(isa, &self.nodes, &self.tris, o, d, tmax).is_some())
+                && traverse::run::<true>(isa, &self.nodes, &self.tris, o, d, tmax).is_hit())
     }
 }
 
