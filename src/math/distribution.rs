@@ -126,6 +126,10 @@ impl Distribution1D {
     }
 }
 
+/// Tables up to this many bins are searched by counting in [`Distribution1D::sample_x`] (an
+/// area light's triangles, the emitters of most scenes).
+const SMALL: usize = 16;
+
 impl Distribution1D {
     /// [`Distribution1D::sample`] for 16 lanes at once (the packet kernels' twin): per lane
     /// (bin, its probability, u re-scaled), the same values; a lane whose search needs a step
@@ -134,28 +138,43 @@ impl Distribution1D {
     pub fn sample_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
         let n = self.cdf.len();
         let last = n - 1;
-        let mut t: [usize; WIDTH] = lanes(|l| {
-            let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
-            self.guide[cell] as usize
-        });
-        // The bounds hold by construction (guide entries and the loops stay in 0..n).
+        let mut t: [usize; WIDTH];
+        if n <= SMALL {
+            // The search ends at the CDF's partition point (the first entry above u, at most the
+            // last), which a short table counts with one compare per entry for all lanes at
+            // once. A NaN u never moves from its start cell, guide[0]: the count for u = 0.
+            let uu = Fx(lanes(|l| if u.0[l].is_nan() { 0.0 } else { u.0[l] }));
+            let mut c = [0u32; WIDTH];
+            for &cj in &self.cdf[..last] {
+                for l in 0..WIDTH {
+                    c[l] += (cj <= uu.0[l]) as u32;
+                }
+            }
+            t = lanes(|l| c[l] as usize);
+        } else {
+            t = lanes(|l| {
+                let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
+                self.guide[cell] as usize
+            });
+            let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
+            loop {
+                let lo = gather(&self.lower, &t);
+                let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
+                if !back.contains(&true) {
+                    break;
+                }
+                t = lanes(|l| t[l] - back[l] as usize);
+            }
+            loop {
+                let c = gather(&self.cdf, &t);
+                let fwd: [bool; WIDTH] = lanes(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
+                if !fwd.contains(&true) {
+                    break;
+                }
+                t = lanes(|l| t[l] + fwd[l] as usize);
+            }
+        }
         let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
-        loop {
-            let lo = gather(&self.lower, &t);
-            let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
-            if !back.contains(&true) {
-                break;
-            }
-            t = lanes(|l| t[l] - back[l] as usize);
-        }
-        loop {
-            let c = gather(&self.cdf, &t);
-            let fwd: [bool; WIDTH] = lanes(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
-            if !fwd.contains(&true) {
-                break;
-            }
-            t = lanes(|l| t[l] + fwd[l] as usize);
-        }
         loop {
             let p = gather(&self.pmf, &t);
             let zero: [bool; WIDTH] = lanes(|l| (p.0[l] == 0.0) & (t[l] > 0));
@@ -235,13 +254,15 @@ mod tests {
             vec![1.0, 1.0],
             vec![1.0, 0.0, 3.0, f64::NAN, -2.0, 0.5],
             vec![5.0],
+            vec![0.0, 0.0, 2.0, 1.0, 0.0],
+            (0..16).map(|i| (i % 3) as f64).collect(),
             (0..100).map(|i| ((i * 37) % 11) as f64).collect(),
         ] {
             let d = Distribution1D::new(w).unwrap();
             let mut us: Vec<f32> = (0..400).map(|_| rng.next_f32()).collect();
             us.extend(d.cdf.iter().copied());
             us.extend(d.cdf.iter().map(|c| c.next_down()));
-            us.extend([0.0, -0.5, 1.0, 1.5, f32::NAN]);
+            us.extend([0.0, -0.0, -0.5, 1.0, 1.5, f32::NAN, f32::INFINITY]);
             for c in us.chunks(WIDTH) {
                 let mut u = Fx::splat(0.25);
                 u.0[..c.len()].copy_from_slice(c);
