@@ -15,6 +15,7 @@
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
 use super::shade::shade_hits;
+use crate::bsdf::Bsdf;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::{Pcg32, Spectrum};
@@ -62,6 +63,9 @@ const KEY_ESCAPED: usize = 0;
 /// Reusable buffers of the megakernel (one per thread and tile pass, never per ray).
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
+    /// Sort key of each BSDF index: 1 + the BSDF whose batches it joins (every `diffuse`
+    /// joins the first one, since the SoA diffuse stages read each lane's own albedo).
+    batch_key: Vec<u32>,
     /// Live slots sorted by key.
     order: Vec<u32>,
     /// Sort key of each slot.
@@ -94,6 +98,15 @@ pub fn trace_chunk(
     scratch.start.resize(nkeys + 1, 0);
     let mut next = 0u32;
     let isa = crate::math::simd::isa();
+    let bsdfs = &rs.scene.bsdfs;
+    let first_diffuse = bsdfs.iter().position(|b| matches!(b, Bsdf::Diffuse(_)));
+    scratch.batch_key.clear();
+    scratch
+        .batch_key
+        .extend(bsdfs.iter().enumerate().map(|(k, b)| match b {
+            Bsdf::Diffuse(_) => 1 + first_diffuse.unwrap_or(k) as u32,
+            _ => 1 + k as u32,
+        }));
     loop {
         // --------------------------------- refill ---------------------------------
         for g in 0..pool.len() / LANES {
@@ -147,7 +160,7 @@ pub fn trace_chunk(
                             key_skip
                         } else {
                             // In range: RenderScene::new checked every mesh's BSDF index.
-                            1 + rs.scene.meshes[h.mesh as usize].bsdf
+                            scratch.batch_key[rs.scene.meshes[h.mesh as usize].bsdf as usize]
                         }
                     }
                 };

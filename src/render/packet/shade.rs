@@ -39,8 +39,8 @@ const L: usize = LANES;
 
 crate::isa_dispatch! {
     /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a surface whose BSDF
-    /// is `bsdf`) one path segment on: what the scalar integrator's loop body does for each,
-    /// in SoA.
+    /// is `bsdf`, or any `diffuse` one if `bsdf` is diffuse) one path segment on: what the
+    /// scalar integrator's loop body does for each, in SoA.
     pub fn shade_hits(
         rs: &RenderScene,
         bsdf: &Bsdf,
@@ -53,7 +53,8 @@ crate::isa_dispatch! {
 /// The batched form a BSDF's own stages take.
 #[derive(Clone, Copy)]
 enum Kind<'a> {
-    /// SoA twins of the scalar diffuse code, with the albedo texture.
+    /// SoA twins of the scalar diffuse code, with the batch BSDF's albedo texture (each lane
+    /// reads its own mesh's, see [`diffuse_albedo`]).
     Diffuse(&'a Texture),
     /// A fitted BTF: emitter evaluations 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
@@ -227,8 +228,8 @@ fn shade(
         live[l] = true;
         let smooth = match kind {
             // Diffuse is smooth, and its SoA stages need only the albedo.
-            Kind::Diffuse(reflectance) => {
-                albedo.set(l, reflectance.eval(uv.get(l)));
+            Kind::Diffuse(batch) => {
+                albedo.set(l, diffuse_albedo(rs, batch, mesh_id[l]).eval(uv.get(l)));
                 true
             }
             Kind::Plmc(_) | Kind::Scalar => {
@@ -422,6 +423,17 @@ fn shade(
             }
         }
         pool.rng[i] = rng[l].clone();
+    }
+}
+
+/// The albedo texture of mesh `mesh`'s `diffuse` BSDF: the lanes of a diffuse batch may carry
+/// different ones (`batch`, the batch BSDF's, if the mesh's is not diffuse, which the sort
+/// never makes happen).
+#[inline(always)]
+fn diffuse_albedo<'a>(rs: &'a RenderScene, batch: &'a Texture, mesh: u32) -> &'a Texture {
+    match &rs.scene.bsdfs[rs.scene.meshes[mesh as usize].bsdf as usize] {
+        Bsdf::Diffuse(d) => &d.reflectance,
+        _ => batch,
     }
 }
 
