@@ -14,7 +14,7 @@ pub mod warp;
 
 pub use frame::Frame;
 pub use glam::{Mat3, Mat4, Vec2, Vec3};
-pub use rng::Pcg32;
+pub use rng::{Pcg32, Pcg32x};
 
 /// Linear RGB radiance/reflectance triple (Rec.709 primaries).
 pub type Spectrum = glam::Vec3;

@@ -31,7 +31,7 @@ use crate::light::area::{sample_toward_x, tri_point_x};
 use crate::light::{AreaLight, Light, LightSampleX};
 use crate::math::frame::FrameX;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
-use crate::math::{Frame, Pcg32, Spectrum, warp};
+use crate::math::{Frame, Pcg32x, Spectrum, warp};
 use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
 
@@ -178,13 +178,8 @@ fn shade(
     let mut live = [false; L];
     // Each live lane's BSDF at its hit, with its per-hit state.
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
-    let mut rng = [Pcg32::PLACEHOLDER; L];
-    for l in 0..n {
-        rng[l] = pool.rng[slot[l]].clone();
-    }
-    let mut u_light = V2x::ZERO;
-    let mut u_bsdf = V2x::ZERO;
-    let mut u_lobe = zero;
+    // Lanes that sample an emitter (drawing u_sel and u first).
+    let mut nee = [false; L];
     let mut albedo = V3x::ZERO;
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
@@ -239,28 +234,42 @@ fn shade(
                 smooth
             }
         };
-        let r = &mut rng[l];
-        if pt.nee && smooth {
-            let u_sel = r.next_f32();
-            let u = r.next_2d();
-            match lights.lights.get(lights.select(u_sel)) {
-                None => {}
-                Some(Light::Area(a)) => {
-                    area[l] = Some(a);
-                    u_light.set(l, u);
-                    is_area.0[l] = true;
-                }
-                Some(_) => {
-                    if let Some(ls) = lights.sample(p.get(l), u_sel, u) {
-                        other.set(l, &ls);
-                        is_other.0[l] = true;
-                    }
+        nee[l] = pt.nee && smooth;
+    }
+
+    // ------------- random numbers (SoA, each lane on its own stream, in scalar order) -------------
+    // Per live lane: u_sel and u if it samples an emitter, then u_lobe and u_bsdf (evaluating
+    // the emitter sample draws none), then the Russian roulette number at write-back.
+    let mut rng = Pcg32x::gather(&pool.rng, &slot, n);
+    let u_sel = rng.next_f32(&nee);
+    let mut u_light = V2x {
+        x: Fx(rng.next_f32(&nee)),
+        y: Fx(rng.next_f32(&nee)),
+    };
+    let u_lobe = Fx(rng.next_f32(&live));
+    let u_bsdf = V2x {
+        x: Fx(rng.next_f32(&live)),
+        y: Fx(rng.next_f32(&live)),
+    };
+
+    // ------------------------- emitter choice (scalar) -------------------------
+    for l in 0..n {
+        if !nee[l] {
+            continue;
+        }
+        match lights.lights.get(lights.select(u_sel[l])) {
+            None => {}
+            Some(Light::Area(a)) => {
+                area[l] = Some(a);
+                is_area.0[l] = true;
+            }
+            Some(_) => {
+                if let Some(ls) = lights.sample(p.get(l), u_sel[l], u_light.get(l)) {
+                    other.set(l, &ls);
+                    is_other.0[l] = true;
                 }
             }
         }
-        // Evaluating the emitter sample draws no random numbers, so these follow at once.
-        u_lobe.0[l] = r.next_f32();
-        u_bsdf.set(l, r.next_2d());
     }
 
     // ----------- area lights: triangle by area (SoA if the lanes share a light) -----------
@@ -376,7 +385,14 @@ fn shade(
     let rr_tp = new_tp.div(q);
     let new_o = offset_origin_x(p, ng, wo_world);
 
-    // --------------- Russian roulette (scalar draws) and write-back ---------------
+    // Russian roulette's number, for the lanes that continue at a depth that plays it.
+    let mut rr = [false; L];
+    for l in 0..n {
+        rr[l] = live[l] && sampled.0[l] && pool.depth[slot[l]] + 1 >= pt.rr_depth;
+    }
+    let u_rr = rng.next_f32(&rr);
+
+    // --------------- Russian roulette and write-back ---------------
     for l in 0..n {
         let i = slot[l];
         if live[l] {
@@ -404,7 +420,7 @@ fn shade(
                 let mut alive = true;
                 let mut tpl = new_tp.get(l);
                 if depth >= pt.rr_depth {
-                    if !(rng[l].next_f32() < q.0[l]) {
+                    if !(u_rr[l] < q.0[l]) {
                         alive = false;
                     } else {
                         tpl = rr_tp.get(l);
@@ -422,8 +438,8 @@ fn shade(
                 }
             }
         }
-        pool.rng[i] = rng[l].clone();
     }
+    rng.scatter(&mut pool.rng, &slot, n);
 }
 
 /// The albedo texture of mesh `mesh`'s `diffuse` BSDF: the lanes of a diffuse batch may carry
