@@ -126,8 +126,8 @@ impl Distribution1D {
     }
 }
 
-/// Tables up to this many bins are searched by counting in [`Distribution1D::sample_x`] (an
-/// area light's triangles, the emitters of most scenes).
+/// Tables up to this many bins are searched in registers by [`Distribution1D::sample_x`] (an
+/// area light's triangles in most scenes).
 const SMALL: usize = 16;
 
 impl Distribution1D {
@@ -136,45 +136,32 @@ impl Distribution1D {
     /// takes it in a loop that runs until no lane does.
     #[inline(always)]
     pub fn sample_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
+        if self.cdf.len() <= SMALL {
+            return self.sample_small_x(u);
+        }
         let n = self.cdf.len();
         let last = n - 1;
-        let mut t: [usize; WIDTH];
-        if n <= SMALL {
-            // The search ends at the CDF's partition point (the first entry above u, at most the
-            // last), which a short table counts with one compare per entry for all lanes at
-            // once. A NaN u never moves from its start cell, guide[0]: the count for u = 0.
-            let uu = Fx(lanes(|l| if u.0[l].is_nan() { 0.0 } else { u.0[l] }));
-            let mut c = [0u32; WIDTH];
-            for &cj in &self.cdf[..last] {
-                for l in 0..WIDTH {
-                    c[l] += (cj <= uu.0[l]) as u32;
-                }
-            }
-            t = lanes(|l| c[l] as usize);
-        } else {
-            t = lanes(|l| {
-                let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
-                self.guide[cell] as usize
-            });
-            let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
-            loop {
-                let lo = gather(&self.lower, &t);
-                let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
-                if !back.contains(&true) {
-                    break;
-                }
-                t = lanes(|l| t[l] - back[l] as usize);
-            }
-            loop {
-                let c = gather(&self.cdf, &t);
-                let fwd: [bool; WIDTH] = lanes(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
-                if !fwd.contains(&true) {
-                    break;
-                }
-                t = lanes(|l| t[l] + fwd[l] as usize);
-            }
-        }
+        let mut t: [usize; WIDTH] = lanes(|l| {
+            let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
+            self.guide[cell] as usize
+        });
         let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
+        loop {
+            let lo = gather(&self.lower, &t);
+            let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
+            if !back.contains(&true) {
+                break;
+            }
+            t = lanes(|l| t[l] - back[l] as usize);
+        }
+        loop {
+            let c = gather(&self.cdf, &t);
+            let fwd: [bool; WIDTH] = lanes(|l| (t[l] < last) & (c.0[l] <= u.0[l]));
+            if !fwd.contains(&true) {
+                break;
+            }
+            t = lanes(|l| t[l] + fwd[l] as usize);
+        }
         loop {
             let p = gather(&self.pmf, &t);
             let zero: [bool; WIDTH] = lanes(|l| (p.0[l] == 0.0) & (t[l] > 0));
@@ -185,15 +172,58 @@ impl Distribution1D {
         }
         let lo = gather(&self.lower, &t);
         let p = gather(&self.pmf, &t);
-        let rem = Fx(lanes(|l| {
-            if p.0[l] > 0.0 {
-                ((u.0[l] - lo.0[l]) / p.0[l]).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
-            } else {
-                0.5
-            }
-        }));
-        (t.map(|i| i as u32), p, rem)
+        (t.map(|i| i as u32), p, rescale_x(u, lo, p))
     }
+
+    /// [`Distribution1D::sample_x`] for a table of at most [`SMALL`] bins, in registers: the
+    /// search ends at the CDF's partition point (the first entry above u, at most the last),
+    /// which is counted with one compare per entry for all lanes at once (a NaN u never moves
+    /// from its start cell, guide[0]: the count for u = 0), and the bin's values are picked by
+    /// one select per entry instead of gathers.
+    #[inline(always)]
+    fn sample_small_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
+        let last = self.cdf.len() - 1;
+        let uu = Fx(lanes(|l| if u.0[l].is_nan() { 0.0 } else { u.0[l] }));
+        let mut t = [0u32; WIDTH];
+        for &c in &self.cdf[..last] {
+            for l in 0..WIDTH {
+                t[l] += (c <= uu.0[l]) as u32;
+            }
+        }
+        let pick = |v: &[f32], t: &[u32; WIDTH]| {
+            let mut o = [0.0f32; WIDTH];
+            for (j, &x) in v.iter().enumerate() {
+                for l in 0..WIDTH {
+                    o[l] = if t[l] == j as u32 { x } else { o[l] };
+                }
+            }
+            Fx(o)
+        };
+        let mut p = pick(&self.pmf, &t);
+        loop {
+            let zero: [bool; WIDTH] = lanes(|l| (p.0[l] == 0.0) & (t[l] > 0));
+            if !zero.contains(&true) {
+                break;
+            }
+            t = lanes(|l| t[l] - zero[l] as u32);
+            p = pick(&self.pmf, &t);
+        }
+        let lo = pick(&self.lower, &t);
+        (t, p, rescale_x(u, lo, p))
+    }
+}
+
+/// u re-scaled into its bin (lower edge `lo`, probability `p`) per lane, as
+/// [`Distribution1D::sample`] does.
+#[inline(always)]
+fn rescale_x(u: Fx, lo: Fx, p: Fx) -> Fx {
+    Fx(lanes(|l| {
+        if p.0[l] > 0.0 {
+            ((u.0[l] - lo.0[l]) / p.0[l]).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
+        } else {
+            0.5
+        }
+    }))
 }
 
 #[cfg(test)]
