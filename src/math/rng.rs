@@ -101,6 +101,37 @@ impl Pcg32x {
         r
     }
 
+    /// [`Pcg32::for_sample`] per lane: the streams of (`pixel[l]`, `sample[l]`) of a render with
+    /// `seed` (the packet integrator seeds its refills 16 at a time).
+    #[inline(always)]
+    pub fn for_samples(seed: u64, pixel: &[u64; W], sample: &[u64; W]) -> Pcg32x {
+        let mut r = Pcg32x {
+            state: [0; W],
+            inc: [0; W],
+        };
+        for l in 0..W {
+            let key = mix64(seed ^ mix64(pixel[l] ^ mix64(sample[l])));
+            let stream = mix64(key ^ 0xDA44_2D24_C9D0_F3A1);
+            // Pcg32::new(key, stream): a step from state 0 (to inc), + key, another step.
+            let inc = (stream << 1) | 1;
+            r.state[l] = inc
+                .wrapping_add(key)
+                .wrapping_mul(PCG_MULT)
+                .wrapping_add(inc);
+            r.inc[l] = inc;
+        }
+        r
+    }
+
+    /// Lane `l` as a scalar generator.
+    #[inline(always)]
+    pub fn lane(&self, l: usize) -> Pcg32 {
+        Pcg32 {
+            state: self.state[l],
+            inc: self.inc[l],
+        }
+    }
+
     /// Writes lanes 0..n back to `gens[idx[l]]`.
     #[inline(always)]
     pub fn scatter(&self, gens: &mut [Pcg32], idx: &[usize; W], n: usize) {
@@ -157,6 +188,13 @@ mod tests {
             for l in 0..n {
                 assert_eq!(gens[idx[l]].state, want[idx[l]].state);
             }
+        }
+        let pixel: [u64; W] = std::array::from_fn(|l| 1000 * l as u64 + 7);
+        let sample: [u64; W] = std::array::from_fn(|l| (l as u64) % 3);
+        let x = Pcg32x::for_samples(42, &pixel, &sample);
+        for l in 0..W {
+            let (a, b) = (x.lane(l), Pcg32::for_sample(42, pixel[l], sample[l]));
+            assert_eq!((a.state, a.inc), (b.state, b.inc), "lane {l}");
         }
     }
 

@@ -14,11 +14,12 @@
 
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
+use super::refill::{Refill, start_paths};
 use super::shade::shade_hits;
 use crate::bsdf::Bsdf;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
-use crate::math::{Pcg32, Spectrum};
+use crate::math::Spectrum;
 use crate::render::RenderScene;
 use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
 
@@ -97,6 +98,7 @@ pub fn trace_chunk(
     scratch.key.resize(pool.len(), 0);
     scratch.start.resize(nkeys + 1, 0);
     let mut next = 0u32;
+    let mut fill = Refill::default();
     let isa = crate::math::simd::isa();
     let bsdfs = &rs.scene.bsdfs;
     let first_diffuse = bsdfs.iter().position(|b| matches!(b, Bsdf::Diffuse(_)));
@@ -122,19 +124,15 @@ pub fn trace_chunk(
                         out[j as usize] = Spectrum::ZERO;
                         continue;
                     }
-                    let s = j / npix;
-                    let p = j % npix;
-                    let (px, py) = (chunk.x0 + p % chunk.w, chunk.y0 + p / chunk.w);
-                    let pixel = py as u64 * chunk.film_width as u64 + px as u64;
-                    let mut rng = Pcg32::for_sample(chunk.seed, pixel, (chunk.sample0 + s) as u64);
-                    let fx = px as f32 + rng.next_f32();
-                    let fy = py as f32 + rng.next_f32();
-                    let (o, d, tmax) = rs.camera.ray(fx, fy);
-                    stats.rays += 1;
-                    pool.start(i, j, rng, o, d, tmax);
+                    // Claimed now, started 16 at a time.
+                    pool.job[i] = j;
+                    if fill.push(i, j) {
+                        start_paths(isa, rs, chunk, pool, &mut fill, stats);
+                    }
                 }
             }
         }
+        start_paths(isa, rs, chunk, pool, &mut fill, stats);
         // ------------- traversal, and each live slot's sort key (counted) -------------
         scratch.start.iter_mut().for_each(|c| *c = 0);
         let mut live = 0u64;

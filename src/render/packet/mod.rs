@@ -9,6 +9,7 @@
 pub mod lanes;
 pub mod megakernel;
 pub mod pool;
+pub mod refill;
 pub mod shade;
 
 pub use lanes::{LANES, LaneCounters, LaneStats};

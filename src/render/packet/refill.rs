@@ -1,0 +1,92 @@
+//! Starting camera paths in the pool 16 at a time: the free slots a round refills are
+//! collected with their work items, and their random streams (seeded from (seed, pixel,
+//! sample)), film positions and camera rays are computed in SoA by the twins of the scalar
+//! code ([`Pcg32x::for_samples`], [`PerspectiveCamera::ray_x`](crate::render::camera::PerspectiveCamera::ray_x)),
+//! so each lane starts with the bits [`crate::render::integrator::PathTracer::li`]'s path does.
+//! Per path this had been a chain of three SplitMix finalisers, two PCG steps and six
+//! divisions and square roots, latency-bound one slot at a time.
+
+use super::lanes::LANES;
+use super::megakernel::Chunk;
+use super::pool::PathPool;
+use crate::math::Pcg32x;
+use crate::math::simd::wide::Fx;
+use crate::render::RenderScene;
+use crate::render::integrator::TraceStats;
+
+/// Free slots claimed this round and the work items they take, up to [`LANES`] at a time.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Refill {
+    slot: [usize; LANES],
+    job: [u32; LANES],
+    n: usize,
+}
+
+impl Refill {
+    /// Queues work item `job` (sample-major index into the chunk) for slot `slot`; returns true
+    /// once [`LANES`] are queued, when the caller must [`start_paths`].
+    #[inline]
+    pub fn push(&mut self, slot: usize, job: u32) -> bool {
+        self.slot[self.n] = slot;
+        self.job[self.n] = job;
+        self.n += 1;
+        self.n == LANES
+    }
+}
+
+crate::isa_dispatch! {
+    /// Starts the queued camera paths in their slots (the scalar refill's state for each) and
+    /// empties the queue.
+    pub fn start_paths(
+        rs: &RenderScene,
+        chunk: &Chunk,
+        pool: &mut PathPool,
+        fill: &mut Refill,
+        stats: &mut TraceStats,
+    ) -> () = start;
+}
+
+#[inline(always)]
+fn start(
+    rs: &RenderScene,
+    chunk: &Chunk,
+    pool: &mut PathPool,
+    fill: &mut Refill,
+    stats: &mut TraceStats,
+) {
+    let n = fill.n;
+    if n == 0 {
+        return;
+    }
+    let npix = chunk.w * chunk.h;
+    let mut pixel = [0u64; LANES];
+    let mut sample = [0u64; LANES];
+    let (mut px, mut py) = ([0.0f32; LANES], [0.0f32; LANES]);
+    // Lanes past n repeat the last item; their results are dropped.
+    for l in 0..LANES {
+        let j = fill.job[l.min(n - 1)];
+        let (s, p) = (j / npix, j % npix);
+        let (x, y) = (chunk.x0 + p % chunk.w, chunk.y0 + p / chunk.w);
+        pixel[l] = y as u64 * chunk.film_width as u64 + x as u64;
+        sample[l] = (chunk.sample0 + s) as u64;
+        px[l] = x as f32;
+        py[l] = y as f32;
+    }
+    let mut rng = Pcg32x::for_samples(chunk.seed, &pixel, &sample);
+    let all = [true; LANES];
+    let fx = Fx(px) + Fx(rng.next_f32(&all));
+    let fy = Fx(py) + Fx(rng.next_f32(&all));
+    let (o, d, tmax) = rs.camera.ray_x(fx, fy);
+    for l in 0..n {
+        pool.start(
+            fill.slot[l],
+            fill.job[l],
+            rng.lane(l),
+            o.get(l),
+            d.get(l),
+            tmax.0[l],
+        );
+    }
+    stats.rays += n as u64;
+    fill.n = 0;
+}
