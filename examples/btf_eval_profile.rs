@@ -6,8 +6,8 @@
 //!
 //! Modes: `eval SIZE` (4096 PLM-C evaluations on a SIZE² model, after a warm-up pass),
 //! `sample SIZE`, `eval_pdf SIZE`, `batch16 SIZE` / `batch16_pdf SIZE` (the bench's
-//! `plmc_batch16` / `plmc_eval_pdf_batch16` loops: prepare 16 hits, one `eval_pdf_batch`),
-//! `prep SIZE` (their `prepare` calls alone), `kernel16 SIZE` (their 16-query kernel alone, on
+//! `plmc_batch16` / `plmc_eval_pdf_batch16` loops: `prepare16` for 16 hits, one `eval_pdf_batch`),
+//! `prep SIZE` (their `prepare16` calls alone), `kernel16 SIZE` (their 16-query kernel alone, on
 //! queries located beforehand), `render diffuse|plmc` (the bench's 64 × 64 × 4 spp box, one
 //! thread; prints the rays traced). `NO_AVX512=1` runs the generic kernel (valgrind does not
 //! emulate AVX-512, so under callgrind it always does); `NO_PREFETCH=1` turns off
@@ -127,8 +127,7 @@ fn main() {
             let mut acc = [0f32; 3];
             if mode.starts_with("prep") {
                 for chunk in q.chunks(BATCH) {
-                    let hits: [PlmcHit; BATCH] =
-                        std::array::from_fn(|j| bsdf.prepare(black_box(&chunk[j].0)).unwrap());
+                    let hits: [PlmcHit; BATCH] = btf_scene::hits16(&bsdf, black_box(chunk));
                     black_box(&hits);
                 }
             } else {
@@ -217,8 +216,7 @@ fn queries(
         let mut out = [(Spectrum::ZERO, 0.0); BATCH];
         for chunk in q.chunks(BATCH) {
             let n = chunk.len();
-            let hits: [PlmcHit; BATCH] =
-                std::array::from_fn(|j| bsdf.prepare(black_box(&chunk[j.min(n - 1)].0)).unwrap());
+            let hits: [PlmcHit; BATCH] = btf_scene::hits16(bsdf, black_box(chunk));
             let wo: [btfpt::math::Vec3; BATCH] = std::array::from_fn(|j| chunk[j.min(n - 1)].1);
             bsdf.eval_pdf_batch(&hits[..n], black_box(&wo[..n]), &want[..n], &mut out[..n]);
             for (f, pdf) in &out[..n] {

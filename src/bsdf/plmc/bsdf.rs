@@ -20,9 +20,9 @@ pub struct PlmcBsdf {
     /// Texture-space repetitions per unit of uv.
     uv_scale: f32,
     /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
-    bilinear: bool,
+    pub(super) bilinear: bool,
     /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).
-    prefetch: bool,
+    pub(super) prefetch: bool,
 }
 
 impl PlmcBsdf {
@@ -67,7 +67,7 @@ impl PlmcBsdf {
     /// The texels (index, weight) that filter uv: 1 (nearest) or 4 (bilinear between texel
     /// centres, wrapping at the tile border).
     #[inline]
-    fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
+    pub(super) fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
         let m = &self.material;
         if !self.bilinear {
             let (x, y) = self.texel(uv);
@@ -333,10 +333,10 @@ impl PlmcBsdf {
 /// vertex makes two: emitter sampling's `eval_pdf` and `sample`). Plain data on the stack.
 #[derive(Clone, Copy, Debug)]
 pub struct PlmcHit {
-    vi: [u32; 3],
-    vw: [f32; 3],
-    texels: [(usize, f32); 4],
-    n: u8,
+    pub(super) vi: [u32; 3],
+    pub(super) vw: [f32; 3],
+    pub(super) texels: [(usize, f32); 4],
+    pub(super) n: u8,
 }
 
 /// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):

@@ -36,6 +36,8 @@ use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
 
 const L: usize = LANES;
+// One batched view lookup serves a packet batch.
+const _: () = assert!(L == crate::bsdf::plmc::PREPARE_LANES);
 
 crate::isa_dispatch! {
     /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a surface whose BSDF
@@ -177,6 +179,20 @@ fn shade(
     let mut live = [false; L];
     // Each live lane's BSDF at its hit, with its per-hit state.
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
+    // A fitted BTF's per-hit states of the lanes that go on (those the loop below makes live),
+    // 16 view lookups at once: what `Bsdf::at` finds lane by lane.
+    let plmc_hits = match kind {
+        Kind::Plmc(b) => {
+            let mut going = 0u16;
+            for l in 0..n {
+                if pool.depth[slot[l]].saturating_add(1) < pt.max_depth {
+                    going |= 1 << l;
+                }
+            }
+            b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going)
+        }
+        _ => [None; L],
+    };
     let mut rng = [Pcg32::PLACEHOLDER; L];
     for l in 0..n {
         rng[l] = pool.rng[slot[l]].clone();
@@ -231,7 +247,14 @@ fn shade(
                 albedo.set(l, reflectance.eval(uv.get(l)));
                 true
             }
-            Kind::Plmc(_) | Kind::Scalar => {
+            Kind::Plmc(b) => {
+                at_l[l] = Some(match plmc_hits[l] {
+                    Some(h) => BsdfAt::Plmc(b, h),
+                    None => BsdfAt::Stateless(bsdf),
+                });
+                b.flags().has(BsdfFlags::SMOOTH)
+            }
+            Kind::Scalar => {
                 let at = bsdf.at(&si_at(l));
                 let smooth = at.flags().has(BsdfFlags::SMOOTH);
                 at_l[l] = Some(at);
