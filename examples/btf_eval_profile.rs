@@ -9,7 +9,7 @@
 //! `plmc_batch16` / `plmc_eval_pdf_batch16` loops: `prepare16` for 16 hits, one `eval_pdf_batch`),
 //! `prep SIZE` (their `prepare16` calls alone), `kernel16 SIZE` (their 16-query kernel alone, on
 //! queries located beforehand), `render diffuse|plmc` (the bench's 64 × 64 × 4 spp box, one
-//! thread; prints the rays traced). `NO_AVX512=1` runs the generic kernel (valgrind does not
+//! thread; prints the rays traced; `PACKET=1`: with the packet integrator). `NO_AVX512=1` runs the generic kernel (valgrind does not
 //! emulate AVX-512, so under callgrind it always does); `NO_PREFETCH=1` turns off
 //! `PlmcBsdf::prepare`'s prefetch; `K=n` keeps n clusters (smaller record tables); with
 //! `kernel16`, `FIXV=1` / `FIXL=1` give every query the first one's views / lights (hot
@@ -49,7 +49,10 @@ fn main() {
             }
             Bsdf::Plmc(b)
         };
-        let rs = btf_scene::scene(bsdf);
+        let mut rs = btf_scene::scene(bsdf);
+        if std::env::var_os("PACKET").is_some() {
+            rs.kind = btfpt::render::IntegratorKind::Packet(Default::default());
+        }
         let settings = btf_scene::box_scene::settings();
         let pool = btf_scene::box_scene::single_thread_pool();
         let stop = AtomicBool::new(false);
