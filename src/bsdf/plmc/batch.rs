@@ -25,6 +25,8 @@ use super::kernel::{BATCH, BatchQuery as Query};
 
 // One lane per query, 16 × 16 transposes.
 const _: () = assert!(BATCH == 16);
+// One query is one 16-float row.
+const _: () = assert!(std::mem::size_of::<Query>() == 64);
 
 /// True if every table offset of `t` fits the 32-bit gather indices (always for the UBO2003
 /// and UBO2014 direction sets at any texture size up to 2^31 / views index entries).
@@ -52,23 +54,8 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     assert!(t.out_max.len() == nv * nl && t.y_max.len() == nv);
     assert!(k <= 256 && nv > 0);
     let texels = t.index.len() / nv;
-    // SoA lanes; lanes past n repeat query 0 (valid addresses; their results are dropped).
-    let mut texel = [0i32; BATCH];
-    let mut vi = [[0i32; BATCH]; 3];
-    let mut vw = [[0f32; BATCH]; 3];
-    let mut wo = [[0f32; BATCH]; 3];
-    for l in 0..BATCH {
-        let s = &q[if l < n { l } else { 0 }];
-        assert!((s.texel as usize) < texels);
-        texel[l] = s.texel as i32;
-        for a in 0..3 {
-            assert!((s.vi[a] as usize) < nv && (s.li[a] as usize) < nl);
-            vi[a][l] = s.vi[a] as i32;
-            vw[a][l] = s.vw[a];
-            wo[a][l] = s.wo[a];
-        }
-    }
-    // SAFETY: every address is in bounds of its table by the checks above: index entry
+    // SAFETY: the query rows are whole `BatchQuery`s (64 bytes, repr(C), no padding). Every
+    // table address is in bounds by the checks below and above: index entry
     // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..8 with i < k (u8 indices are
     // < k by model validation, and k ≤ 256), read whole by 32-byte aligned loads (`LobeRec` is
     // 32-byte aligned); polynomial row v·nl + l < polys.len() (64-byte
@@ -76,21 +63,38 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     // each). Gather offsets fit i32 ([`fits`]). The stores go to locals; `lobes` and `coef`
     // are read only after every element was written (see there).
     unsafe {
-        let ld = |a: &[f32; BATCH]| _mm512_loadu_ps(a.as_ptr());
-        let ldi = |a: &[i32; BATCH]| _mm512_loadu_si512(a.as_ptr() as *const _);
         let ci = |x: i32| _mm512_set1_epi32(x);
+        // The queries as lanes: each 64-byte query is one row (lanes past n repeat query 0:
+        // valid addresses, results dropped), one 16 × 16 transpose makes field f of every
+        // query register f (`BatchQuery` is repr(C): texel, vi, vw, li, lw, wo).
+        let mut fields = [_mm512_setzero_ps(); 16];
+        for (l, row) in fields.iter_mut().enumerate() {
+            *row = _mm512_loadu_ps(&q[if l < n { l } else { 0 }] as *const Query as *const f32);
+        }
+        transpose16(&mut fields);
+        let int = _mm512_castps_si512;
+        let tex = int(fields[0]);
+        let v = [int(fields[1]), int(fields[2]), int(fields[3])];
+        let vw = [fields[4], fields[5], fields[6]];
+        let (wx, wy, wz) = (fields[13], fields[14], fields[15]);
+        // The only checks on the queries, all 16 lanes (unsigned: texel < texels, each view
+        // < nv and light < nl); every address below is derived from these.
+        let ge = |x: __m512i, bound: usize| _mm512_cmpge_epu32_mask(x, ci(bound as i32));
+        let bad =
+            ge(tex, texels) | (0..3).fold(0, |m, a| m | ge(v[a], nv) | ge(int(fields[7 + a]), nl));
+        assert!(
+            bad == 0,
+            "PLM-C batch: a texel, view or light index out of range"
+        );
         let gf = |base: *const f32, off: __m512i| _mm512_i32gather_ps::<4>(off, base as *const _);
         let index = t.index.as_ptr() as *const i32;
         let rec = t.records.as_ptr() as *const f32;
         let poly = t.polys.as_ptr() as *const f32;
         let omax = t.out_max.as_ptr() as *const f32;
         let ymax = t.y_max.as_ptr() as *const f32;
-        let tex = ldi(&texel);
-        let (wx, wy, wz) = (ld(&wo[0]), ld(&wo[1]), ld(&wo[2]));
         let zero = _mm512_setzero_ps();
         // y of view a, channel c, then the blend of the views.
         let mut y = [[zero; 3]; 3];
-        let v = [ldi(&vi[0]), ldi(&vi[1]), ldi(&vi[2])];
         // Every load that depends on the texel is issued first, in program order: the 3 index
         // entries (usually DRAM misses for a large material), then the 9 lobe records, so that
         // the misses of all 16 queries are in flight together instead of view by view. The
@@ -202,7 +206,7 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             }
         }
         // Blend the views: vw0·y0, + vw1·y1, + vw2·y2 (the single-query kernel's order).
-        let (v0, v1, v2) = (ld(&vw[0]), ld(&vw[1]), ld(&vw[2]));
+        let [v0, v1, v2] = vw;
         let mut res = [[0f32; BATCH]; 3];
         for c in 0..3 {
             let o = _mm512_mul_ps(v0, y[0][c]);
