@@ -19,7 +19,7 @@ const _: () = assert!(BATCH <= LOCATE_LANES);
 pub struct PlmcBsdf {
     material: Arc<PlmcMaterial>,
     /// Texture-space repetitions per unit of uv.
-    uv_scale: f32,
+    pub(super) uv_scale: f32,
     /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
     pub(super) bilinear: bool,
     /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).

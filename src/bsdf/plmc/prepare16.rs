@@ -27,6 +27,16 @@ impl PlmcBsdf {
             return out;
         }
         let located = m.views.locate16(wx, wy);
+        // Nearest texels of all 16 lanes at once where the CPU has AVX-512 (lanes not in
+        // `lanes` are computed too: plain arithmetic on whatever they hold).
+        #[cfg(target_arch = "x86_64")]
+        let near = (!self.bilinear && m.avx512.is_some() && nearest16_fits(m.width, m.height))
+            .then(|| {
+                // SAFETY: the material's AVX-512 token exists only if this CPU has AVX-512F.
+                unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
+            });
+        #[cfg(not(target_arch = "x86_64"))]
+        let near: Option<[u32; PREPARE_LANES]> = None;
         let (index, entry, entries) = m.index_span();
         let nv = m.n_views;
         for (l, o) in out.iter_mut().enumerate() {
@@ -37,7 +47,9 @@ impl PlmcBsdf {
             let uv = Vec2::new(u[l], v[l]);
             // `texels` (inlined here for the nearest texel: its 64-byte result, returned
             // through memory, stalled the loads that read it back).
-            let (texels, n) = if self.bilinear {
+            let (texels, n) = if let Some(near) = &near {
+                ([(near[l] as usize, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], 1)
+            } else if self.bilinear {
                 self.texels(uv)
             } else {
                 let (x, y) = self.texel(uv);
@@ -77,4 +89,46 @@ fn prefetch(addr: usize) {
     };
     #[cfg(not(target_arch = "x86_64"))]
     let _ = addr;
+}
+
+/// True if [`nearest16`]'s 32-bit arithmetic is exact for a `width` × `height` material: both
+/// sides at most 2^24 (every `n − 1` an exact f32) and every texel index below 2^31.
+#[cfg(target_arch = "x86_64")]
+fn nearest16_fits(width: usize, height: usize) -> bool {
+    width <= 1 << 24 && height <= 1 << 24 && width.checked_mul(height).is_some_and(|t| t <= 1 << 31)
+}
+
+/// [`PlmcBsdf::texel`] of 16 uv points as texel indices `y · width + x`, to the bit: per axis
+/// `((c · scale − ⌊c · scale⌋) · n)` clamped to [0, n − 1] before the truncation instead of
+/// after it (the same integer for every input: NaN and negatives give 0 both ways, +∞ and
+/// values past n − 1 give n − 1, `n − 1` being an exact f32 by [`nearest16_fits`]); the
+/// rounding-mode floor is `floor_fast`'s value for every f32.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn nearest16(
+    scale: f32,
+    width: usize,
+    height: usize,
+    u: &[f32; PREPARE_LANES],
+    v: &[f32; PREPARE_LANES],
+) -> [u32; PREPARE_LANES] {
+    use core::arch::x86_64::*;
+    debug_assert!(nearest16_fits(width, height));
+    let axis = |c: __m512, n: usize| {
+        let s = _mm512_mul_ps(c, _mm512_set1_ps(scale));
+        let fl = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(s);
+        let x = _mm512_mul_ps(_mm512_sub_ps(s, fl), _mm512_set1_ps(n as f32));
+        // max(x, 0) is 0 for NaN x (the second operand is returned).
+        let x = _mm512_max_ps(x, _mm512_setzero_ps());
+        _mm512_cvttps_epi32(_mm512_min_ps(x, _mm512_set1_ps((n - 1) as f32)))
+    };
+    let mut out = [0u32; PREPARE_LANES];
+    // SAFETY: 16-float loads of `u` and `v`, a 16-u32 store to `out`.
+    unsafe {
+        let x = axis(_mm512_loadu_ps(u.as_ptr()), width);
+        let y = axis(_mm512_loadu_ps(v.as_ptr()), height);
+        let t = _mm512_add_epi32(_mm512_mullo_epi32(y, _mm512_set1_epi32(width as i32)), x);
+        _mm512_storeu_si512(out.as_mut_ptr() as *mut _, t);
+    }
+    out
 }

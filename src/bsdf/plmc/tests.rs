@@ -802,10 +802,13 @@ fn prepare16_is_prepare_lane_by_lane_bit_for_bit() {
                         _ => warp::square_to_uniform_hemisphere(rng.next_2d()),
                     };
                     let uv = match (round + 3 * l) % 11 {
-                        // uv on texel borders and outside [0, 1).
+                        // uv on texel borders, outside [0, 1), not finite, just below 1.
                         0 => Vec2::new(0.2 * rng.next_below(6) as f32, 1.0 / 3.0),
                         1 => Vec2::new(-1.0 - rng.next_f32(), 7.0 * rng.next_f32()),
                         2 => Vec2::new(-0.0, 1.0),
+                        3 => Vec2::new(f32::NAN, f32::INFINITY),
+                        4 => Vec2::new(f32::NEG_INFINITY, -1e30),
+                        5 => Vec2::new(1.0f32.next_down(), -f32::MIN_POSITIVE),
                         _ => rng.next_2d(),
                     };
                     si.push(SurfaceInteraction::for_tests(wi, uv));
