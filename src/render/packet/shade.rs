@@ -181,6 +181,7 @@ fn shade(
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
     // A fitted BTF's per-hit states of the lanes that go on (those the loop below makes live),
     // 16 view lookups at once: what `Bsdf::at` finds lane by lane.
+    // (None for other BSDFs: no 16-hit array to initialise.)
     let plmc_hits = match kind {
         Kind::Plmc(b) => {
             let mut going = 0u16;
@@ -189,9 +190,9 @@ fn shade(
                     going |= 1 << l;
                 }
             }
-            b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going)
+            Some(b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going))
         }
-        _ => [None; L],
+        _ => None,
     };
     let mut rng = [Pcg32::PLACEHOLDER; L];
     for l in 0..n {
@@ -248,7 +249,7 @@ fn shade(
                 true
             }
             Kind::Plmc(b) => {
-                at_l[l] = Some(match plmc_hits[l] {
+                at_l[l] = Some(match plmc_hits.as_ref().and_then(|h| h[l]) {
                     Some(h) => BsdfAt::Plmc(b, h),
                     None => BsdfAt::Stateless(bsdf),
                 });
