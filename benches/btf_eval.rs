@@ -32,7 +32,7 @@ mod btf_scene;
 #[path = "common/cpu_time.rs"]
 mod cpu_time;
 
-use btf_scene::{QUERIES, SIZE, box_scene, model, model_sized, queries, scene};
+use btf_scene::{QUERIES, SIZE, box_scene, hits16, model, model_sized, queries, scene};
 
 use cpu_time::{ProcessCpuTime, ThreadCpuTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -139,7 +139,7 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
                 })
             });
             // The packet integrator's form: 16 queries per call (view lookups and texel
-            // addressing by `prepare`, as at a shading hit), one pass of the 16-lane kernel.
+            // addressing by `prepare16`, as in a packet batch), one pass of the 16-lane kernel.
             let batch = |want_pdf: bool| {
                 let bsdf = &bsdf;
                 let q = &q;
@@ -149,10 +149,7 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
                     let want = [want_pdf; BATCH];
                     for chunk in q.chunks(BATCH) {
                         let n = chunk.len();
-                        let hits: [PlmcHit; BATCH] = std::array::from_fn(|j| {
-                            bsdf.prepare(black_box(&chunk[j.min(n - 1)].0))
-                                .expect("bench views are above the horizon")
-                        });
+                        let hits: [PlmcHit; BATCH] = hits16(bsdf, black_box(chunk));
                         let wo: [Vec3; BATCH] = std::array::from_fn(|j| chunk[j.min(n - 1)].1);
                         bsdf.eval_pdf_batch(
                             &hits[..n],

@@ -6,10 +6,10 @@
 //!
 //! Modes: `eval SIZE` (4096 PLM-C evaluations on a SIZE² model, after a warm-up pass),
 //! `sample SIZE`, `eval_pdf SIZE`, `batch16 SIZE` / `batch16_pdf SIZE` (the bench's
-//! `plmc_batch16` / `plmc_eval_pdf_batch16` loops: prepare 16 hits, one `eval_pdf_batch`),
-//! `prep SIZE` (their `prepare` calls alone), `kernel16 SIZE` (their 16-query kernel alone, on
+//! `plmc_batch16` / `plmc_eval_pdf_batch16` loops: `prepare16` for 16 hits, one `eval_pdf_batch`),
+//! `prep SIZE` (their `prepare16` calls alone), `kernel16 SIZE` (their 16-query kernel alone, on
 //! queries located beforehand), `render diffuse|plmc` (the bench's 64 × 64 × 4 spp box, one
-//! thread; prints the rays traced). `NO_AVX512=1` runs the generic kernel (valgrind does not
+//! thread; prints the rays traced; `PACKET=1`: with the packet integrator). `NO_AVX512=1` runs the generic kernel (valgrind does not
 //! emulate AVX-512, so under callgrind it always does); `NO_PREFETCH=1` turns off
 //! `PlmcBsdf::prepare`'s prefetch; `K=n` keeps n clusters (smaller record tables); with
 //! `kernel16`, `FIXV=1` / `FIXL=1` give every query the first one's views / lights (hot
@@ -49,7 +49,10 @@ fn main() {
             }
             Bsdf::Plmc(b)
         };
-        let rs = btf_scene::scene(bsdf);
+        let mut rs = btf_scene::scene(bsdf);
+        if std::env::var_os("PACKET").is_some() {
+            rs.kind = btfpt::render::IntegratorKind::Packet(Default::default());
+        }
         let settings = btf_scene::box_scene::settings();
         let pool = btf_scene::box_scene::single_thread_pool();
         let stop = AtomicBool::new(false);
@@ -127,8 +130,7 @@ fn main() {
             let mut acc = [0f32; 3];
             if mode.starts_with("prep") {
                 for chunk in q.chunks(BATCH) {
-                    let hits: [PlmcHit; BATCH] =
-                        std::array::from_fn(|j| bsdf.prepare(black_box(&chunk[j].0)).unwrap());
+                    let hits: [PlmcHit; BATCH] = btf_scene::hits16(&bsdf, black_box(chunk));
                     black_box(&hits);
                 }
             } else {
@@ -217,8 +219,7 @@ fn queries(
         let mut out = [(Spectrum::ZERO, 0.0); BATCH];
         for chunk in q.chunks(BATCH) {
             let n = chunk.len();
-            let hits: [PlmcHit; BATCH] =
-                std::array::from_fn(|j| bsdf.prepare(black_box(&chunk[j.min(n - 1)].0)).unwrap());
+            let hits: [PlmcHit; BATCH] = btf_scene::hits16(bsdf, black_box(chunk));
             let wo: [btfpt::math::Vec3; BATCH] = std::array::from_fn(|j| chunk[j.min(n - 1)].1);
             bsdf.eval_pdf_batch(&hits[..n], black_box(&wo[..n]), &want[..n], &mut out[..n]);
             for (f, pdf) in &out[..n] {

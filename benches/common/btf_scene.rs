@@ -1,7 +1,8 @@
 //! The synthetic models, queries and the box scene of `benches/btf_eval.rs`, shared with
 //! `examples/btf_eval_profile.rs` (instruction counts under callgrind, ray counts).
 
-use btfpt::bsdf::Bsdf;
+use btfpt::bsdf::plmc::{PREPARE_LANES, PlmcHit};
+use btfpt::bsdf::{Bsdf, PlmcBsdf};
 use btfpt::btf::DirectionSet;
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Frame, Pcg32, Vec3, warp};
@@ -100,4 +101,20 @@ pub fn queries() -> Vec<(SurfaceInteraction, Vec3)> {
 /// The shared box ([`box_scene::box_scene`]) with `bsdf` on every surface.
 pub fn scene(bsdf: Bsdf) -> RenderScene {
     box_scene::box_scene(vec![bsdf], [0; 5])
+}
+
+/// The per-hit states of up to 16 queries as the packet integrator makes them (one
+/// [`PlmcBsdf::prepare16`]); slots past `chunk.len()` repeat the last query.
+pub fn hits16(bsdf: &PlmcBsdf, chunk: &[(SurfaceInteraction, Vec3)]) -> [PlmcHit; PREPARE_LANES] {
+    let n = chunk.len();
+    assert!(n > 0 && n <= PREPARE_LANES);
+    let mut w = [[0f32; PREPARE_LANES]; 3];
+    let mut uv = [[0f32; PREPARE_LANES]; 2];
+    for l in 0..PREPARE_LANES {
+        let si = &chunk[l.min(n - 1)].0;
+        (w[0][l], w[1][l], w[2][l]) = (si.wi.x, si.wi.y, si.wi.z);
+        (uv[0][l], uv[1][l]) = (si.uv.x, si.uv.y);
+    }
+    let hits = bsdf.prepare16([&w[0], &w[1], &w[2]], [&uv[0], &uv[1]], u16::MAX);
+    hits.map(|h| h.expect("bench views are above the horizon"))
 }

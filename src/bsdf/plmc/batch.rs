@@ -19,8 +19,14 @@
 use super::avx512::{Avx512, Tables, lobe_value, map_decode, splat};
 use crate::math::simd::transpose::transpose16;
 use core::arch::x86_64::*;
+use core::mem::MaybeUninit;
 
 use super::kernel::{BATCH, BatchQuery as Query};
+
+// One lane per query, 16 × 16 transposes.
+const _: () = assert!(BATCH == 16);
+// One query is one 16-float row.
+const _: () = assert!(std::mem::size_of::<Query>() == 64);
 
 /// True if every table offset of `t` fits the 32-bit gather indices (always for the UBO2003
 /// and UBO2014 direction sets at any texture size up to 2^31 / views index entries).
@@ -48,44 +54,47 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     assert!(t.out_max.len() == nv * nl && t.y_max.len() == nv);
     assert!(k <= 256 && nv > 0);
     let texels = t.index.len() / nv;
-    // SoA lanes; lanes past n repeat query 0 (valid addresses; their results are dropped).
-    let mut texel = [0i32; BATCH];
-    let mut vi = [[0i32; BATCH]; 3];
-    let mut vw = [[0f32; BATCH]; 3];
-    let mut wo = [[0f32; BATCH]; 3];
-    for l in 0..BATCH {
-        let s = &q[if l < n { l } else { 0 }];
-        assert!((s.texel as usize) < texels);
-        texel[l] = s.texel as i32;
-        for a in 0..3 {
-            assert!((s.vi[a] as usize) < nv && (s.li[a] as usize) < nl);
-            vi[a][l] = s.vi[a] as i32;
-            vw[a][l] = s.vw[a];
-            wo[a][l] = s.wo[a];
-        }
-    }
-    // SAFETY: every address is in bounds of its table by the checks above: index entry
+    // SAFETY: the query rows are whole `BatchQuery`s (64 bytes, repr(C), no padding). Every
+    // table address is in bounds by the checks below and above: index entry
     // texel·nv + v < index.len(); record ((3v + c)·k + i)·8 + 0..8 with i < k (u8 indices are
     // < k by model validation, and k ≤ 256), read whole by 32-byte aligned loads (`LobeRec` is
     // 32-byte aligned); polynomial row v·nl + l < polys.len() (64-byte
     // aligned rows of 16 f32); bound rows v·nl + l < out_max.len() and v < y_max.len() (4 f32
-    // each). Gather offsets fit i32 ([`fits`]). The stores go to locals.
+    // each). Gather offsets fit i32 ([`fits`]). The stores go to locals; `lobes` and `coef`
+    // are read only after every element was written (see there).
     unsafe {
-        let ld = |a: &[f32; BATCH]| _mm512_loadu_ps(a.as_ptr());
-        let ldi = |a: &[i32; BATCH]| _mm512_loadu_si512(a.as_ptr() as *const _);
         let ci = |x: i32| _mm512_set1_epi32(x);
+        // The queries as lanes: each 64-byte query is one row (lanes past n repeat query 0:
+        // valid addresses, results dropped), one 16 × 16 transpose makes field f of every
+        // query register f (`BatchQuery` is repr(C): texel, vi, vw, li, lw, wo).
+        let mut fields = [_mm512_setzero_ps(); 16];
+        for (l, row) in fields.iter_mut().enumerate() {
+            *row = _mm512_loadu_ps(&q[if l < n { l } else { 0 }] as *const Query as *const f32);
+        }
+        transpose16(&mut fields);
+        let int = _mm512_castps_si512;
+        let tex = int(fields[0]);
+        let v = [int(fields[1]), int(fields[2]), int(fields[3])];
+        let vw = [fields[4], fields[5], fields[6]];
+        let (wx, wy, wz) = (fields[13], fields[14], fields[15]);
+        // The only checks on the queries, all 16 lanes (unsigned: texel < texels, each view
+        // < nv and light < nl); every address below is derived from these.
+        let ge = |x: __m512i, bound: usize| _mm512_cmpge_epu32_mask(x, ci(bound as i32));
+        let bad =
+            ge(tex, texels) | (0..3).fold(0, |m, a| m | ge(v[a], nv) | ge(int(fields[7 + a]), nl));
+        assert!(
+            bad == 0,
+            "PLM-C batch: a texel, view or light index out of range"
+        );
         let gf = |base: *const f32, off: __m512i| _mm512_i32gather_ps::<4>(off, base as *const _);
         let index = t.index.as_ptr() as *const i32;
         let rec = t.records.as_ptr() as *const f32;
         let poly = t.polys.as_ptr() as *const f32;
         let omax = t.out_max.as_ptr() as *const f32;
         let ymax = t.y_max.as_ptr() as *const f32;
-        let tex = ldi(&texel);
-        let (wx, wy, wz) = (ld(&wo[0]), ld(&wo[1]), ld(&wo[2]));
         let zero = _mm512_setzero_ps();
         // y of view a, channel c, then the blend of the views.
         let mut y = [[zero; 3]; 3];
-        let v = [ldi(&vi[0]), ldi(&vi[1]), ldi(&vi[2])];
         // Every load that depends on the texel is issued first, in program order: the 3 index
         // entries (usually DRAM misses for a large material), then the 9 lobe records, so that
         // the misses of all 16 queries are in flight together instead of view by view. The
@@ -96,7 +105,10 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             let off = _mm512_add_epi32(_mm512_mullo_epi32(tex, ci(nv as i32)), v[a]);
             ent[a] = _mm512_i32gather_epi32::<4>(off, index as *const _);
         }
-        let mut lobes = [[[zero; 5]; 3]; 3];
+        // Lobe field f of (view a, channel c): `lobes[a][c][f]`, every one written by the
+        // transposes below (left uninitialised until then: zeroing it cost a 2.5 KB memset).
+        let mut lobes = MaybeUninit::<[[[__m512; 5]; 3]; 3]>::uninit();
+        let lobe_at = lobes.as_mut_ptr() as *mut __m512;
         // Record offsets (f32 units) of the 9 (view, channel) lobes per lane.
         let mut offs = [[0i32; BATCH]; 9];
         for a in 0..3 {
@@ -135,19 +147,25 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
                 });
             }
             transpose16(&mut rows);
+            // (Pair g = 3 a + c is `lobes[a][c]`: fields 5 g .. 5 g + 5 in order.)
             for f in 0..5 {
-                lobes[g0 / 3][g0 % 3][f] = rows[f];
+                lobe_at.add(5 * g0 + f).write(rows[f]);
                 if g1 != g0 {
-                    lobes[g1 / 3][g1 % 3][f] = rows[8 + f];
+                    lobe_at.add(5 * g1 + f).write(rows[8 + f]);
                 }
             }
         }
+        // Every pair g0 = 0, 2, 4, 6, 8 and g1 = 1, 3, 5, 7 was written above.
+        let lobes = lobes.assume_init_ref();
         // Per query, the light-interpolated polynomial row of each view (w0·r0, + w1·r1, + w2·r2
         // on whole 16-float rows, as the single-query kernel) and the 3 views' output bounds
         // (largest of the 3 lights'); then 16 × 16 transposes make them lanes: coefficient
         // a_j of channel c is `coef[a][3 j + c]`, the bound of view a, channel c `bounds[4 a + c]`.
         // Whole-row loads and shuffles instead of 16-lane gathers (5 × as many loads).
-        let mut coef = [[zero; 16]; 3];
+        // (`coef` left uninitialised until the loop below writes each of its 3 × 16 rows:
+        // zeroing it cost a 3 KB memset.)
+        let mut coef_rows = MaybeUninit::<[[__m512; 16]; 3]>::uninit();
+        let coef_at = coef_rows.as_mut_ptr() as *mut __m512;
         let mut bounds = [zero; 16];
         for l in 0..BATCH {
             let s = &q[if l < n { l } else { 0 }];
@@ -158,7 +176,9 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
                 let row = |b: usize| _mm512_load_ps(poly.add((base + s.li[b] as usize) * 16));
                 let r = _mm512_mul_ps(sw0, row(0));
                 let r = _mm512_fmadd_ps(sw1, row(1), r);
-                coef[a][l] = _mm512_fmadd_ps(sw2, row(2), r);
+                coef_at
+                    .add(16 * a + l)
+                    .write(_mm512_fmadd_ps(sw2, row(2), r));
                 let bound = |b: usize| _mm_loadu_ps(omax.add((base + s.li[b] as usize) * 4));
                 om[a] = _mm_max_ps(_mm_max_ps(bound(0), bound(1)), bound(2));
             }
@@ -167,6 +187,8 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
                 om[2],
             );
         }
+        // Rows a = 0..3, lanes l = 0..BATCH (= 16) were all written above.
+        let coef = coef_rows.assume_init_mut();
         for c in coef.iter_mut() {
             transpose16(c);
         }
@@ -184,7 +206,7 @@ pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             }
         }
         // Blend the views: vw0·y0, + vw1·y1, + vw2·y2 (the single-query kernel's order).
-        let (v0, v1, v2) = (ld(&vw[0]), ld(&vw[1]), ld(&vw[2]));
+        let [v0, v1, v2] = vw;
         let mut res = [[0f32; BATCH]; 3];
         for c in 0..3 {
             let o = _mm512_mul_ps(v0, y[0][c]);

@@ -8,6 +8,7 @@ use crate::btf::locate16::LOCATE_LANES;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
+use std::mem::MaybeUninit;
 use std::sync::Arc;
 
 // One batched light location serves a whole batch.
@@ -18,11 +19,11 @@ const _: () = assert!(BATCH <= LOCATE_LANES);
 pub struct PlmcBsdf {
     material: Arc<PlmcMaterial>,
     /// Texture-space repetitions per unit of uv.
-    uv_scale: f32,
+    pub(super) uv_scale: f32,
     /// Bilinear texel filtering (4 texels evaluated and blended) instead of nearest.
-    bilinear: bool,
+    pub(super) bilinear: bool,
     /// [`PlmcBsdf::prefetch`] issues its loads (off only to measure what it saves).
-    prefetch: bool,
+    pub(super) prefetch: bool,
 }
 
 impl PlmcBsdf {
@@ -67,7 +68,7 @@ impl PlmcBsdf {
     /// The texels (index, weight) that filter uv: 1 (nearest) or 4 (bilinear between texel
     /// centres, wrapping at the tile border).
     #[inline]
-    fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
+    pub(super) fn texels(&self, uv: Vec2) -> ([(usize, f32); 4], usize) {
         let m = &self.material;
         if !self.bilinear {
             let (x, y) = self.texel(uv);
@@ -232,7 +233,9 @@ impl PlmcBsdf {
         assert!(n <= BATCH && wo.len() == n && want_pdf.len() == n && out.len() == n);
         let m = &*self.material;
         let lights = m.sampler.light_interp();
-        let mut queries = [BatchQuery::default(); BATCH];
+        // (Left uninitialised: only the first `nq` are written and read; zeroing all 16 cost a
+        // 1 KB memset per call.)
+        let mut queries = [MaybeUninit::<BatchQuery>::uninit(); BATCH];
         let mut slot = [0usize; BATCH];
         let mut nq = 0;
         let batches = m.batches();
@@ -257,14 +260,14 @@ impl PlmcBsdf {
                 0.0
             };
             if batches && h.n == 1 && h.texels[0].1 == 1.0 {
-                queries[nq] = BatchQuery {
+                queries[nq] = MaybeUninit::new(BatchQuery {
                     texel: h.texels[0].0 as u32,
                     vi: h.vi,
                     vw: h.vw,
                     li,
                     lw,
                     wo: [w.x, w.y, w.z],
-                };
+                });
                 slot[nq] = q;
                 nq += 1;
                 out[q] = (Spectrum::ZERO, pdf);
@@ -275,8 +278,11 @@ impl PlmcBsdf {
             }
         }
         if nq > 0 {
+            // SAFETY: queries 0..nq were written above (MaybeUninit<T> has T's layout).
+            let queries =
+                unsafe { std::slice::from_raw_parts(queries.as_ptr() as *const BatchQuery, nq) };
             let mut b = [[0f32; 3]; BATCH];
-            m.eval_b_batch(&queries[..nq], &mut b[..nq]);
+            m.eval_b_batch(queries, &mut b[..nq]);
             for j in 0..nq {
                 out[slot[j]].0 = Spectrum::from(b[j]) * INV_PI;
             }
@@ -333,10 +339,10 @@ impl PlmcBsdf {
 /// vertex makes two: emitter sampling's `eval_pdf` and `sample`). Plain data on the stack.
 #[derive(Clone, Copy, Debug)]
 pub struct PlmcHit {
-    vi: [u32; 3],
-    vw: [f32; 3],
-    texels: [(usize, f32); 4],
-    n: u8,
+    pub(super) vi: [u32; 3],
+    pub(super) vw: [f32; 3],
+    pub(super) texels: [(usize, f32); 4],
+    pub(super) n: u8,
 }
 
 /// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):

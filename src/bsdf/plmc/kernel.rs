@@ -13,8 +13,10 @@ use crate::model::ValueSpace;
 pub const BATCH: usize = 16;
 
 /// One evaluation of a batch: the texel, the 3 measured views and lights around ω_v, ω_l with
-/// their interpolation weights, and ω_l (local frame).
+/// their interpolation weights, and ω_l (local frame). 64 bytes in this field order (repr(C)):
+/// the 16-lane kernel reads 16 queries as rows of a 16 × 16 transpose.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub struct BatchQuery {
     pub texel: u32,
     pub vi: [u32; 3],

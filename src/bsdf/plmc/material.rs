@@ -259,6 +259,17 @@ impl PlmcMaterial {
         }
     }
 
+    /// The index planes as (address of entry 0, bytes per entry, entries) for address-only
+    /// uses such as prefetches; entries 0 for per-texel models.
+    #[inline]
+    pub(super) fn index_span(&self) -> (usize, usize, usize) {
+        match &self.params {
+            Params::Clustered8 { index, .. } => (index.as_ptr() as usize, 4, index.len()),
+            Params::Clustered16 { index, .. } => (index.as_ptr() as usize, 8, index.len()),
+            Params::Texel { .. } => (0, 0, 0),
+        }
+    }
+
     /// Starts loading the index entries of `texel` for the views `vi` (one to three cache lines,
     /// what an evaluation at that texel reads) without waiting; a no-op for per-texel models
     /// and for out-of-range texels or views.

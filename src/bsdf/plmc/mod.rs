@@ -32,7 +32,8 @@
 //! Files: `material.rs` (the evaluation layout built from a model), `kernel.rs` (the generic
 //! 4-wide kernel and the dispatch), `avx512.rs` (the 16-lane kernel), `batch.rs` (16 queries per
 //! pass, one per lane: the packet integrator's batched emitter evaluations), `f4.rs` (the 4-lane
-//! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state).
+//! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state), `prepare16.rs` (the per-hit state of a
+//! packet batch, its view lookups 16 at a time).
 //!
 
 #[cfg(target_arch = "x86_64")]
@@ -43,9 +44,11 @@ mod bsdf;
 mod f4;
 mod kernel;
 mod material;
+mod prepare16;
 #[cfg(test)]
 mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
 pub use kernel::{BATCH, BatchQuery, FLUSH, LANES, LobeRec, PolyRow};
 pub use material::{PlmcMaterial, shared_material};
+pub use prepare16::PREPARE_LANES;

@@ -762,3 +762,79 @@ fn huge_page_tables_keep_their_contents_and_view_prefetches_never_fault() {
         }
     }
 }
+
+#[test]
+fn prepare16_is_prepare_lane_by_lane_bit_for_bit() {
+    use crate::bsdf::plmc::PREPARE_LANES;
+    const N: usize = PREPARE_LANES;
+    let bits = |h: &Option<PlmcHit>| {
+        h.map(|h| {
+            let mut b = vec![h.n as u32];
+            b.extend(h.vi);
+            b.extend(h.vw.map(f32::to_bits));
+            for (t, w) in h.texels {
+                b.extend([t as u32, (t >> 32) as u32, w.to_bits()]);
+            }
+            b
+        })
+    };
+    let mut rng = Pcg32::new(5, 16);
+    for (kind, space) in ALL {
+        let base = &fixture(kind, space).bsdf;
+        let m = base.material().clone();
+        // Nearest and bilinear, tiled, mirrored (negative scale), with and without prefetch.
+        let bsdfs = [
+            base.clone(),
+            PlmcBsdf::new(m.clone(), 1.0, true).unwrap(),
+            PlmcBsdf::new(m.clone(), 3.7, false).unwrap(),
+            PlmcBsdf::new(m.clone(), -2.5, true).unwrap(),
+            PlmcBsdf::new(m, 1.0, false).unwrap().without_prefetch(),
+        ];
+        for bsdf in &bsdfs {
+            for round in 0..60 {
+                let mut si = Vec::new();
+                for l in 0..N {
+                    let wi = match (round + l) % 7 {
+                        // Below the horizon, on it, and a measured view exactly.
+                        0 => -warp::square_to_uniform_hemisphere(rng.next_2d()),
+                        1 => Vec3::new(1.0, 0.0, 0.0),
+                        2 => dir(15.0, 60.0),
+                        _ => warp::square_to_uniform_hemisphere(rng.next_2d()),
+                    };
+                    let uv = match (round + 3 * l) % 11 {
+                        // uv on texel borders, outside [0, 1), not finite, just below 1.
+                        0 => Vec2::new(0.2 * rng.next_below(6) as f32, 1.0 / 3.0),
+                        1 => Vec2::new(-1.0 - rng.next_f32(), 7.0 * rng.next_f32()),
+                        2 => Vec2::new(-0.0, 1.0),
+                        3 => Vec2::new(f32::NAN, f32::INFINITY),
+                        4 => Vec2::new(f32::NEG_INFINITY, -1e30),
+                        5 => Vec2::new(1.0f32.next_down(), -f32::MIN_POSITIVE),
+                        _ => rng.next_2d(),
+                    };
+                    si.push(SurfaceInteraction::for_tests(wi, uv));
+                }
+                let lanes = if round % 3 == 0 {
+                    u16::MAX
+                } else {
+                    rng.next_below(1 << 16) as u16
+                };
+                let get = |f: fn(&SurfaceInteraction) -> f32| -> [f32; N] {
+                    std::array::from_fn(|l| f(&si[l]))
+                };
+                let hits = bsdf.prepare16(
+                    [&get(|s| s.wi.x), &get(|s| s.wi.y), &get(|s| s.wi.z)],
+                    [&get(|s| s.uv.x), &get(|s| s.uv.y)],
+                    lanes,
+                );
+                for l in 0..N {
+                    let want = if lanes & (1 << l) != 0 {
+                        bsdf.prepare(&si[l])
+                    } else {
+                        None
+                    };
+                    assert_eq!(bits(&hits[l]), bits(&want), "{kind:?} lane {l} {:?}", si[l]);
+                }
+            }
+        }
+    }
+}

@@ -36,6 +36,8 @@ use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
 
 const L: usize = LANES;
+// One batched view lookup serves a packet batch.
+const _: () = assert!(L == crate::bsdf::plmc::PREPARE_LANES);
 
 crate::isa_dispatch! {
     /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a surface whose BSDF
@@ -180,6 +182,21 @@ fn shade(
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
     // Lanes that sample an emitter (drawing u_sel and u first).
     let mut nee = [false; L];
+    // A fitted BTF's per-hit states of the lanes that go on (those the loop below makes live),
+    // 16 view lookups at once: what `Bsdf::at` finds lane by lane.
+    // (None for other BSDFs: no 16-hit array to initialise.)
+    let plmc_hits = match kind {
+        Kind::Plmc(b) => {
+            let mut going = 0u16;
+            for l in 0..n {
+                if pool.depth[slot[l]].saturating_add(1) < pt.max_depth {
+                    going |= 1 << l;
+                }
+            }
+            Some(b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going))
+        }
+        _ => None,
+    };
     let mut albedo = V3x::ZERO;
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
@@ -227,7 +244,14 @@ fn shade(
                 albedo.set(l, diffuse_albedo(rs, batch, mesh_id[l]).eval(uv.get(l)));
                 true
             }
-            Kind::Plmc(_) | Kind::Scalar => {
+            Kind::Plmc(b) => {
+                at_l[l] = Some(match plmc_hits.as_ref().and_then(|h| h[l]) {
+                    Some(h) => BsdfAt::Plmc(b, h),
+                    None => BsdfAt::Stateless(bsdf),
+                });
+                b.flags().has(BsdfFlags::SMOOTH)
+            }
+            Kind::Scalar => {
                 let at = bsdf.at(&si_at(l));
                 let smooth = at.flags().has(BsdfFlags::SMOOTH);
                 at_l[l] = Some(at);

@@ -1,0 +1,134 @@
+//! [`PlmcBsdf::prepare`] of a whole packet batch at once: the 16 view directions located by one
+//! 16-lane search ([`DirectionInterp::locate16`](crate::btf::directions::DirectionInterp::locate16)) instead of 16
+//! scalar searches, whose data-dependent branches (single-triangle cell or not, which candidate
+//! wins) mispredict about once per hit.
+
+use super::bsdf::{PlmcBsdf, PlmcHit};
+use crate::btf::locate16::LOCATE_LANES;
+use crate::math::Vec2;
+
+/// Shading points of one [`PlmcBsdf::prepare16`] call (one per packet lane).
+pub const PREPARE_LANES: usize = LOCATE_LANES;
+
+impl PlmcBsdf {
+    /// [`PlmcBsdf::prepare`] of the shading points whose local ω_i is `(wx[l], wy[l], wz[l])`
+    /// and uv `(u[l], v[l])`, for the lanes `l` whose bit is set in `lanes`: hit `l` is what
+    /// `prepare` returns for that point, to the bit (None below the horizon and for lanes not in
+    /// `lanes`), with the same index prefetches. Lanes not in `lanes` may hold anything.
+    pub fn prepare16(
+        &self,
+        [wx, wy, wz]: [&[f32; PREPARE_LANES]; 3],
+        [u, v]: [&[f32; PREPARE_LANES]; 2],
+        lanes: u16,
+    ) -> [Option<PlmcHit>; PREPARE_LANES] {
+        let m = &**self.material();
+        let mut out = [None; PREPARE_LANES];
+        if lanes == 0 {
+            return out;
+        }
+        let located = m.views.locate16(wx, wy);
+        // Nearest texels of all 16 lanes at once where the CPU has AVX-512 (lanes not in
+        // `lanes` are computed too: plain arithmetic on whatever they hold).
+        #[cfg(target_arch = "x86_64")]
+        let near = (!self.bilinear && m.avx512.is_some() && nearest16_fits(m.width, m.height))
+            .then(|| {
+                // SAFETY: the material's AVX-512 token exists only if this CPU has AVX-512F.
+                unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
+            });
+        #[cfg(not(target_arch = "x86_64"))]
+        let near: Option<[u32; PREPARE_LANES]> = None;
+        let (index, entry, entries) = m.index_span();
+        let nv = m.n_views;
+        for (l, o) in out.iter_mut().enumerate() {
+            // `prepare`'s test: NaN z passes it, as there.
+            if lanes & (1 << l) == 0 || wz[l] <= 0.0 {
+                continue;
+            }
+            let uv = Vec2::new(u[l], v[l]);
+            // `texels` (inlined here for the nearest texel: its 64-byte result, returned
+            // through memory, stalled the loads that read it back).
+            let (texels, n) = if let Some(near) = &near {
+                ([(near[l] as usize, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], 1)
+            } else if self.bilinear {
+                self.texels(uv)
+            } else {
+                let (x, y) = self.texel(uv);
+                ([(y * m.width + x, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], 1)
+            };
+            let (t, w) = located.lane(l);
+            let (vi, vw) = m.views.interpolation(t, w);
+            if self.prefetch {
+                // `PlmcMaterial::prefetch_views` without its per-call dispatch on the layout.
+                for &(texel, _) in &texels[..n] {
+                    for v in vi {
+                        let i = texel.wrapping_mul(nv).wrapping_add(v as usize);
+                        if (v as usize) < nv && i < entries {
+                            prefetch(index + i * entry);
+                        }
+                    }
+                }
+            }
+            *o = Some(PlmcHit {
+                vi,
+                vw,
+                texels,
+                n: n as u8,
+            });
+        }
+        out
+    }
+}
+
+/// Starts loading the cache line of `addr` (a hint: never faults).
+#[inline(always)]
+fn prefetch(addr: usize) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(addr as *const i8)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = addr;
+}
+
+/// True if [`nearest16`]'s 32-bit arithmetic is exact for a `width` × `height` material: both
+/// sides at most 2^24 (every `n − 1` an exact f32) and every texel index below 2^31.
+#[cfg(target_arch = "x86_64")]
+fn nearest16_fits(width: usize, height: usize) -> bool {
+    width <= 1 << 24 && height <= 1 << 24 && width.checked_mul(height).is_some_and(|t| t <= 1 << 31)
+}
+
+/// [`PlmcBsdf::texel`] of 16 uv points as texel indices `y · width + x`, to the bit: per axis
+/// `((c · scale − ⌊c · scale⌋) · n)` clamped to [0, n − 1] before the truncation instead of
+/// after it (the same integer for every input: NaN and negatives give 0 both ways, +∞ and
+/// values past n − 1 give n − 1, `n − 1` being an exact f32 by [`nearest16_fits`]); the
+/// rounding-mode floor is `floor_fast`'s value for every f32.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn nearest16(
+    scale: f32,
+    width: usize,
+    height: usize,
+    u: &[f32; PREPARE_LANES],
+    v: &[f32; PREPARE_LANES],
+) -> [u32; PREPARE_LANES] {
+    use core::arch::x86_64::*;
+    debug_assert!(nearest16_fits(width, height));
+    let axis = |c: __m512, n: usize| {
+        let s = _mm512_mul_ps(c, _mm512_set1_ps(scale));
+        let fl = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(s);
+        let x = _mm512_mul_ps(_mm512_sub_ps(s, fl), _mm512_set1_ps(n as f32));
+        // max(x, 0) is 0 for NaN x (the second operand is returned).
+        let x = _mm512_max_ps(x, _mm512_setzero_ps());
+        _mm512_cvttps_epi32(_mm512_min_ps(x, _mm512_set1_ps((n - 1) as f32)))
+    };
+    let mut out = [0u32; PREPARE_LANES];
+    // SAFETY: 16-float loads of `u` and `v`, a 16-u32 store to `out`.
+    unsafe {
+        let x = axis(_mm512_loadu_ps(u.as_ptr()), width);
+        let y = axis(_mm512_loadu_ps(v.as_ptr()), height);
+        let t = _mm512_add_epi32(_mm512_mullo_epi32(y, _mm512_set1_epi32(width as i32)), x);
+        _mm512_storeu_si512(out.as_mut_ptr() as *mut _, t);
+    }
+    out
+}
