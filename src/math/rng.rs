@@ -136,10 +136,7 @@ impl Pcg32x {
     #[inline(always)]
     pub fn scatter(&self, gens: &mut [Pcg32], idx: &[usize; W], n: usize) {
         for l in 0..n.min(W) {
-            gens[idx[l]] = Pcg32 {
-                state: self.state[l],
-                inc: self.inc[l],
-            };
+            gens[idx[l]] = self.lane(l);
         }
     }
 

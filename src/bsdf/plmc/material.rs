@@ -247,26 +247,24 @@ impl PlmcMaterial {
             return;
         }
         for line in (ptr & !63..ptr + bytes).step_by(64) {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: a prefetch never faults, and this line holds part of the slice anyway.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    line as *const i8,
-                );
-            }
-            #[cfg(not(target_arch = "x86_64"))]
-            let _ = line;
+            prefetch_line(line);
         }
     }
 
-    /// The index planes as (address of entry 0, bytes per entry, entries) for address-only
-    /// uses such as prefetches; entries 0 for per-texel models.
+    /// Where the index planes lie, for prefetches that skip the dispatch on the layout per call
+    /// (no entries for per-texel models).
     #[inline]
-    pub(super) fn index_span(&self) -> (usize, usize, usize) {
-        match &self.params {
+    pub(super) fn index_span(&self) -> IndexSpan {
+        let (base, entry, entries) = match &self.params {
             Params::Clustered8 { index, .. } => (index.as_ptr() as usize, 4, index.len()),
             Params::Clustered16 { index, .. } => (index.as_ptr() as usize, 8, index.len()),
             Params::Texel { .. } => (0, 0, 0),
+        };
+        IndexSpan {
+            base,
+            entry,
+            entries,
+            views: self.n_views,
         }
     }
 
@@ -275,30 +273,7 @@ impl PlmcMaterial {
     /// and for out-of-range texels or views.
     #[inline]
     pub fn prefetch_views(&self, texel: usize, vi: [u32; 3]) {
-        let nv = self.n_views;
-        let ptr = |i: usize| -> Option<*const i8> {
-            match &self.params {
-                Params::Clustered8 { index, .. } => index.get(i).map(|e| e.as_ptr() as *const i8),
-                Params::Clustered16 { index, .. } => index.get(i).map(|e| e.as_ptr() as *const i8),
-                Params::Texel { .. } => None,
-            }
-        };
-        for v in vi {
-            if (v as usize) < nv
-                && let Some(p) = texel
-                    .checked_mul(nv)
-                    .and_then(|i| i.checked_add(v as usize))
-                    .and_then(ptr)
-            {
-                #[cfg(target_arch = "x86_64")]
-                // SAFETY: a prefetch never faults, and `p` points into the index anyway.
-                unsafe {
-                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p);
-                }
-                #[cfg(not(target_arch = "x86_64"))]
-                let _ = p;
-            }
-        }
+        self.index_span().prefetch_views(texel, vi);
     }
 
     /// Interpolation indices and weights of the 3 measured views around `wi` (local frame).
@@ -334,6 +309,46 @@ impl PlmcMaterial {
         let (li, lw) = self.light_lookup(wo);
         self.eval_b_with(vi, vw, li, lw, wo, texels)
     }
+}
+
+/// The index planes' address range ([`PlmcMaterial::index_span`]): entry i of the `views` ×
+/// texels entries is `entry` bytes at `base + i · entry`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct IndexSpan {
+    base: usize,
+    entry: usize,
+    entries: usize,
+    views: usize,
+}
+
+impl IndexSpan {
+    /// [`PlmcMaterial::prefetch_views`]: the entries of `texel` for the views `vi`, skipping
+    /// out-of-range texels and views.
+    #[inline(always)]
+    pub fn prefetch_views(&self, texel: usize, vi: [u32; 3]) {
+        for v in vi {
+            if (v as usize) < self.views
+                && let Some(i) = texel
+                    .checked_mul(self.views)
+                    .and_then(|i| i.checked_add(v as usize))
+                && i < self.entries
+            {
+                prefetch_line(self.base + i * self.entry);
+            }
+        }
+    }
+}
+
+/// Starts loading the cache line of `addr` (a hint: never faults).
+#[inline(always)]
+fn prefetch_line(addr: usize) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(addr as *const i8)
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = addr;
 }
 
 /// `items` (`len` of them) in a vector whose memory the kernel is asked, before it is first

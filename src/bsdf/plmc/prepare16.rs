@@ -37,8 +37,7 @@ impl PlmcBsdf {
             });
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
-        let (index, entry, entries) = m.index_span();
-        let nv = m.n_views;
+        let span = m.index_span();
         for (l, o) in out.iter_mut().enumerate() {
             // `prepare`'s test: NaN z passes it, as there.
             if lanes & (1 << l) == 0 || wz[l] <= 0.0 {
@@ -58,14 +57,8 @@ impl PlmcBsdf {
             let (t, w) = located.lane(l);
             let (vi, vw) = m.views.interpolation(t, w);
             if self.prefetch {
-                // `PlmcMaterial::prefetch_views` without its per-call dispatch on the layout.
                 for &(texel, _) in &texels[..n] {
-                    for v in vi {
-                        let i = texel.wrapping_mul(nv).wrapping_add(v as usize);
-                        if (v as usize) < nv && i < entries {
-                            prefetch(index + i * entry);
-                        }
-                    }
+                    span.prefetch_views(texel, vi);
                 }
             }
             *o = Some(PlmcHit {
@@ -77,18 +70,6 @@ impl PlmcBsdf {
         }
         out
     }
-}
-
-/// Starts loading the cache line of `addr` (a hint: never faults).
-#[inline(always)]
-fn prefetch(addr: usize) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(addr as *const i8)
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = addr;
 }
 
 /// True if [`nearest16`]'s 32-bit arithmetic is exact for a `width` × `height` material: both

@@ -100,7 +100,7 @@ fn traverse<const ANY: bool, V: F8>(
     let rb = RayBox::<V>::new(o, d);
     let da = [V::splat(d.x), V::splat(d.y), V::splat(d.z)];
     let mut tmax = tmax;
-    let mut best: Option<(u32, f32, f32)> = None;
+    let mut best = SlotHit::MISS;
     let mut stack = Stack::new();
     let mut node = 0u32;
     loop {
@@ -136,17 +136,16 @@ fn traverse<const ANY: bool, V: F8>(
                             lane = l;
                         }
                     }
-                    let slot = (LANES * (first + j) + lane) as u32;
+                    best = SlotHit {
+                        slot: (LANES * (first + j) + lane) as u32,
+                        t: h.t[lane],
+                        u: h.u[lane],
+                        v: h.v[lane],
+                    };
                     if ANY {
-                        return SlotHit {
-                            slot,
-                            t: h.t[lane],
-                            u: h.u[lane],
-                            v: h.v[lane],
-                        };
+                        return best;
                     }
-                    tmax = h.t[lane];
-                    best = Some((slot, h.u[lane], h.v[lane]));
+                    tmax = best.t;
                 }
             }
         }
@@ -180,17 +179,7 @@ fn traverse<const ANY: bool, V: F8>(
                     break;
                 }
                 Some(_) => {}
-                None => {
-                    return match best {
-                        Some((slot, u, v)) => SlotHit {
-                            slot,
-                            t: tmax,
-                            u,
-                            v,
-                        },
-                        None => SlotHit::MISS,
-                    };
-                }
+                None => return best,
             }
         }
     }

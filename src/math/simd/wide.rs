@@ -36,20 +36,12 @@ pub fn lanes<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; W] {
 
 #[inline(always)]
 fn map(f: impl Fn(usize) -> f32) -> Fx {
-    let mut o = [0.0; W];
-    for (i, v) in o.iter_mut().enumerate() {
-        *v = f(i);
-    }
-    Fx(o)
+    Fx(lanes(f))
 }
 
 #[inline(always)]
 fn mask(f: impl Fn(usize) -> bool) -> Mx {
-    let mut o = [false; W];
-    for (i, v) in o.iter_mut().enumerate() {
-        *v = f(i);
-    }
-    Mx(o)
+    Mx(lanes(f))
 }
 
 impl Fx {

@@ -182,21 +182,6 @@ fn shade(
     let mut at_l: [Option<BsdfAt>; L] = [None; L];
     // Lanes that sample an emitter (drawing u_sel and u first).
     let mut nee = [false; L];
-    // A fitted BTF's per-hit states of the lanes that go on (those the loop below makes live),
-    // 16 view lookups at once: what `Bsdf::at` finds lane by lane.
-    // (None for other BSDFs: no 16-hit array to initialise.)
-    let plmc_hits = match kind {
-        Kind::Plmc(b) => {
-            let mut going = 0u16;
-            for l in 0..n {
-                if pool.depth[slot[l]].saturating_add(1) < pt.max_depth {
-                    going |= 1 << l;
-                }
-            }
-            Some(b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going))
-        }
-        _ => None,
-    };
     let mut albedo = V3x::ZERO;
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
@@ -244,13 +229,8 @@ fn shade(
                 albedo.set(l, diffuse_albedo(rs, batch, mesh_id[l]).eval(uv.get(l)));
                 true
             }
-            Kind::Plmc(b) => {
-                at_l[l] = Some(match plmc_hits.as_ref().and_then(|h| h[l]) {
-                    Some(h) => BsdfAt::Plmc(b, h),
-                    None => BsdfAt::Stateless(bsdf),
-                });
-                b.flags().has(BsdfFlags::SMOOTH)
-            }
+            // (Its per-hit states follow, for all live lanes at once.)
+            Kind::Plmc(b) => b.flags().has(BsdfFlags::SMOOTH),
             Kind::Scalar => {
                 let at = bsdf.at(&si_at(l));
                 let smooth = at.flags().has(BsdfFlags::SMOOTH);
@@ -259,6 +239,18 @@ fn shade(
             }
         };
         nee[l] = pt.nee && smooth;
+    }
+    if let Kind::Plmc(b) = kind {
+        // A fitted BTF's per-hit states of the live lanes, 16 view lookups at once: what
+        // `Bsdf::at` finds lane by lane.
+        let going = (0..n).filter(|&l| live[l]).fold(0u16, |m, l| m | 1 << l);
+        let hits = b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going);
+        for l in (0..n).filter(|&l| live[l]) {
+            at_l[l] = Some(match hits[l] {
+                Some(h) => BsdfAt::Plmc(b, h),
+                None => BsdfAt::Stateless(bsdf),
+            });
+        }
     }
 
     // ------------- random numbers (SoA, each lane on its own stream, in scalar order) -------------
@@ -443,7 +435,7 @@ fn shade(
                 pool.eta[i] = eta.0[l];
                 let mut alive = true;
                 let mut tpl = new_tp.get(l);
-                if depth >= pt.rr_depth {
+                if rr[l] {
                     if !(u_rr[l] < q.0[l]) {
                         alive = false;
                     } else {
