@@ -1,7 +1,8 @@
 //! Lat-long environment map with Mitsuba 3's `envmap` mapping and bilinear lookup, importance
 //! sampled by a piecewise-constant distribution over the cells of the bilinear interpolant.
 //!
-//! Mapping (local frame, +y up): direction d ↔ uv = (atan2(d.x, −d.z)/2π, acos(d.y)/π); the image
+//! Mapping (local frame, +y up): direction d ↔ uv = (atan2(d.x, −d.z)/2π, acos(d.y)/π), both
+//! evaluated as atan2 by [`crate::math::fastmath`] (no normalisation needed); the image
 //! is looked up bilinearly with texel centres at u = (i + ½)/W (periodic in u) and rows at
 //! v = j/(H − 1), exactly as Mitsuba's `eval_spectrum`. The sampling cells are the W × (H − 1)
 //! patches between four neighbouring texels; each cell is chosen with probability ∝ mean corner
@@ -15,6 +16,7 @@ use super::LightSample;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
 use crate::math::distribution::Distribution1D;
+use crate::math::fastmath;
 use crate::math::simd::lane::sin_cos;
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
@@ -36,6 +38,9 @@ pub struct EnvMapLight {
     cols: Vec<Option<Distribution1D>>,
     /// cos θ at each texel row j (θ_j = π j / (H − 1)).
     cos_row: Vec<f32>,
+    /// Per sampling row j, P(row j) / solid angle of one of its cells (sr⁻¹): times a column's
+    /// probability, the solid-angle pdf of that cell, the same product in sample and pdf.
+    row_density: Vec<f32>,
 }
 
 impl EnvMapLight {
@@ -87,64 +92,94 @@ impl EnvMapLight {
             row_w.push(dist.as_ref().map_or(0.0, |d| d.total()));
             cols.push(dist);
         }
+        let rows = Distribution1D::new(row_w);
+        let row_density = (0..h - 1)
+            .map(|j| {
+                let omega = (cos_row[j] - cos_row[j + 1]) * 2.0 * PI / w as f32;
+                rows.as_ref().map_or(0.0, |r| r.pmf(j) / omega)
+            })
+            .collect();
         Ok(EnvMapLight {
             width: w,
             height: h,
             data,
             to_world: m3,
             to_local: m3.inverse(),
-            rows: Distribution1D::new(row_w),
+            rows,
             cols,
             cos_row,
+            row_density,
         })
     }
 
     /// Radiance arriving from world direction `d` (unit, pointing away from the scene).
     pub fn eval(&self, d: Vec3) -> Spectrum {
-        self.lookup(self.lat_long(d))
+        let uv = self.lat_long(d);
+        self.lookup(self.column(uv.x), uv.y)
     }
 
     /// Radiance toward world direction `d` and the solid-angle pdf of [`EnvMapLight::sample`]
     /// there, converting the direction to lat-long coordinates once (escaped rays need both).
     pub fn eval_pdf(&self, d: Vec3) -> (Spectrum, f32) {
         let uv = self.lat_long(d);
-        (self.lookup(uv), self.pdf_uv(uv))
+        let col = self.column(uv.x);
+        (self.lookup(col, uv.y), self.pdf_at(col.0, uv.y))
     }
 
     /// Lat-long coordinates (u = azimuth / 2π, v = polar angle / π) of world direction `d`.
+    ///
+    /// Both angles are atan2 of the local direction's components, which does not depend on its
+    /// length: no normalisation (a square root and a division) and no acos (a third) on the
+    /// escaped-ray and light-sample paths. A zero or non-finite direction maps to (½, ½), where
+    /// the normalised zero vector went before (atan2(0, −0) = π, acos(0) = π/2).
     #[inline]
     fn lat_long(&self, d: Vec3) -> Vec2 {
-        let v = (self.to_local * d).normalize_or_zero();
+        let v = self.to_local * d;
+        if !v.is_finite() || v == Vec3::ZERO {
+            return Vec2::splat(0.5);
+        }
+        let r = (v.x * v.x + v.z * v.z).sqrt();
         Vec2::new(
-            v.x.atan2(-v.z) * (0.5 / PI),
-            v.y.clamp(-1.0, 1.0).acos() * (1.0 / PI),
+            fastmath::atan2(v.x, -v.z) * (0.5 / PI),
+            fastmath::atan2(r, v.y) * (1.0 / PI),
         )
     }
 
-    /// Mitsuba's bilinear lookup at lat-long coordinates `uv`.
-    fn lookup(&self, uv: Vec2) -> Spectrum {
-        let (w, h) = (self.width, self.height);
-        let mut u = uv.x - 0.5 / w as f32;
-        u -= u.floor();
-        let mut v = uv.y;
-        v -= v.floor();
+    /// The texel column left of lat-long `u` (periodic) and the fraction of the way to the next
+    /// one: shared by the bilinear lookup and the pdf (whose cell is that column).
+    #[inline]
+    fn column(&self, u: f32) -> (usize, f32) {
+        let w = self.width;
+        let mut u = u - 0.5 / w as f32;
+        u -= fastmath::floor_small(u);
         let x = u * w as f32;
-        let y = v * (h - 1) as f32;
         let ix = (x as usize).min(w - 1);
+        (ix, x - ix as f32)
+    }
+
+    /// Mitsuba's bilinear lookup at texel column `col` (from [`EnvMapLight::column`]) and
+    /// lat-long `v`.
+    #[inline]
+    fn lookup(&self, (ix, fx): (usize, f32), v: f32) -> Spectrum {
+        let (w, h) = (self.width, self.height);
+        let v = v - fastmath::floor_small(v);
+        let y = v * (h - 1) as f32;
         let iy = (y as usize).min(h - 2);
-        let fx = x - ix as f32;
         let fy = y - iy as f32;
-        let ix1 = (ix + 1) % w;
-        let at = |i: usize, j: usize| self.data[j * w + i];
-        let top = at(ix, iy) * (1.0 - fx) + at(ix1, iy) * fx;
-        let bot = at(ix, iy + 1) * (1.0 - fx) + at(ix1, iy + 1) * fx;
+        // The next column wraps around without an integer division.
+        let ix1 = if ix + 1 == w { 0 } else { ix + 1 };
+        let row0 = &self.data[iy * w..(iy + 2) * w];
+        let (a, b) = (row0[ix], row0[ix1]);
+        let (c, d) = (row0[w + ix], row0[w + ix1]);
+        let top = a * (1.0 - fx) + b * fx;
+        let bot = c * (1.0 - fx) + d * fx;
         top * (1.0 - fy) + bot * fy
     }
 
     /// Samples a world direction; returns (direction, radiance, solid-angle pdf).
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Spectrum, f32)> {
         let rows = self.rows.as_ref()?;
-        let (j, pj, uy) = rows.sample(u.y);
+        let (j, _, uy) = rows.sample(u.y);
         let cols = self.cols[j].as_ref()?;
         let (i, pi, ux) = cols.sample(u.x);
         let (c0, c1) = (self.cos_row[j], self.cos_row[j + 1]);
@@ -154,7 +189,7 @@ impl EnvMapLight {
         let (sp, cp) = sin_cos(2.0 * PI * u_lat);
         let local = Vec3::new(sin_t * sp, cos_t, -sin_t * cp);
         let d = (self.to_world * local).normalize_or_zero();
-        let pdf = pj * pi / self.cell_solid_angle(j);
+        let pdf = pi * self.row_density[j];
         if !(pdf > 0.0) || !pdf.is_finite() || d == Vec3::ZERO {
             return None;
         }
@@ -177,29 +212,19 @@ impl EnvMapLight {
 
     /// Solid-angle pdf with which [`EnvMapLight::sample`] returns world direction `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
-        self.pdf_uv(self.lat_long(d))
+        let uv = self.lat_long(d);
+        self.pdf_at(self.column(uv.x).0, uv.y)
     }
 
-    /// [`EnvMapLight::pdf`] at lat-long coordinates `uv`.
-    fn pdf_uv(&self, uv: Vec2) -> f32 {
-        let Some(rows) = self.rows.as_ref() else {
-            return 0.0;
-        };
-        let (w, h) = (self.width, self.height);
-        let mut u = uv.x - 0.5 / w as f32;
-        u -= u.floor();
-        let i = ((u * w as f32) as usize).min(w - 1);
-        let vv = uv.y;
-        let j = ((vv * (h - 1) as f32) as usize).min(h - 2);
-        let Some(cols) = self.cols[j].as_ref() else {
-            return 0.0;
-        };
-        rows.pmf(j) * cols.pmf(i) / self.cell_solid_angle(j)
-    }
-
+    /// [`EnvMapLight::pdf`] at texel column `i` (from [`EnvMapLight::column`], which is also the
+    /// sampling cell's column) and lat-long `v`.
     #[inline]
-    fn cell_solid_angle(&self, j: usize) -> f32 {
-        (self.cos_row[j] - self.cos_row[j + 1]) * 2.0 * PI / self.width as f32
+    fn pdf_at(&self, i: usize, v: f32) -> f32 {
+        let j = ((v * (self.height - 1) as f32) as usize).min(self.height - 2);
+        match &self.cols[j] {
+            Some(cols) => cols.pmf(i) * self.row_density[j],
+            None => 0.0,
+        }
     }
 }
 
@@ -242,6 +267,20 @@ mod tests {
         let top = env.eval(Vec3::new(0.0, 1.0, 0.0));
         // At the pole v = 0 the lookup interpolates along row 0 only.
         assert!((top.z - want.z).abs() < 1e-5);
+    }
+
+    /// A zero or non-finite direction looks up the map at (½, ½), as the normalised zero
+    /// vector did before the atan2 mapping, instead of returning NaN.
+    #[test]
+    fn degenerate_directions_map_to_the_centre() {
+        let img = test_map();
+        let env = EnvMapLight::new(&img, Mat4::IDENTITY, 1.0, Path::new("t.exr")).unwrap();
+        let centre = env.lookup(env.column(0.5), 0.5);
+        for d in [Vec3::ZERO, Vec3::NAN, Vec3::new(f32::INFINITY, 0.0, 1.0)] {
+            assert_eq!(env.lat_long(d), Vec2::splat(0.5));
+            assert_eq!(env.eval(d), centre);
+            assert!(env.pdf(d).is_finite());
+        }
     }
 
     #[test]

@@ -3,6 +3,7 @@
 pub mod cie1931;
 pub mod color;
 pub mod distribution;
+pub mod fastmath;
 pub mod filter;
 pub mod frame;
 pub mod quad;
