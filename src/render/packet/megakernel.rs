@@ -15,8 +15,7 @@
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow};
 use super::refill::{Refill, start_paths};
-use super::shade::shade_hits;
-use crate::bsdf::Bsdf;
+use super::shade::{diffuse_sides, shade_hits};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::Spectrum;
@@ -64,8 +63,9 @@ const KEY_ESCAPED: usize = 0;
 /// Reusable buffers of the megakernel (one per thread and tile pass, never per ray).
 #[derive(Clone, Debug, Default)]
 pub struct Scratch {
-    /// Sort key of each BSDF index: 1 + the BSDF whose batches it joins (every `diffuse`
-    /// joins the first one, since the SoA diffuse stages read each lane's own albedo).
+    /// Sort key of each BSDF index: 1 + the BSDF whose batches it joins (every `diffuse`, and
+    /// every `twosided` of two, joins the first one, since the SoA diffuse stages read each
+    /// lane's own albedo and side).
     batch_key: Vec<u32>,
     /// Live slots sorted by key.
     order: Vec<u32>,
@@ -101,14 +101,17 @@ pub fn trace_chunk(
     let mut fill = Refill::default();
     let isa = crate::math::simd::isa();
     let bsdfs = &rs.scene.bsdfs;
-    let first_diffuse = bsdfs.iter().position(|b| matches!(b, Bsdf::Diffuse(_)));
+    let first_diffuse = bsdfs.iter().position(|b| diffuse_sides(b).is_some());
     scratch.batch_key.clear();
-    scratch
-        .batch_key
-        .extend(bsdfs.iter().enumerate().map(|(k, b)| match b {
-            Bsdf::Diffuse(_) => 1 + first_diffuse.unwrap_or(k) as u32,
-            _ => 1 + k as u32,
-        }));
+    scratch.batch_key.extend(
+        bsdfs
+            .iter()
+            .enumerate()
+            .map(|(k, b)| match diffuse_sides(b) {
+                Some(_) => 1 + first_diffuse.unwrap_or(k) as u32,
+                None => 1 + k as u32,
+            }),
+    );
     loop {
         // --------------------------------- refill ---------------------------------
         for g in 0..pool.len() / LANES {

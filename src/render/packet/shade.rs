@@ -56,7 +56,8 @@ crate::isa_dispatch! {
 #[derive(Clone, Copy)]
 enum Kind<'a> {
     /// SoA twins of the scalar diffuse code, with the batch BSDF's albedo texture (each lane
-    /// reads its own mesh's, see [`diffuse_albedo`]).
+    /// reads its own mesh's, see [`diffuse_sides`]); a `twosided` diffuse lane seen from below
+    /// runs them on z-mirrored directions with its back albedo, as [`crate::bsdf::TwoSided`].
     Diffuse(&'a Texture),
     /// A fitted BTF: emitter evaluations 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
@@ -72,10 +73,10 @@ fn shade(
     slots: &[u32],
     stats: &mut TraceStats,
 ) {
-    let kind = match bsdf {
-        Bsdf::Diffuse(d) => Kind::Diffuse(&d.reflectance),
-        Bsdf::Plmc(b) => Kind::Plmc(b),
-        _ => Kind::Scalar,
+    let kind = match (diffuse_sides(bsdf), bsdf) {
+        (Some((front, _)), _) => Kind::Diffuse(front),
+        (None, Bsdf::Plmc(b)) => Kind::Plmc(b),
+        (None, _) => Kind::Scalar,
     };
     let n = slots.len();
     if n == 0 {
@@ -183,6 +184,10 @@ fn shade(
     // Lanes that sample an emitter (drawing u_sel and u first).
     let mut nee = [false; L];
     let mut albedo = V3x::ZERO;
+    // Diffuse lanes of a `twosided` seen from below (directions z-mirrored), and those seen
+    // edge-on (wi.z neither > 0 nor < 0: black, no sample).
+    let mut flip = Mx::splat(false);
+    let mut edge_on = Mx::splat(false);
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
     let mut is_area = Mx::splat(false);
@@ -226,7 +231,18 @@ fn shade(
         let smooth = match kind {
             // Diffuse is smooth, and its SoA stages need only the albedo.
             Kind::Diffuse(batch) => {
-                albedo.set(l, diffuse_albedo(rs, batch, mesh_id[l]).eval(uv.get(l)));
+                let mesh_bsdf = &rs.scene.bsdfs[meshes[mesh_id[l] as usize].bsdf as usize];
+                // (The sort puts only diffuse meshes in a diffuse batch.)
+                let tex = match diffuse_sides(mesh_bsdf).unwrap_or((batch, None)) {
+                    (front, None) => front,
+                    (front, Some(back)) => {
+                        let z = wi.z.0[l];
+                        flip.0[l] = z < 0.0;
+                        edge_on.0[l] = !(z > 0.0) && !(z < 0.0);
+                        if z < 0.0 { back } else { front }
+                    }
+                };
+                albedo.set(l, tex.eval(uv.get(l)));
                 true
             }
             // (Its per-hit states follow, for all live lanes at once.)
@@ -338,10 +354,13 @@ fn shade(
     let wo = frame.to_local(ls.wi);
     let delta = ls.delta;
     let (f, bsdf_pdf) = match kind {
-        Kind::Diffuse(_) => (
-            eval_local_x(albedo, wi, wo),
-            Fx::select(delta, zero, pdf_local_x(wi, wo)),
-        ),
+        Kind::Diffuse(_) => {
+            let (wi, wo) = (mirror_z(flip, wi), mirror_z(flip, wo));
+            (
+                V3x::select(edge_on, V3x::ZERO, eval_local_x(albedo, wi, wo)),
+                Fx::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
+            )
+        }
         Kind::Plmc(_) | Kind::Scalar => {
             let (mut f, mut pdf) = match kind {
                 Kind::Plmc(b) => eval_plmc(b, &at_l, has_light, wo, delta),
@@ -369,7 +388,8 @@ fn shade(
     // (local direction, pdf, weight, η, delta lobe) per lane; `sampled` false where it failed.
     let (wo_s, s_pdf, weight, s_eta, s_delta, sampled) = match kind {
         Kind::Diffuse(_) => {
-            let (wo, pdf, ok) = sample_local_x(wi, u_bsdf);
+            let (wo, pdf, ok) = sample_local_x(mirror_z(flip, wi), u_bsdf);
+            let (wo, ok) = (mirror_z(flip, wo), ok.and(edge_on.not()));
             // The albedo is the weight; a diffuse sample keeps η (× 1) and is not a delta lobe.
             (wo, pdf, albedo, Fx::splat(1.0), Mx::splat(false), ok)
         }
@@ -458,15 +478,24 @@ fn shade(
     rng.scatter(&mut pool.rng, &slot, n);
 }
 
-/// The albedo texture of mesh `mesh`'s `diffuse` BSDF: the lanes of a diffuse batch may carry
-/// different ones (`batch`, the batch BSDF's, if the mesh's is not diffuse, which the sort
-/// never makes happen).
-#[inline(always)]
-fn diffuse_albedo<'a>(rs: &'a RenderScene, batch: &'a Texture, mesh: u32) -> &'a Texture {
-    match &rs.scene.bsdfs[rs.scene.meshes[mesh as usize].bsdf as usize] {
-        Bsdf::Diffuse(d) => &d.reflectance,
-        _ => batch,
+/// The albedo textures of a BSDF the diffuse SoA stages run: (front, back) of a `twosided`
+/// over two `diffuse` models, (albedo, None) of a `diffuse` one, None for any other model.
+/// Every such BSDF shares one sort key, since each lane reads its own mesh's textures.
+pub fn diffuse_sides(b: &Bsdf) -> Option<(&Texture, Option<&Texture>)> {
+    match b {
+        Bsdf::Diffuse(d) => Some((&d.reflectance, None)),
+        Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
+            (Bsdf::Diffuse(f), Bsdf::Diffuse(k)) => Some((&f.reflectance, Some(&k.reflectance))),
+            _ => None,
+        },
+        _ => None,
     }
+}
+
+/// `v` with z negated in the lanes of `m` (`twosided`'s mirror through the surface).
+#[inline(always)]
+fn mirror_z(m: Mx, v: V3x) -> V3x {
+    V3x::new(v.x, v.y, Fx::select(m, -v.z, v.z))
 }
 
 /// The emitter evaluations of a fitted-BTF batch: (f, pdf) per lane for the lanes in `want`
