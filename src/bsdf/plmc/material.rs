@@ -7,14 +7,10 @@ use crate::bsdf::btf_sampler::BtfLightSampler;
 use crate::btf::directions::DirectionInterp;
 use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec3};
-use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams, codec, lobe, polynomial};
+use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams, codec};
 use crate::{Error, Result};
-use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
-
-/// Texels per axis averaged (at most) per image when building the sampling tables.
-const TABLE_TEXELS: usize = 64;
 
 /// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
 /// shared (`Arc`) by every [`PlmcBsdf`] that uses the same file.
@@ -134,7 +130,7 @@ impl PlmcMaterial {
         } else {
             Vec::new()
         };
-        let (means, y_max, out_max) = mean_values(model);
+        let (means, y_max, out_max) = super::tables::mean_values(model);
         let y_max = y_max.iter().map(|m| [m[0], m[1], m[2], 0.0]).collect();
         let views = model
             .views
@@ -383,100 +379,6 @@ fn advise_huge<T>(v: &Vec<T>, len: usize) {
     }
     #[cfg(not(target_os = "linux"))]
     let _ = (v, len);
-}
-
-/// Texel-mean model values at the measured directions, `[view][light][rgb]` (linear, exact
-/// per-cluster sums for PLM-C; at most 64 × 64 texels per image for per-texel models), and the
-/// largest lobe value per view and channel over the measured lights (see `y_max`).
-fn mean_values(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
-    let (nv, nl) = (model.views.len(), model.lights.len());
-    let (w, h) = (model.width, model.height);
-    // (linear value, model-space polynomial output) of a lobe at a measured (view, light).
-    let value2 = |v: usize, l: usize, c: usize, lobe: &lobe::Lobe| {
-        let o = polynomial::eval(&model.poly(v, l, c), lobe::eval(lobe, model.lights.dirs[l]));
-        (model.space.to_linear(o), o.max(0.0))
-    };
-    // Largest value of a lobe over the measured lights: ρ · (max_l D·u_l)^n (x^n is monotone).
-    let peak = |lobe: &lobe::Lobe| {
-        let b = model.lights.dirs.iter().fold(0f32, |m, u| {
-            m.max(lobe[1] * u.x + lobe[2] * u.y + lobe[3] * u.z)
-        });
-        if b > 0.0 {
-            lobe[0] * b.powf(lobe[4])
-        } else {
-            0.0
-        }
-    };
-    type PerView = (Vec<f32>, [f32; 3], Vec<[f32; 4]>);
-    let per_view: Vec<PerView> = (0..nv)
-        .into_par_iter()
-        .map(|v| {
-            let mut out = vec![0f32; nl * 3];
-            let mut omax = vec![[0f32; 4]; nl];
-            let mut y_max = [0f32; 3];
-            match &model.params[v] {
-                ViewParams::Clustered { k, table, index } => {
-                    let mut counts = vec![0u32; 3 * k];
-                    for (t, &i) in index.iter().enumerate() {
-                        counts[3 * i as usize + t % 3] += 1;
-                    }
-                    let lobes: Vec<_> = table.iter().map(|p| p.unpack()).collect();
-                    for (j, lobe) in lobes.iter().enumerate() {
-                        if counts[j] > 0 {
-                            y_max[j % 3] = y_max[j % 3].max(peak(lobe));
-                        }
-                    }
-                    for l in 0..nl {
-                        for c in 0..3 {
-                            let mut s = 0f64;
-                            for j in 0..*k {
-                                let n = counts[3 * j + c];
-                                if n > 0 {
-                                    let (lin, o) = value2(v, l, c, &lobes[3 * j + c]);
-                                    s += n as f64 * lin as f64;
-                                    omax[l][c] = omax[l][c].max(o);
-                                }
-                            }
-                            out[3 * l + c] = (s / (w * h) as f64) as f32;
-                        }
-                    }
-                }
-                ViewParams::Texel(packed) => {
-                    let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
-                    let picks: Vec<usize> = (0..h)
-                        .step_by(sy)
-                        .flat_map(|y| (0..w).step_by(sx).map(move |x| y * w + x))
-                        .collect();
-                    let lobes: Vec<[lobe::Lobe; 3]> = picks
-                        .iter()
-                        .map(|&t| std::array::from_fn(|c| packed[3 * t + c].unpack()))
-                        .collect();
-                    for (t, p) in packed.iter().enumerate() {
-                        y_max[t % 3] = y_max[t % 3].max(peak(&p.unpack()));
-                    }
-                    for l in 0..nl {
-                        for c in 0..3 {
-                            let mut s = 0f64;
-                            for lb in &lobes {
-                                let (lin, o) = value2(v, l, c, &lb[c]);
-                                s += lin as f64;
-                                omax[l][c] = omax[l][c].max(o);
-                            }
-                            out[3 * l + c] = (s / lobes.len() as f64) as f32;
-                        }
-                    }
-                }
-            }
-            (out, y_max, omax)
-        })
-        .collect();
-    let y_max = per_view.iter().map(|p| p.1).collect();
-    let out_max = per_view.iter().flat_map(|p| p.2.iter().copied()).collect();
-    (
-        per_view.into_iter().flat_map(|p| p.0).collect(),
-        y_max,
-        out_max,
-    )
 }
 
 /// Summary only: the tables can be large.

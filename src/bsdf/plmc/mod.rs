@@ -33,7 +33,8 @@
 //! 4-wide kernel and the dispatch), `avx512.rs` (the 16-lane kernel), `batch.rs` (16 queries per
 //! pass, one per lane: the packet integrator's batched emitter evaluations), `f4.rs` (the 4-lane
 //! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state), `prepare16.rs` (the per-hit state of a
-//! packet batch, its view lookups 16 at a time).
+//! packet batch, its view lookups 16 at a time), `tables.rs` (the texel-mean values and range
+//! clamps built at load, 16 lobes per step).
 //!
 
 #[cfg(target_arch = "x86_64")]
@@ -45,6 +46,7 @@ mod f4;
 mod kernel;
 mod material;
 mod prepare16;
+mod tables;
 #[cfg(test)]
 mod tests;
 

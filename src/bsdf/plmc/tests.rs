@@ -838,3 +838,81 @@ fn prepare16_is_prepare_lane_by_lane_bit_for_bit() {
         }
     }
 }
+
+/// The tables by libm `powf` and the scalar lobe / polynomial / decode functions, in f64
+/// sums: what `tables::mean_values` approximates.
+fn tables_reference(model: &PlmcModel) -> (Vec<f32>, Vec<[f32; 3]>, Vec<[f32; 4]>) {
+    let (nv, nl) = (model.views.len(), model.lights.len());
+    let (w, h) = (model.width, model.height);
+    let mut out = vec![0f32; nv * nl * 3];
+    let mut omax = vec![[0f32; 4]; nv * nl];
+    let mut y_max = vec![[0f32; 3]; nv];
+    for v in 0..nv {
+        // Y's range: every texel's lobe (PLM-C: every cluster with members) at every light.
+        let texels = w * h;
+        for c in 0..3 {
+            for t in 0..texels {
+                let lb = model.params[v].packed(t, c).unpack();
+                for u in &model.lights.dirs {
+                    y_max[v][c] = y_max[v][c].max(lobe::eval(&lb, *u));
+                }
+            }
+        }
+        for l in 0..nl {
+            for c in 0..3 {
+                let lobes: Vec<(lobe::Lobe, f64)> = match &model.params[v] {
+                    ViewParams::Clustered { k, table, index } => (0..*k)
+                        .map(|j| {
+                            let n = (c..index.len())
+                                .step_by(3)
+                                .filter(|&t| index[t] as usize == j)
+                                .count();
+                            (table[3 * j + c].unpack(), n as f64 / (w * h) as f64)
+                        })
+                        .filter(|p| p.1 > 0.0)
+                        .collect(),
+                    ViewParams::Texel(p) => {
+                        let n = (w * h) as f64;
+                        (0..w * h)
+                            .map(|t| (p[3 * t + c].unpack(), 1.0 / n))
+                            .collect()
+                    }
+                };
+                let mut s = 0f64;
+                for (lb, wt) in &lobes {
+                    let o = polynomial::eval(
+                        &model.poly(v, l, c),
+                        lobe::eval(lb, model.lights.dirs[l]),
+                    );
+                    s += wt * model.space.to_linear(o) as f64;
+                    omax[v * nl + l][c] = omax[v * nl + l][c].max(o);
+                }
+                out[(v * nl + l) * 3 + c] = s as f32;
+            }
+        }
+    }
+    (out, y_max, omax)
+}
+
+#[test]
+fn material_tables_match_the_libm_reference() {
+    for (kind, space) in ALL {
+        let m = &fixture(kind, space).model;
+        let (mean, y_max, omax) = super::tables::mean_values(m);
+        let (rmean, ry_max, romax) = tables_reference(m);
+        // The clamp on Y is libm's powf of the same maxima: the same bits.
+        assert_eq!(y_max, ry_max, "{kind:?} {space:?}");
+        let close = |a: f32, b: f32| (a - b).abs() <= 2e-5 * b.abs().max(1e-3);
+        for (i, (a, b)) in mean.iter().zip(&rmean).enumerate() {
+            assert!(close(*a, *b), "{kind:?} {space:?} mean {i}: {a} vs {b}");
+        }
+        for (i, (a, b)) in omax.iter().zip(&romax).enumerate() {
+            for c in 0..3 {
+                assert!(
+                    close(a[c], b[c]),
+                    "{kind:?} {space:?} max {i}/{c}: {a:?} {b:?}"
+                );
+            }
+        }
+    }
+}
