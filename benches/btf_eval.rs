@@ -22,7 +22,7 @@ use btfpt::bsdf::plmc::{BATCH, PlmcHit, PlmcMaterial};
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::locate16::LOCATE_LANES;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
-use btfpt::math::{Pcg32, Spectrum, Vec3};
+use btfpt::math::{Pcg32, Spectrum, Vec2, Vec3};
 use btfpt::model::ModelKind;
 use btfpt::render::IntegratorKind;
 use btfpt::render::film::RenderState;
@@ -180,6 +180,37 @@ fn bench_eval(c: &mut Criterion<ThreadCpuTime>) {
                     acc
                 })
             });
+            // BSDF sampling at a batch's per-hit states: one query at a time (`sample_hit`, the
+            // scalar integrator's call) against 16 per call (`sample_batch`, the packet
+            // integrator's: the model evaluations in one pass of the 16-lane kernel).
+            let sampling = |batched: bool| {
+                let bsdf = &bsdf;
+                let q = &q;
+                move || {
+                    let mut rng = Pcg32::new(7, 3);
+                    let mut acc = Spectrum::ZERO;
+                    let mut out = [None; BATCH];
+                    for chunk in q.chunks(BATCH) {
+                        let n = chunk.len();
+                        let hits: [PlmcHit; BATCH] = hits16(bsdf, black_box(chunk));
+                        let u1: [f32; BATCH] = std::array::from_fn(|_| rng.next_f32());
+                        let u2: [Vec2; BATCH] = std::array::from_fn(|_| rng.next_2d());
+                        if batched {
+                            bsdf.sample_batch(&hits[..n], &u1[..n], &u2[..n], &mut out[..n]);
+                        } else {
+                            for j in 0..n {
+                                out[j] = bsdf.sample_hit(&hits[j], u1[j], u2[j]);
+                            }
+                        }
+                        for (_, w) in out[..n].iter().flatten() {
+                            acc += *w;
+                        }
+                    }
+                    acc
+                }
+            };
+            g.bench_function("plmc_sample_hit16", |b| b.iter(sampling(false)));
+            g.bench_function("plmc_sample_batch16", |b| b.iter(sampling(true)));
             let bilinear = PlmcBsdf::new(bsdf.material().clone(), 1.0, true).unwrap();
             g.bench_function("plmc_bilinear", |b| {
                 b.iter(|| {

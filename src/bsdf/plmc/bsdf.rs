@@ -231,6 +231,32 @@ impl PlmcBsdf {
     ) {
         let n = hits.len();
         assert!(n <= BATCH && wo.len() == n && want_pdf.len() == n && out.len() == n);
+        let lights = self.material.sampler.light_interp();
+        // All light directions located at once (lanes past n and below the horizon locate
+        // (0, 0) or their own direction and are not used).
+        let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
+        for (q, w) in wo.iter().enumerate() {
+            (qx[q], qy[q]) = (w.x, w.y);
+        }
+        let all = lights.locate16(&qx, &qy);
+        let located: [_; BATCH] = std::array::from_fn(|q| all.lane(q));
+        self.eval_pdf_located_batch(hits, wo, &located[..n], want_pdf, out);
+    }
+
+    /// [`PlmcBsdf::eval_pdf_located`] of up to [`BATCH`] (hit, ω_l, light triangle) triples at
+    /// once (the pdf only where `want_pdf[q]`; ω_l below the horizon gives (0, 0)): the model
+    /// evaluations of nearest-texel hits as one pass of the 16-lane kernel, the rest one by one.
+    fn eval_pdf_located_batch(
+        &self,
+        hits: &[PlmcHit],
+        wo: &[Vec3],
+        located: &[(usize, [f32; 3])],
+        want_pdf: &[bool],
+        out: &mut [(Spectrum, f32)],
+    ) {
+        let n = hits.len();
+        assert!(n <= BATCH && wo.len() == n && located.len() == n && want_pdf.len() == n);
+        assert!(out.len() == n);
         let m = &*self.material;
         let lights = m.sampler.light_interp();
         // (Left uninitialised: only the first `nq` are written and read; zeroing all 16 cost a
@@ -239,20 +265,13 @@ impl PlmcBsdf {
         let mut slot = [0usize; BATCH];
         let mut nq = 0;
         let batches = m.batches();
-        // All light directions located at once (lanes past n and below the horizon locate
-        // (0, 0) or their own direction and are not used).
-        let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
-        for (q, w) in wo.iter().enumerate() {
-            (qx[q], qy[q]) = (w.x, w.y);
-        }
-        let all = lights.locate16(&qx, &qy);
         for q in 0..n {
             let (h, w) = (&hits[q], wo[q]);
             if w.z <= 0.0 {
                 out[q] = (Spectrum::ZERO, 0.0);
                 continue;
             }
-            let located = all.lane(q);
+            let located = located[q];
             let (li, lw) = lights.interpolation(located.0, located.1);
             let pdf = if want_pdf[q] {
                 m.sampler.pdf_located(h.vi, h.vw, w, located)
@@ -330,6 +349,55 @@ impl PlmcBsdf {
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
         Some((s, f / pdf))
+    }
+
+    /// [`PlmcBsdf::sample_hit`] of up to [`BATCH`] hits at once, the same samples and weights
+    /// (`None` where it returns `None`): the directions drawn one by one from the light sampler,
+    /// their model evaluations as one pass of the 16-lane kernel where the hits allow it.
+    pub fn sample_batch(
+        &self,
+        hits: &[PlmcHit],
+        sample1: &[f32],
+        sample2: &[Vec2],
+        out: &mut [Option<(BsdfSample, Spectrum)>],
+    ) {
+        let n = hits.len();
+        assert!(n <= BATCH && sample1.len() == n && sample2.len() == n && out.len() == n);
+        let m = &*self.material;
+        let lights = m.sampler.light_interp();
+        let mut wo = [Vec3::Z; BATCH];
+        let mut located = [(0usize, [0f32; 3]); BATCH];
+        for q in 0..n {
+            let (w, tri) = m
+                .sampler
+                .sample(hits[q].vi, hits[q].vw, sample1[q], sample2[q]);
+            // (Below the horizon: the evaluation returns (0, 0) and the sample fails.)
+            wo[q] = w;
+            if w.z > 0.0 {
+                // As in `sample_hit`: the triangle it was drawn in, else the search.
+                located[q] = match tri {
+                    Some(t) => (t, lights.triangle_weights(t, [w.x, w.y])),
+                    None => lights.locate([w.x, w.y]),
+                };
+            }
+        }
+        let mut fp = [(Spectrum::ZERO, 0.0); BATCH];
+        let want = [true; BATCH];
+        self.eval_pdf_located_batch(hits, &wo[..n], &located[..n], &want[..n], &mut fp[..n]);
+        for q in 0..n {
+            let (f, pdf) = fp[q];
+            out[q] = if wo[q].z <= 0.0 || pdf.is_nan() || pdf <= 0.0 {
+                None
+            } else {
+                let s = BsdfSample {
+                    wo: wo[q],
+                    pdf,
+                    eta: 1.0,
+                    sampled: BsdfFlags::GLOSSY_REFLECTION,
+                };
+                Some((s, f / pdf))
+            };
+        }
     }
 }
 

@@ -397,9 +397,18 @@ fn shade(
             let (mut wo, mut pdf, mut w) =
                 (V3x::splat(crate::math::Vec3::Z), Fx::splat(1.0), V3x::ZERO);
             let (mut e, mut dl, mut ok) = (Fx::splat(1.0), Mx::splat(false), Mx::splat(false));
+            let mut batched = [None; L];
+            if let Kind::Plmc(b) = kind {
+                batched = sample_plmc(b, &at_l, u_lobe, u_bsdf);
+            }
             for l in 0..n {
                 let Some(at) = &at_l[l] else { continue };
-                if let Some((bs, wl)) = at.sample(&si_at(l), u_lobe.0[l], u_bsdf.get(l)) {
+                let s = match at {
+                    // (Sampled in the batch.)
+                    BsdfAt::Plmc(..) if matches!(kind, Kind::Plmc(_)) => batched[l],
+                    _ => at.sample(&si_at(l), u_lobe.0[l], u_bsdf.get(l)),
+                };
+                if let Some((bs, wl)) = s {
                     wo.set(l, bs.wo);
                     pdf.0[l] = bs.pdf;
                     w.set(l, wl);
@@ -528,6 +537,40 @@ fn eval_plmc(b: &PlmcBsdf, at_l: &[Option<BsdfAt>; L], want: Mx, wo: V3x, delta:
         }
     }
     (f, pdf)
+}
+
+/// The BSDF samples of a fitted-BTF batch's lanes that kept their per-hit state (`None`
+/// elsewhere and where sampling fails), their model evaluations 16 per pass of the batched
+/// kernel: [`PlmcBsdf::sample_batch`], the same samples as the scalar `sample_hit`.
+#[inline(always)]
+fn sample_plmc(
+    b: &PlmcBsdf,
+    at_l: &[Option<BsdfAt>; L],
+    u_lobe: Fx,
+    u_bsdf: V2x,
+) -> [Option<(crate::bsdf::BsdfSample, Spectrum)>; L] {
+    let mut out = [None; L];
+    let mut hits = [None; L];
+    let mut at = [0usize; L];
+    let (mut u1, mut u2) = ([0f32; L], [crate::math::Vec2::ZERO; L]);
+    let mut m = 0;
+    for l in 0..L {
+        if let Some(BsdfAt::Plmc(_, h)) = &at_l[l] {
+            hits[m] = Some(*h);
+            at[m] = l;
+            (u1[m], u2[m]) = (u_lobe.0[l], u_bsdf.get(l));
+            m += 1;
+        }
+    }
+    if let Some(first) = hits[0] {
+        let hits = hits.map(|h| h.unwrap_or(first));
+        let mut got = [None; L];
+        b.sample_batch(&hits[..m], &u1[..m], &u2[..m], &mut got[..m]);
+        for j in 0..m {
+            out[at[j]] = got[j];
+        }
+    }
+    out
 }
 
 #[cfg(test)]
