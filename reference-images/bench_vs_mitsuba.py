@@ -47,7 +47,8 @@ def relmse(t: np.ndarray, r: np.ndarray) -> float:
 def read_exr(path: Path) -> np.ndarray:
     import mitsuba as mi
 
-    return np.array(mi.Bitmap(str(path)), dtype=np.float64)[..., :3]
+    with mc.io_threads():
+        return np.array(mi.Bitmap(str(path)), dtype=np.float64)[..., :3]
 
 
 def main(argv=None) -> int:

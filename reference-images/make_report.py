@@ -184,8 +184,9 @@ class Mitsuba:
         dr.sync_thread()
         wall = time.perf_counter() - t
         cpu = time.process_time() - c
-        mi.Bitmap(img).write(str(out_exr))
-        mi.util.write_bitmap(str(out_png), img, write_async=False)
+        with self.mc.io_threads():
+            mi.Bitmap(img).write(str(out_exr))
+            mi.util.write_bitmap(str(out_png), img, write_async=False)
         return {"render_s": wall, "cpu_s": cpu, "load_s": load, "first_render_s": first}
 
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
@@ -21,6 +22,21 @@ def set_variant(variant: str = VARIANT) -> None:
     import btf_plugin
 
     btf_plugin.register()
+
+
+@contextlib.contextmanager
+def io_threads():
+    """Runs the body (Bitmap reads and writes, scene loading) with at least two Dr.Jit pool
+    threads, then restores the count: Mitsuba's EXR reader and writer wait on pool tasks they
+    cannot run themselves, so with `dr.set_thread_count(1)` they deadlock (Mitsuba 3.9.1)."""
+    import drjit as dr
+
+    n = dr.thread_count()
+    dr.set_thread_count(max(n, 2))
+    try:
+        yield
+    finally:
+        dr.set_thread_count(n)
 
 
 def parse_defines(items: list[str]) -> dict[str, str]:
@@ -50,6 +66,7 @@ def load_scene(path: Path, defines: dict[str, str]):
     if not path.is_file():
         sys.exit(f"{path}: scene file not found")
     try:
-        return mi.load_file(str(path), **defines)
+        with io_threads():
+            return mi.load_file(str(path), **defines)
     except Exception as e:  # noqa: BLE001
         sys.exit(f"{path}: Mitsuba cannot load the scene: {e}")
