@@ -13,7 +13,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::lanes::{LANES, LaneStats};
-use super::pool::{FREE, PathPool, Shadow};
+use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
 use super::shade::{diffuse_sides, shade_hits};
 use crate::geometry::accel::offset_origin;
@@ -140,24 +140,31 @@ pub fn trace_chunk(
         scratch.start.iter_mut().for_each(|c| *c = 0);
         let mut live = 0u64;
         for g in 0..pool.len() / LANES {
+            let (ray_o, ray_d) = (pool.ray_o.group(g), pool.ray_d.group(g));
+            let (tmax, job) = (group(&pool.ray_t, g), group(&pool.job, g));
+            let (pass, depth) = (group(&pool.passthrough, g), group(&pool.depth, g));
+            let hits = group_mut(&mut pool.hit, g);
+            let keys = group_mut(&mut scratch.key, g);
+            // Lanes that hit a hidden emitter.
+            let mut through = 0u32;
             let mut n = 0;
-            for i in g * LANES..(g + 1) * LANES {
-                if pool.job[i] == FREE {
+            for l in 0..LANES {
+                if job[l] == FREE {
                     continue;
                 }
                 n += 1;
-                let hit = if pool.passthrough[i] && !(pool.ray_t[i] > 0.0) {
+                let hit = if pass[l] && !(tmax[l] > 0.0) {
                     None
                 } else {
-                    rs.accel
-                        .intersect(pool.ray_o.get(i), pool.ray_d.get(i), pool.ray_t[i])
+                    rs.accel.intersect(ray_o.get(l), ray_d.get(l), tmax[l])
                 };
-                pool.hit[i] = hit;
+                hits[l] = hit;
                 let k = match hit {
                     None => KEY_ESCAPED as u32,
                     Some(h) => {
-                        if pt.hide_emitters && pool.depth[i] == 0 && rs.lights.is_emissive(h.mesh) {
-                            pass_through_emitter(rs, pool, i, stats);
+                        if pt.hide_emitters && depth[l] == 0 && rs.lights.is_emissive(h.mesh) {
+                            // Moved on below, once this group's rows are released.
+                            through |= 1 << l;
                             key_skip
                         } else {
                             // In range: RenderScene::new checked every mesh's BSDF index.
@@ -165,8 +172,13 @@ pub fn trace_chunk(
                         }
                     }
                 };
-                scratch.key[i] = k;
+                keys[l] = k;
                 scratch.start[k as usize + 1] += 1;
+            }
+            while through != 0 {
+                let l = through.trailing_zeros() as usize;
+                through &= through - 1;
+                pass_through_emitter(rs, pool, g * LANES + l, stats);
             }
             if n > 0 {
                 lanes.issued += LANES as u64;
@@ -212,24 +224,26 @@ pub fn trace_chunk(
             }
         }
         // ------------- batched any-hit shadow pass; write finished paths, free -------------
-        for i in 0..pool.len() {
-            let clear = match pool.shadow[i] {
-                Shadow::None => false,
-                Shadow::Unoccluded => true,
-                Shadow::Test => {
-                    !rs.accel
-                        .occluded(pool.shadow_o.get(i), pool.shadow_d.get(i), pool.shadow_t[i])
+        for g in 0..pool.len() / LANES {
+            let (shadow, st) = (group_mut(&mut pool.shadow, g), group(&pool.shadow_t, g));
+            let (shadow_o, shadow_d) = (pool.shadow_o.group(g), pool.shadow_d.group(g));
+            let (shadow_c, mut result) = (pool.shadow_c.group(g), pool.result.group_mut(g));
+            let (job, ending) = (group_mut(&mut pool.job, g), group_mut(&mut pool.ending, g));
+            for l in 0..LANES {
+                let clear = match shadow[l] {
+                    Shadow::None => false,
+                    Shadow::Unoccluded => true,
+                    Shadow::Test => !rs.accel.occluded(shadow_o.get(l), shadow_d.get(l), st[l]),
+                };
+                if clear {
+                    result.set(l, result.get(l) + shadow_c.get(l));
                 }
-            };
-            if clear {
-                let r = pool.result.get(i) + pool.shadow_c.get(i);
-                pool.result.set(i, r);
-            }
-            pool.shadow[i] = Shadow::None;
-            if pool.job[i] != FREE && pool.ending[i] {
-                out[pool.job[i] as usize] = pool.result.get(i);
-                pool.job[i] = FREE;
-                pool.ending[i] = false;
+                shadow[l] = Shadow::None;
+                if job[l] != FREE && ending[l] {
+                    out[job[l] as usize] = result.get(l);
+                    job[l] = FREE;
+                    ending[l] = false;
+                }
             }
         }
     }

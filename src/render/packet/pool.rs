@@ -2,8 +2,26 @@
 //! contiguous array so the per-BSDF kernels read and write whole 16-lane rows. Allocated once
 //! per tile pass; a few hundred slots keep the whole pool (≈ 50 KB) in L2.
 
+use super::lanes::LANES;
 use crate::geometry::accel::Hit;
 use crate::math::{Pcg32, Spectrum, Vec3};
+
+/// Slots `g·LANES .. (g+1)·LANES` of a per-slot array: one 16-lane group as a fixed-size row,
+/// so a lane loop over it indexes without bounds checks.
+#[inline(always)]
+pub fn group<T>(v: &[T], g: usize) -> &[T; LANES] {
+    v[g * LANES..][..LANES]
+        .try_into()
+        .expect("a slice of LANES elements")
+}
+
+/// [`group`], writable.
+#[inline(always)]
+pub fn group_mut<T>(v: &mut [T], g: usize) -> &mut [T; LANES] {
+    (&mut v[g * LANES..][..LANES])
+        .try_into()
+        .expect("a slice of LANES elements")
+}
 
 /// Marks a free slot in [`PathPool::job`].
 pub const FREE: u32 = u32::MAX;
@@ -37,6 +55,50 @@ impl Vec3s {
         self.x[i] = v.x;
         self.y[i] = v.y;
         self.z[i] = v.z;
+    }
+
+    /// The vectors of 16-lane group `g` (see [`group`]).
+    #[inline(always)]
+    pub fn group(&self, g: usize) -> Group3<'_> {
+        Group3([group(&self.x, g), group(&self.y, g), group(&self.z, g)])
+    }
+
+    /// [`Vec3s::group`], writable.
+    #[inline(always)]
+    pub fn group_mut(&mut self, g: usize) -> Group3Mut<'_> {
+        Group3Mut([
+            group_mut(&mut self.x, g),
+            group_mut(&mut self.y, g),
+            group_mut(&mut self.z, g),
+        ])
+    }
+}
+
+/// One 16-lane group of a [`Vec3s`]: x, y, z rows.
+pub struct Group3<'a>([&'a [f32; LANES]; 3]);
+
+impl Group3<'_> {
+    /// The vector of lane `l`.
+    #[inline(always)]
+    pub fn get(&self, l: usize) -> Vec3 {
+        Vec3::new(self.0[0][l], self.0[1][l], self.0[2][l])
+    }
+}
+
+/// One 16-lane group of a [`Vec3s`], writable.
+pub struct Group3Mut<'a>([&'a mut [f32; LANES]; 3]);
+
+impl Group3Mut<'_> {
+    /// The vector of lane `l`.
+    #[inline(always)]
+    pub fn get(&self, l: usize) -> Vec3 {
+        Vec3::new(self.0[0][l], self.0[1][l], self.0[2][l])
+    }
+
+    /// Stores `v` in lane `l`.
+    #[inline(always)]
+    pub fn set(&mut self, l: usize, v: Vec3) {
+        (self.0[0][l], self.0[1][l], self.0[2][l]) = (v.x, v.y, v.z);
     }
 }
 
