@@ -89,9 +89,7 @@ pub fn trace_chunk(
     let mut fill = Refill::default();
     let isa = crate::math::simd::isa();
     let bsdfs = &rs.scene.bsdfs;
-    let first_diffuse = bsdfs
-        .iter()
-        .position(|b| BsdfBatch::shares_diffuse_batch(b));
+    let first_diffuse = bsdfs.iter().position(BsdfBatch::shares_diffuse_batch);
     scratch.batch_key.clear();
     scratch
         .batch_key
