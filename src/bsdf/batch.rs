@@ -2,7 +2,7 @@
 //! and sampled in structure-of-arrays, as the packet integrator shades them (pbrt-v4's
 //! wavefront kernels are generic over the material in the same way). A kind with a batched
 //! kernel runs it — SoA twins of the scalar code for `diffuse` (and `twosided` over two
-//! diffuse sides), 16 evaluations per pass for a fitted BTF — and every other BSDF falls back
+//! diffuse sides) and `plastic`, 16 evaluations per pass for a fitted BTF — and every other BSDF falls back
 //! to the scalar code lane by lane through [`BsdfAt`], so a lane's result is always the same
 //! bits as [`Bsdf::at`] followed by its scalar calls.
 //!
@@ -11,7 +11,7 @@
 
 use super::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
 use super::plmc::{PREPARE_LANES, PlmcBsdf};
-use super::{Bsdf, BsdfAt, BsdfFlags, BsdfSample, Texture};
+use super::{Bsdf, BsdfAt, BsdfFlags, BsdfSample, Plastic, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -28,6 +28,8 @@ enum Kind<'a> {
     /// (see [`BsdfBatch::shares_diffuse_batch`]); a `twosided` diffuse lane seen from below runs
     /// them on z-mirrored directions with its back albedo, as [`crate::bsdf::TwoSided`].
     Diffuse,
+    /// Smooth plastic: SoA twins of its scalar code, each lane's textures read at its start.
+    Plastic(&'a Plastic),
     /// A fitted BTF: per-hit states 16 view lookups at once, emitter evaluations and BSDF
     /// samples 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
@@ -47,6 +49,8 @@ pub struct BsdfBatch<'a> {
     albedo: V3x,
     flip: Mx,
     edge_on: Mx,
+    /// Plastic lanes: the specular reflectance (the base's albedo is in `albedo`).
+    specular: V3x,
 }
 
 /// BSDF samples of a batch, per lane.
@@ -101,6 +105,7 @@ impl<'a> BsdfBatch<'a> {
         let kind = match bsdf {
             b if diffuse_sides(b).is_some() => Kind::Diffuse,
             Bsdf::Plmc(b) => Kind::Plmc(b),
+            Bsdf::Plastic(p) => Kind::Plastic(p),
             _ => Kind::Scalar,
         };
         BsdfBatch {
@@ -110,6 +115,7 @@ impl<'a> BsdfBatch<'a> {
             albedo: V3x::ZERO,
             flip: Mx::splat(false),
             edge_on: Mx::splat(false),
+            specular: V3x::ZERO,
         }
     }
 
@@ -143,6 +149,11 @@ impl<'a> BsdfBatch<'a> {
                 };
                 self.albedo.set(l, tex.eval(uv));
                 true
+            }
+            Kind::Plastic(p) => {
+                self.albedo.set(l, p.base(uv));
+                self.specular.set(l, p.specular_reflectance.eval(uv));
+                p.flags().has(BsdfFlags::SMOOTH)
             }
             // (Its per-hit states follow in `prepare`, for all lanes at once.)
             Kind::Plmc(b) => b.flags().has(BsdfFlags::SMOOTH),
@@ -191,6 +202,10 @@ impl<'a> BsdfBatch<'a> {
                 Fx::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
             );
         }
+        if let Kind::Plastic(p) = self.kind {
+            let (f, pdf) = p.eval_pdf_x(self.albedo, wi, wo);
+            return (f, Fx::select(delta, zero, pdf));
+        }
         let (mut f, mut pdf) = match self.kind {
             Kind::Plmc(b) => self.eval_plmc(b, want, wo, delta),
             _ => (V3x::ZERO, zero),
@@ -227,6 +242,18 @@ impl<'a> BsdfBatch<'a> {
                 weight: self.albedo,
                 eta: Fx::splat(1.0),
                 delta: Mx::splat(false),
+                ok,
+            };
+        }
+        if let Kind::Plastic(p) = self.kind {
+            let (wo, pdf, weight, delta, ok) =
+                p.sample_x(self.albedo, self.specular, wi, u_lobe, u_bsdf);
+            return BatchSample {
+                wo,
+                pdf,
+                weight,
+                eta: Fx::splat(1.0),
+                delta,
                 ok,
             };
         }

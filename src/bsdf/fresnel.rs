@@ -1,5 +1,6 @@
 //! Fresnel equations and mirror/refraction helpers in the local frame (Mitsuba 3 `fresnel.h`).
 
+use crate::math::simd::wide::Fx;
 use crate::math::{Spectrum, Vec3};
 
 /// Result of the dielectric Fresnel equations for one incident cosine.
@@ -52,6 +53,26 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> FresnelDielectric {
         eta_it,
         eta_ti,
     }
+}
+
+/// [`fresnel_dielectric`]'s reflectance `r` per lane, for one relative IOR `eta`: the same
+/// operations in the same order, branches turned into selects.
+#[inline(always)]
+pub fn fresnel_dielectric_r_x(cos_theta_i: Fx, eta: f32) -> Fx {
+    let outside = cos_theta_i.ge(Fx::splat(0.0));
+    let rcp_eta = 1.0 / eta;
+    let eta_it = Fx::select(outside, Fx::splat(eta), Fx::splat(rcp_eta));
+    let eta_ti = Fx::select(outside, Fx::splat(rcp_eta), Fx::splat(eta));
+    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
+    let cos_i = cos_theta_i.abs();
+    let cos_t = cos_theta_t_sqr.max(Fx::splat(0.0)).sqrt();
+    if eta == 1.0 {
+        return Fx::splat(0.0);
+    }
+    let a_s = (cos_i - eta_it * cos_t) / (cos_i + eta_it * cos_t);
+    let a_p = (cos_t - eta_it * cos_i) / (cos_t + eta_it * cos_i);
+    let r = 0.5 * (a_s * a_s + a_p * a_p);
+    Fx::select(cos_i.eq(Fx::splat(0.0)), Fx::splat(1.0), r)
 }
 
 /// Unpolarised Fresnel reflectance of a conductor with complex IOR `eta + i k`, light arriving
