@@ -100,7 +100,7 @@ pub fn remove_images(dir: &Path) -> Result<usize> {
         let e = e.map_err(|e| Error::io(dir, e))?;
         let name = e.file_name();
         if name.to_str().and_then(parse_name).is_some() && e.path().is_file() {
-            std::fs::remove_file(e.path()).map_err(|err| Error::io(&e.path(), err))?;
+            std::fs::remove_file(e.path()).map_err(|err| Error::io(e.path(), err))?;
             n += 1;
         }
     }

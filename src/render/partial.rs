@@ -46,7 +46,7 @@ pub fn input_fingerprint(path: &Path) -> Result<u32> {
         let list = |dir: &Path, prefix: &str, out: &mut Vec<(String, u64)>| -> Result<()> {
             for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
                 let e = e.map_err(|e| Error::io(dir, e))?;
-                let meta = e.metadata().map_err(|err| Error::io(&e.path(), err))?;
+                let meta = e.metadata().map_err(|err| Error::io(e.path(), err))?;
                 let name = format!("{prefix}{}", e.file_name().to_string_lossy());
                 out.push((name, if meta.is_dir() { u64::MAX } else { meta.len() }));
             }
