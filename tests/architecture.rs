@@ -271,6 +271,7 @@ fn doc_pointers_in_comments_name_files_that_exist() {
     }
     assert!(pointers > 10, "only {pointers} doc pointers found");
     assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
 
 /// Items of `crate::bsdf` that `code` names: the first segment after each `crate::bsdf::`
 /// (each top-level item of a `use crate::bsdf::{…}` group).
