@@ -1,7 +1,7 @@
 //! btfpt: an offline, physically based CPU path tracer whose signature material is the measured BTF,
 //! stored raw or as the clustered polynomial Lafortune model (PLM-C) of Filip & Haindl (2005).
 //!
-//! See `DESIGN.md` of the project (shared) for the conventions every module follows.
+//! See docs/conventions.md for the conventions every module follows and docs/architecture.md for the layers.
 
 // `!(x <= max)` is the deliberate NaN-rejecting form of a bound check throughout (a NaN must fail),
 // and the hot paths index several fixed-size lane arrays with one loop counter.

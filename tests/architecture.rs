@@ -235,6 +235,44 @@ fn no_source_file_is_over_the_line_limit() {
     );
 }
 
+/// Every page under docs/ that a comment in `src/` or `tests/` points to exists, and no comment points
+/// to the design notes kept outside the repository (their content lives in docs/).
+#[test]
+fn doc_pointers_in_comments_name_files_that_exist() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    rust_files(&src(), &mut files);
+    rust_files(&root.join("tests"), &mut files);
+    let mut bad = Vec::new();
+    let mut pointers = 0;
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        for (i, line) in text.lines().enumerate() {
+            let Some(comment) = line.find("//").map(|c| &line[c..]) else {
+                continue;
+            };
+            if comment.contains("DESIGN") {
+                bad.push(format!("{}:{}: cites DESIGN", f.display(), i + 1));
+            }
+            for (at, _) in comment.match_indices("docs/") {
+                let name: String = comment[at..]
+                    .chars()
+                    .take_while(|c| c.is_ascii_alphanumeric() || "/_-.".contains(*c))
+                    .collect();
+                let name = name.trim_end_matches('.');
+                if name.ends_with(".md") {
+                    pointers += 1;
+                    if !root.join(name).is_file() {
+                        bad.push(format!("{}:{}: {name} does not exist", f.display(), i + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(pointers > 10, "only {pointers} doc pointers found");
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
 /// Items of `crate::bsdf` that `code` names: the first segment after each `crate::bsdf::`
 /// (each top-level item of a `use crate::bsdf::{…}` group).
 fn bsdf_items(code: &str) -> BTreeSet<String> {

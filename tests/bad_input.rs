@@ -741,6 +741,124 @@ fn cases(dir: &Path) -> Vec<Case> {
         },
         vec!["a.exr"],
     );
+    add(
+        "synth-into-non-empty-folder",
+        "`synth` into a folder that already holds files",
+        &|d, o| {
+            let target = write(&o.join("btf").join("keep.txt"), b"x");
+            let _ = d;
+            os(&[
+                &"synth",
+                &"foil",
+                &"--size",
+                &"2",
+                &"-o",
+                &target.parent().unwrap(),
+            ])
+        },
+        vec!["btf", "not empty", "--force"],
+    );
+    add(
+        "convert-into-non-empty-folder",
+        "`convert` into a folder that already holds files",
+        &|d, o| {
+            let p = d.join("m.btfc");
+            btf::cache::write_raw(&tiny_btf(false), &p).unwrap();
+            let target = write(&o.join("btf").join("keep.txt"), b"x");
+            os(&[&"convert", &p, &target.parent().unwrap()])
+        },
+        vec!["btf", "not empty", "--force"],
+    );
+    add(
+        "merge-output-png",
+        "`merge -o` named `.png` (the merged image is linear EXR)",
+        &|d, o| {
+            let p = write(&d.join("a.exr"), b"not read: the output is checked first");
+            os(&[&"merge", &p, &p, &"-o", &o.join("m.png")])
+        },
+        vec!["m.png", ".exr"],
+    );
+    add(
+        "variance-not-exr",
+        "`render --variance` named `.png`",
+        &|d, o| {
+            let s = write(&d.join("s.xml"), scene(&ok_body_s(), "8", "8"));
+            os(&[
+                &"render",
+                &s,
+                &"-o",
+                &o.join("img.exr"),
+                &"--variance",
+                &o.join("var.png"),
+            ])
+        },
+        vec!["var.png", "--variance", ".exr"],
+    );
+    add(
+        "diff-not-png",
+        "`compare --diff` named `.exr` (the difference image is an 8-bit PNG)",
+        &|d, o| {
+            let a = d.join("a.exr");
+            btfpt::io::write_exr(&a, &RgbImage::new(2, 2)).unwrap();
+            os(&[&"compare", &a, &a, &"--diff", &o.join("d.exr")])
+        },
+        vec!["d.exr", "--diff", ".png"],
+    );
+    add(
+        "plot-not-png",
+        "`eval --plot` named `.jpg`",
+        &|d, o| {
+            let data = d.join("m.btfc");
+            btf::cache::write_raw(&tiny_btf(false), &data).unwrap();
+            let m = write(&d.join("m.plmc"), b"PLMC");
+            os(&[
+                &"eval",
+                &m,
+                &"--against",
+                &data,
+                &"--plot",
+                &o.join("p.jpg"),
+            ])
+        },
+        vec!["p.jpg", "--plot", ".png"],
+    );
+    add(
+        "tile-preview-jpg",
+        "`tile-preview -o` named `.jpg`",
+        &|d, o| {
+            let m = write(&d.join("m.plmc"), b"PLMC");
+            os(&[&"tile-preview", &m, &"-o", &o.join("t.jpg")])
+        },
+        vec!["t.jpg", ".png", ".exr"],
+    );
+    add(
+        "info-not-a-btf-folder",
+        "`info` of a folder that holds no BTF images",
+        &|d, _o| {
+            let junk = write(&d.join("junk").join("notes.txt"), b"x");
+            os(&[&"info", &junk.parent().unwrap()])
+        },
+        vec!["junk", "not a UBO2003"],
+    );
+    add(
+        "render-a-folder",
+        "`render` of a folder instead of a scene file",
+        &|d, o| {
+            let folder = d.join("scenes");
+            std::fs::create_dir_all(&folder).unwrap();
+            os(&[&"render", &folder, &"-o", &o.join("img.exr")])
+        },
+        vec!["scenes", "is a folder", "scene file"],
+    );
+    add(
+        "fit-a-model",
+        "`fit` given a fitted `.plmc` model instead of measured data",
+        &|d, o| {
+            let m = write(&d.join("m.plmc"), b"PLMC");
+            os(&[&"fit", &m, &"-o", &o.join("n.plmc")])
+        },
+        vec!["m.plmc", "measured data", "btfpt info", "btfpt eval"],
+    );
     v
 }
 

@@ -1,4 +1,4 @@
-//! Raw-BTF image regression against the committed Mitsuba 3 references (DESIGN §5, issue 7).
+//! Raw-BTF image regression against the committed Mitsuba 3 references (docs/validation.md).
 //!
 //! `scenes/btf-plane` (anisotropic synthetic corduroy on a tilted rectangle, point light, diffuse
 //! floor) and `scenes/btf-sphere` (the same BTF on a curved mesh under an environment map) use the

@@ -1,4 +1,4 @@
-//! PLM-C against the raw-BTF Mitsuba 3 references (DESIGN §5, issue 7: "the same BTF scene with
+//! PLM-C against the raw-BTF Mitsuba 3 references (docs/validation.md: "the same BTF scene with
 //! PLM-C, compared with the raw reference under a looser, justified bound").
 //!
 //! The test makes its model itself: it generates `synth:corduroy?size=32&seed=1` (the material of
@@ -106,6 +106,7 @@ fn load_scene_with_model(name: &str, model: &Path) -> Scene {
     let options = LoadOptions {
         defines: vec![("btf".to_string(), model.to_string_lossy().to_string())],
         btf_model: Some(BtfModel::Fitted(ModelKind::PlmC)),
+        ..LoadOptions::default()
     };
     scene::load(&p, &options).unwrap_or_else(|e| panic!("{e}"))
 }

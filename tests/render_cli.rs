@@ -37,6 +37,7 @@ fn merge_cli_combines_crops_and_reports_bad_input() {
             spp_end: 2,
             seed: 1,
             scene: 0x5eed,
+            whole: None,
         };
         write_partial_exr(&p, &r.mean_image(), &meta).unwrap();
         args.push(p.display().to_string());

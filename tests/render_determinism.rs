@@ -49,6 +49,7 @@ fn meta_of(st: &RenderState) -> PartialMeta {
         spp_end: s.spp_end,
         seed: s.seed,
         scene: 7,
+        whole: None,
     }
 }
 

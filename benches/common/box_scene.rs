@@ -63,6 +63,7 @@ pub fn box_scene(bsdfs: Vec<Bsdf>, walls: [u32; 5]) -> RenderScene {
     let up = dir.cross(left);
     let scene = Scene {
         btf_uses: Vec::new(),
+        inputs: Vec::new(),
         source: "box (in code)".into(),
         camera: Camera {
             to_world: Mat4::from_cols(

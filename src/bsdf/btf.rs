@@ -1,4 +1,4 @@
-//! The raw measured BTF as a material (DESIGN §2): barycentric interpolation over 3 measured views
+//! The raw measured BTF as a material (docs/conventions.md): barycentric interpolation over 3 measured views
 //! × 3 measured lights, nearest texel, eval = B/π (B is cosine-baked), one-sided.
 //!
 //! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]), built from the
@@ -187,7 +187,7 @@ impl BtfBsdf {
         self.uv_scale
     }
 
-    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (DESIGN §2).
+    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (docs/conventions.md).
     #[inline]
     pub fn texel(&self, uv: Vec2) -> (usize, usize) {
         let btf = &self.material.btf;

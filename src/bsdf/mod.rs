@@ -2,7 +2,7 @@
 //!
 //! Directions are local to the hit's shading frame: `si.wi` points toward the previous vertex (the
 //! camera side), `wo` toward the next one (the light side). `eval` returns f(wi, wo) · |cos θ_o|
-//! (for a measured BTF that is B/π, DESIGN §2); `sample` returns the sampled direction with the
+//! (for a measured BTF that is B/π, docs/conventions.md); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
 pub mod at;
@@ -127,9 +127,9 @@ pub enum Bsdf {
     NormalMap(NormalMap),
     /// Shading-frame perturbation from the gradient of a height texture around a nested BSDF.
     BumpMap(BumpMap),
-    /// Measured BTF (raw data), DESIGN §2.
+    /// Measured BTF (raw data), docs/conventions.md.
     Btf(BtfBsdf),
-    /// Measured BTF as a fitted LM / PLM / PLM-C model (DESIGN §4).
+    /// Measured BTF as a fitted LM / PLM / PLM-C model (docs/model.md).
     Plmc(PlmcBsdf),
 }
 

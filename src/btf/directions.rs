@@ -35,7 +35,7 @@ impl DirectionSet {
         Self::from_angles_deg(angles)
     }
 
-    /// The 81 directions of the Bonn UBO2003 database, in index order (DESIGN §3).
+    /// The 81 directions of the Bonn UBO2003 database, in index order (docs/formats.md).
     pub fn ubo2003() -> Self {
         Self::from_rings(&[
             (0.0, 1, 0.0),
@@ -73,7 +73,7 @@ impl DirectionSet {
         self.dirs.is_empty()
     }
 
-    /// The barycentric interpolator over this set (DESIGN §2): Delaunay triangulation of the
+    /// The barycentric interpolator over this set (docs/conventions.md, "Direction interpolation"): Delaunay triangulation of the
     /// directions projected to the unit disk plus a point-location grid. Built once at load.
     /// Errors if the set has fewer than 3 distinct directions, all on one plane through the
     /// normal, or a direction below the horizon.
@@ -124,7 +124,7 @@ impl TriGeom {
 }
 
 /// Barycentric interpolation over a measured direction set: for a query direction, the 3 measured
-/// directions and their weights (≥ 0, summing to 1) by the DESIGN §2 rule — of all triangles of
+/// directions and their weights (≥ 0, summing to 1) by the rule of docs/conventions.md — of all triangles of
 /// the Delaunay triangulation on the disk (x, y) = sin θ (cos φ, sin φ), take the one whose
 /// smallest barycentric weight is largest (the containing one inside the hull), clamp negative
 /// weights to 0 and renormalise (which extrapolates beyond the outermost ring).
@@ -285,7 +285,7 @@ impl DirectionInterp {
         (cy * self.grid + cx) as usize
     }
 
-    /// The triangle chosen by the DESIGN rule for the disk point `q`, with its unclamped
+    /// The triangle chosen by the docs/conventions.md rule for the disk point `q`, with its unclamped
     /// barycentric weights (all ≥ 0 iff `q` is inside the hull, up to rounding).
     #[inline]
     pub fn locate(&self, q: [f32; 2]) -> (usize, [f32; 3]) {
@@ -414,7 +414,7 @@ mod interp_tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Brute force of the DESIGN rule over all triangles: (best smallest weight, clamped weights).
+    /// Brute force of the docs/conventions.md rule over all triangles: (best smallest weight, clamped weights).
     fn brute(ip: &DirectionInterp, q: [f32; 2]) -> (f32, [u32; 3], [f32; 3]) {
         let mut best = (f32::NEG_INFINITY, [0u32; 3], [0f32; 3]);
         for tri in &ip.tris {

@@ -70,7 +70,10 @@ pub fn detect_format(path: &Path) -> Result<BtfFormat> {
 fn not_raw(path: &Path) -> Error {
     Error::format(
         path,
-        "a .plmc file is a fitted model, not raw BTF data (open it with the PLM-C reader)",
+        "a .plmc file is a fitted model, not raw BTF data: this command needs the measured data \
+         (a UBO2003 folder, a UBO2014 .btf, a .btfc cache or a synth: source); to inspect the \
+         model run `btfpt info MODEL.plmc`, to compare it with its data `btfpt eval MODEL.plmc \
+         --against DATA`, to render it name it in a scene's <bsdf type=\"btf\">",
     )
 }
 

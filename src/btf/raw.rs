@@ -26,7 +26,7 @@ impl StoredEncoding {
 }
 
 /// Anything that can hand out a BTF one view at a time (a folder on disk, a cache, memory).
-/// Values are linear RGB, cosine-baked (DESIGN §2).
+/// Values are linear RGB, cosine-baked (docs/conventions.md).
 pub trait BtfSource: Sync {
     fn views(&self) -> &DirectionSet;
     fn lights(&self) -> &DirectionSet;

@@ -1,5 +1,5 @@
 //! Bonn UBO2003 folder layout: 81 × 81 images named `NNNNN tlTTT plPPP tvTTT pvPPP.ext`
-//! (DESIGN §3), flat or with one sub-folder `tvTTT_pvPPP/` per view.
+//! (docs/formats.md), flat or with one sub-folder `tvTTT_pvPPP/` per view.
 //!
 //! Encodings: JPEG and PNG (8- or 16-bit) are sRGB-encoded integer images and are reported as
 //! [`StoredEncoding::Srgb8`] (the paper's MAE is taken on the sRGB code normalised to [0, 1]; for
@@ -89,6 +89,22 @@ fn parse_name(name: &str) -> Option<ImageName> {
         pv: digits(&stem[26..29])?,
         ext,
     })
+}
+
+/// Deletes the UBO2003 images (any of the accepted encodings) directly in `dir`, keeping every
+/// other file; returns how many were removed. Used before rewriting a folder in place, so it
+/// never holds images of two encodings.
+pub fn remove_images(dir: &Path) -> Result<usize> {
+    let mut n = 0;
+    for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let e = e.map_err(|e| Error::io(dir, e))?;
+        let name = e.file_name();
+        if name.to_str().and_then(parse_name).is_some() && e.path().is_file() {
+            std::fs::remove_file(e.path()).map_err(|err| Error::io(e.path(), err))?;
+            n += 1;
+        }
+    }
+    Ok(n)
 }
 
 /// Parses a per-view sub-folder name `tvTTT_pvPPP`.
@@ -224,6 +240,14 @@ impl Ubo2003Folder {
                 flat = true;
                 found.push((path, parsed));
             }
+        }
+        if found.is_empty() {
+            return Err(Error::format(
+                dir,
+                "not a UBO2003 BTF folder: it holds no image named like \
+                 'NNNNN tlTTT plPPP tvTTT pvPPP.png' (.jpg, .png or .exr), directly or in \
+                 tvTTT_pvPPP/ sub-folders",
+            ));
         }
         if flat && nested {
             return Err(Error::format(

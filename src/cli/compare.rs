@@ -96,7 +96,11 @@ fn same_size(a: &RgbImage, b: &RgbImage, pa: &Path, pb: &Path) -> anyhow::Result
 
 /// Runs `btfpt compare`.
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
-    super::output::check_optional_file(args.diff.as_ref())?;
+    super::output::optional_image_file(
+        args.diff.as_ref(),
+        &[super::output::ImageFile::Png],
+        "--diff",
+    )?;
     super::output::check_optional_file(args.json.as_ref())?;
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         bail!("--alpha {}: must be in (0, 1)", args.alpha);
@@ -237,7 +241,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
                     .to_string(),
             ),
         };
-        btfpt::io::write_png_srgb(p, &metrics::with_legend(&img, &label))?;
+        super::output::write_image(p, &metrics::with_legend(&img, &label))?;
         println!(
             "{}: {scale}; white = equal, blue = test darker, red = brighter, cyan/magenta \
              beyond the scale, yellow = non-finite; the scale is drawn under the image",

@@ -20,7 +20,7 @@ pub enum Images {
 /// Arguments of `btfpt convert`.
 #[derive(clap::Args, Debug)]
 pub struct ConvertArgs {
-    /// Input BTF: UBO2003 folder, UBO2014 `.btf` or `.btfc`.
+    /// Input BTF: UBO2003 folder, UBO2014 `.btf`, `.btfc` or a `synth:` source.
     pub input: PathBuf,
     /// Output: `NAME.btfc` for the cache, or a folder name without extension for UBO2003 images
     /// (any other extension is an error).
@@ -28,19 +28,32 @@ pub struct ConvertArgs {
     /// Image encoding when the output is a UBO2003 folder.
     #[arg(long, value_enum, default_value = "exr")]
     pub images: Images,
+    /// Write into an existing non-empty folder, replacing the UBO2003 images it holds.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Converts one BTF.
 pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
-    let out = super::output::btf_output(&args.output)?;
+    let out = super::output::btf_output(&args.output, args.force)?;
+    let input = super::btf_input::resolve(&args.input)?;
+    if args.input.is_dir()
+        && args.output.is_dir()
+        && args.input.canonicalize().ok() == args.output.canonicalize().ok()
+    {
+        anyhow::bail!(
+            "{}: the output is the input folder; convert into another folder",
+            args.output.display()
+        );
+    }
     let t0 = Instant::now();
     if out == super::output::BtfOutput::Cache {
-        let src = btf::open(&args.input)
-            .with_context(|| format!("cannot open {}", args.input.display()))?;
+        let src =
+            btf::open(&input).with_context(|| format!("cannot open {}", args.input.display()))?;
         btf::cache::write_cache(src.as_ref(), &args.output)?;
     } else {
-        let src = btf::open(&args.input)
-            .with_context(|| format!("cannot open {}", args.input.display()))?;
+        let src =
+            btf::open(&input).with_context(|| format!("cannot open {}", args.input.display()))?;
         let (nv, nl) = (src.views().len(), src.lights().len());
         drop(src);
         if (nv, nl) != (81, 81) {
@@ -51,12 +64,20 @@ pub fn run(args: ConvertArgs) -> anyhow::Result<()> {
                 args.input.display()
             );
         }
-        let raw = btf::load_raw(&args.input)?;
+        let raw = btf::load_raw(&input)?;
         let kind = match args.images {
             Images::Png8 => ImageKind::Png8,
             Images::Png16 => ImageKind::Png16,
             Images::Exr => ImageKind::Exr,
         };
+        if !matches!(args.images, Images::Exr) {
+            let flag = match args.images {
+                Images::Png8 => "--images png8",
+                _ => "--images png16",
+            };
+            super::output::warn_clipped(&raw, flag);
+        }
+        super::output::clear_btf_folder(&args.output)?;
         btf::ubo2003::write_folder(&raw, &args.output, kind)?;
     }
     println!(

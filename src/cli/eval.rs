@@ -135,10 +135,48 @@ fn seams(
     })
 }
 
+/// Says so when the model was fitted to data of another encoding than `--against` holds (a model
+/// fitted to 8-bit sRGB images against EXR data, or the reverse): its errors then mix two
+/// encodings and are no measure of the fit.
+fn warn_encoding_mismatch(
+    args: &EvalArgs,
+    model: &btfpt::model::PlmcModel,
+    data: btf::StoredEncoding,
+) {
+    use btfpt::model::ValueSpace;
+    let fitted_to = match model.space {
+        ValueSpace::Srgb => "8-bit sRGB-encoded data (e.g. PNG/JPEG images)",
+        ValueSpace::Linear => "linear float data (e.g. EXR images, .btf, synth:)",
+    };
+    let against = match data {
+        btf::StoredEncoding::Srgb8 => "8-bit sRGB-encoded images",
+        btf::StoredEncoding::Linear => "linear floats",
+    };
+    let same = matches!(
+        (model.space, data),
+        (ValueSpace::Srgb, btf::StoredEncoding::Srgb8)
+            | (ValueSpace::Linear, btf::StoredEncoding::Linear)
+    );
+    if !same {
+        eprintln!(
+            "warning: {} was fitted to {fitted_to}, but {} holds {against}: the errors below \
+             compare two encodings (MAE/RMSE in the stored encoding of {}), not the fit; \
+             evaluate against the data the model was fitted to",
+            args.model.display(),
+            args.against.display(),
+            args.against.display()
+        );
+    }
+}
+
 /// Runs `btfpt eval`.
 pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     super::output::check_optional_file(args.json.as_ref())?;
-    super::output::check_optional_file(args.plot.as_ref())?;
+    super::output::optional_image_file(
+        args.plot.as_ref(),
+        &[super::output::ImageFile::Png],
+        "--plot",
+    )?;
     let (model, section) = codec::read_tiled(&args.model)?;
     let stitch = section
         .as_ref()
@@ -147,7 +185,8 @@ pub fn run(args: EvalArgs) -> anyhow::Result<()> {
     let file_bytes = std::fs::metadata(&args.model)
         .with_context(|| format!("reading size of {}", args.model.display()))?
         .len() as usize;
-    let data = btf::open(&args.against)?;
+    let data = btf::open(&super::btf_input::resolve(&args.against)?)?;
+    warn_encoding_mismatch(&args, &model, data.encoding());
     let tiled = stitch
         .as_ref()
         .map(|s| tiling::TiledSource::new(&*data, s))

@@ -49,7 +49,7 @@ impl From<ClusterOnArg> for ClusterOn {
 /// Fit a reflectance model to a measured BTF and write a .plmc file.
 #[derive(clap::Args, Debug)]
 pub struct FitArgs {
-    /// The measured BTF (UBO2003 folder, UBO2014 .btf, or cache).
+    /// The measured BTF (UBO2003 folder, UBO2014 .btf, .btfc cache, or a synth: source).
     pub data: PathBuf,
     /// Output model file; finished views are kept in OUTPUT.parts/ until the fit succeeds.
     #[arg(short, long)]
@@ -136,7 +136,7 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let data = btf::open(&args.data)?;
+    let data = btf::open(&super::btf_input::resolve(&args.data)?)?;
     let stitch = match &spec {
         Some(spec) => {
             let t0 = std::time::Instant::now();

@@ -9,7 +9,8 @@ use std::time::Instant;
 /// Arguments of `btfpt info`.
 #[derive(clap::Args, Debug)]
 pub struct InfoArgs {
-    /// A UBO2003 image folder, a UBO2014 `.btf`, a `.btfc` cache or a fitted `.plmc` model.
+    /// A UBO2003 image folder, a UBO2014 `.btf`, a `.btfc` cache, a `synth:` source or a fitted
+    /// `.plmc` model.
     pub path: PathBuf,
     /// Compute the value statistics over at most this many views, evenly spaced (0 = all).
     #[arg(long, default_value_t = 0)]
@@ -67,9 +68,10 @@ fn describe_directions(set: &btf::DirectionSet) -> String {
 
 /// Prints the summary of a fitted `.plmc` model: kind, directions, size, clusters, value space,
 /// tiles, and the compression ratio against 8-bit raw data of the same texels.
-fn describe_model(path: &std::path::Path) -> anyhow::Result<()> {
+fn describe_model(path: &std::path::Path, heading: impl Fn()) -> anyhow::Result<()> {
     let t0 = Instant::now();
     let (model, tile) = btfpt::model::codec::read_tiled(path)?;
+    heading();
     let bytes = std::fs::metadata(path)
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
         .len();
@@ -94,19 +96,24 @@ fn describe_model(path: &std::path::Path) -> anyhow::Result<()> {
 
 /// Prints the summary of one BTF.
 pub fn run(args: InfoArgs) -> anyhow::Result<()> {
-    let path = &args.path;
+    let path = &super::btf_input::resolve(&args.path)?;
     let format = btf::detect_format(path)?;
-    println!("path:        {}", path.display());
-    println!("format:      {}", format.name());
+    // The format is printed only once the file opened as one: a folder that is not a BTF
+    // is an error, not a "UBO2003 image folder".
+    let heading = || {
+        println!("path:        {}", path.display());
+        println!("format:      {}", format.name());
+    };
     if format == BtfFormat::Plmc {
-        return describe_model(path);
+        return describe_model(path, heading);
     }
     let t0 = Instant::now();
     let src: Box<dyn btf::BtfSource + Send> = if format == BtfFormat::Ubo2014 {
         let b = btf::ubo2014::open_btf(path)?;
+        heading();
         let h = b.header();
         println!(
-            "header:      {} version {}, cosine flag {} ({}), rgb scale {:?}, colour model {:?}",
+            "header:      {} version {}, cosine flag {} ({}), rgb scale {:?} (not applied, as in btflib and btf.hh), colour model {:?}",
             h.signature,
             h.version,
             h.cosine_flag,
@@ -120,7 +127,9 @@ pub fn run(args: InfoArgs) -> anyhow::Result<()> {
         );
         Box::new(b)
     } else {
-        btf::open(path).with_context(|| format!("cannot open {}", path.display()))?
+        let src = btf::open(path).with_context(|| format!("cannot open {}", path.display()))?;
+        heading();
+        src
     };
     let open_s = t0.elapsed().as_secs_f64();
     let (nv, nl, w, h) = (

@@ -1,7 +1,7 @@
 //! `btfpt merge`: combine partial renders (crop windows and/or sample ranges of one film and
 //! seed) into the image a single render would have produced.
 
-use btfpt::render::partial::{merge, read_partial_exr, write_partial_exr};
+use btfpt::render::partial::{merge, missing_parts, read_partial_exr, write_partial_exr};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -11,15 +11,16 @@ pub struct MergeArgs {
     /// Partial renders written by `btfpt render` (--crop / --spp-range).
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
-    /// Merged EXR (a PNG preview is written next to it).
+    /// Merged EXR, named `.exr` (an sRGB PNG preview is written next to it).
     #[arg(short, long)]
     pub output: PathBuf,
 }
 
 /// Runs `btfpt merge`.
 pub fn run(args: MergeArgs) -> anyhow::Result<()> {
+    use super::output::{ImageFile, image_file};
+    image_file(&args.output, &[ImageFile::Exr], "the merged image (-o)")?;
     let png = args.output.with_extension("png");
-    super::output::check_file(&args.output)?;
     super::output::check_file(&png)?;
     let parts = args
         .inputs
@@ -34,6 +35,9 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let (img, meta) = merge(&parts, &names)?;
     write_partial_exr(&args.output, &img, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;
+    if let Some(m) = missing_parts(&meta) {
+        eprintln!("warning: {m}");
+    }
     let [x, y, w, h] = meta.crop;
     eprintln!(
         "merged {} inputs: window {x},{y},{w}×{h} of {}×{}, samples {}..{} → {}",

@@ -1,5 +1,6 @@
 //! Subcommands, one file each.
 
+pub mod btf_input;
 pub mod compare;
 pub mod convert;
 pub mod figures;

@@ -79,15 +79,18 @@ pub enum BtfOutput {
 
 /// The format an output path picks: `.btfc` is the cache, no extension a UBO2003 folder; any
 /// other extension is an error (instead of a folder called `x.btf`), and the output is checked
-/// as in [`check_file`] / [`check_folder`].
-pub fn btf_output(path: &Path) -> anyhow::Result<BtfOutput> {
+/// as in [`check_file`] / [`check_folder`]. An existing folder that holds anything is refused
+/// unless `force` (then its UBO2003 images are replaced, see [`clear_btf_folder`]), so a folder
+/// never ends up a mix of two BTFs or two encodings.
+pub fn btf_output(path: &Path, force: bool) -> anyhow::Result<BtfOutput> {
     let kind = match extension(path).as_deref() {
         _ if path.is_dir() => BtfOutput::Folder,
         Some("btfc") => BtfOutput::Cache,
         None => BtfOutput::Folder,
         Some("btf") => bail!(
-            "{}: btfpt does not write UBO2014 .btf files (they are factorised); name a .btfc \
-             cache or a folder without extension for UBO2003 images",
+            "{}: btfpt does not write UBO2014 .btf files (they hold a matrix factorisation, \
+             which btfpt does not compute); name a .btfc cache or a folder without extension \
+             for UBO2003 images",
             path.display()
         ),
         Some(other) => bail!(
@@ -98,7 +101,147 @@ pub fn btf_output(path: &Path) -> anyhow::Result<BtfOutput> {
     };
     match kind {
         BtfOutput::Cache => check_file(path)?,
-        BtfOutput::Folder => check_folder(path)?,
+        BtfOutput::Folder => {
+            check_folder(path)?;
+            let entries = std::fs::read_dir(path).map_or(0, |d| d.count());
+            if entries > 0 && !force {
+                bail!(
+                    "{}: the folder is not empty ({entries} {}); writing a BTF into it would \
+                     add to or replace what is there; name a new or empty folder, or pass \
+                     --force to replace its UBO2003 images",
+                    path.display(),
+                    if entries == 1 { "entry" } else { "entries" }
+                );
+            }
+        }
     }
     Ok(kind)
+}
+
+/// Removes the UBO2003 images (any encoding) of an existing output folder before a `--force`d
+/// write, so the folder holds one BTF in one encoding afterwards; other files are kept.
+pub fn clear_btf_folder(path: &Path) -> anyhow::Result<()> {
+    if path.is_dir() {
+        let n = btfpt::btf::ubo2003::remove_images(path)?;
+        if n > 0 {
+            eprintln!(
+                "--force: removed the {n} UBO2003 images that were in {}",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Says how many values an sRGB PNG encoding (`png8`, `png16`) clips at 1; the same values in
+/// EXR are kept. `option` names the flag that chose the encoding, for the message.
+pub fn warn_clipped(btf: &btfpt::btf::RawBtf, option: &str) {
+    let values = btf.data();
+    let clipped = values.iter().filter(|v| v.to_f32() > 1.0).count();
+    if clipped > 0 {
+        let max = values.iter().map(|v| v.to_f32()).fold(0.0f32, f32::max);
+        eprintln!(
+            "warning: {clipped} of {} values ({:.3}%) exceed 1 (up to {max:.2}) and are clipped to 1 \
+             by {option}; exr keeps them",
+            values.len(),
+            100.0 * clipped as f64 / values.len().max(1) as f64
+        );
+    }
+}
+
+/// The encoding of an image output, chosen by its extension (the one rule for every command:
+/// the bytes written are always what the extension says).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFile {
+    /// `.exr`: linear 32-bit float RGB, unclamped.
+    Exr,
+    /// `.png`: 8-bit sRGB-encoded RGB, clamped to [0, 1].
+    Png,
+}
+
+/// Both encodings: outputs written as `.png` or `.exr`, as the user names them.
+pub const ANY_IMAGE: [ImageFile; 2] = [ImageFile::Png, ImageFile::Exr];
+
+impl ImageFile {
+    fn extension(self) -> &'static str {
+        match self {
+            ImageFile::Exr => "exr",
+            ImageFile::Png => "png",
+        }
+    }
+    fn describe(self) -> &'static str {
+        match self {
+            ImageFile::Exr => ".exr (linear 32-bit float)",
+            ImageFile::Png => ".png (8-bit sRGB)",
+        }
+    }
+}
+
+/// Checks an image output before any work: its extension must name one of the encodings
+/// `accepted` by this output (`what`, e.g. "--diff"), compared case-insensitively, and the file
+/// must be writable as in [`check_file`]. Returns the encoding to write.
+pub fn image_file(path: &Path, accepted: &[ImageFile], what: &str) -> anyhow::Result<ImageFile> {
+    let ext = extension(path);
+    let Some(kind) = accepted
+        .iter()
+        .copied()
+        .find(|k| ext.as_deref() == Some(k.extension()))
+    else {
+        let names: Vec<&str> = accepted.iter().map(|k| k.describe()).collect();
+        bail!(
+            "{}: {what} is written as {}; name the file with that extension",
+            path.display(),
+            names.join(" or ")
+        );
+    };
+    check_file(path)?;
+    Ok(kind)
+}
+
+/// [`image_file`] for an optional output.
+pub fn optional_image_file(
+    path: Option<&PathBuf>,
+    accepted: &[ImageFile],
+    what: &str,
+) -> anyhow::Result<Option<ImageFile>> {
+    path.map(|p| image_file(p, accepted, what)).transpose()
+}
+
+/// Writes `img` (linear RGB) in the encoding its extension picked by [`image_file`].
+pub fn write_image(path: &Path, img: &btfpt::io::RgbImage) -> anyhow::Result<()> {
+    match extension(path).as_deref() {
+        Some("exr") => btfpt::io::write_exr(path, img)?,
+        Some("png") => btfpt::io::write_png_srgb(path, img)?,
+        _ => bail!("{}: not an .exr or .png image file name", path.display()),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn image_outputs_must_carry_the_extension_of_their_encoding() {
+        let dir = tempfile::tempdir().unwrap();
+        let both = [ImageFile::Png, ImageFile::Exr];
+        let p = dir.path().join("a.EXR");
+        assert_eq!(image_file(&p, &both, "-o").unwrap(), ImageFile::Exr);
+        let p = dir.path().join("a.png");
+        assert_eq!(image_file(&p, &both, "-o").unwrap(), ImageFile::Png);
+        let e = image_file(&p, &[ImageFile::Exr], "--variance")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("a.png") && e.contains("--variance") && e.contains(".exr"),
+            "{e}"
+        );
+        let e = image_file(&dir.path().join("a.jpg"), &both, "-o")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("a.jpg") && e.contains(".png") && e.contains(".exr"),
+            "{e}"
+        );
+    }
 }

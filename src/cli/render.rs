@@ -6,7 +6,9 @@ use anyhow::{Context, bail};
 use btfpt::render::driver::{self, Checkpointing, DriverOptions, Outcome};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
-use btfpt::render::partial::{PartialMeta, scene_fingerprint, write_partial_exr};
+use btfpt::render::partial::{
+    PartialMeta, inputs_fingerprint, scene_fingerprint, write_partial_exr,
+};
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -44,7 +46,7 @@ pub struct RenderArgs {
     /// Override a scene `<default>` parameter, e.g. -D spp=64 (repeatable).
     #[arg(short = 'D', value_name = "NAME=VALUE")]
     pub defines: Vec<String>,
-    /// Also write the per-pixel variance of the mean to this EXR.
+    /// Also write the per-pixel variance of the mean to this EXR (named `.exr`).
     #[arg(long, value_name = "VAR.EXR")]
     pub variance: Option<PathBuf>,
     /// Continue from the checkpoint of an interrupted render with the same options.
@@ -160,6 +162,12 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let range = args.spp_range.as_deref().map(parse_range).transpose()?;
     let crop_arg = args.crop.as_deref().map(parse_crop).transpose()?;
     let band = args.band.as_deref().map(parse_band).transpose()?;
+    if args.scene.is_dir() {
+        bail!(
+            "{}: is a folder; name the scene file in it (.xml, .gltf or .glb)",
+            args.scene.display()
+        );
+    }
     if !args.scene.is_file() {
         bail!("{}: scene file not found", args.scene.display());
     }
@@ -167,18 +175,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .output
         .clone()
         .unwrap_or_else(|| args.scene.with_extension("exr"));
-    if out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        != Some("exr".into())
     {
-        bail!("{}: the output must be an .exr file", out.display());
+        use super::output::{ImageFile, image_file, optional_image_file};
+        image_file(&out, &[ImageFile::Exr], "the render (-o)")?;
+        optional_image_file(args.variance.as_ref(), &[ImageFile::Exr], "--variance")?;
     }
     let png = out.with_extension("png");
-    for path in [Some(&out), Some(&png), args.variance.as_ref()] {
-        super::output::check_optional_file(path)?;
-    }
+    super::output::check_file(&png)?;
     let load_options = btfpt::scene::LoadOptions {
         defines: defines.clone(),
         btf_model: args
@@ -186,6 +189,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .as_deref()
             .map(btfpt::model::BtfModel::parse)
             .transpose()?,
+        synth_cache: btfpt::btf::synth::disk_cache::default_cache_dir(),
     };
     let scene = btfpt::scene::load(&args.scene, &load_options)?;
     if scene.meshes.is_empty() && scene.emitters.is_empty() {
@@ -209,6 +213,8 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             .crop
             .unwrap_or([0, 0, scene.camera.width, scene.camera.height]),
     };
+    // The window a band splits: what `merge` needs all of.
+    let whole = crop;
     if let Some((i, n)) = band {
         let [_, y, _, h] = crop;
         if n > h {
@@ -239,21 +245,23 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         bail!("--variance needs at least 2 samples per pixel");
     }
     let ckpt = with_suffix(&out, ".ckpt");
-    // The BTF model override changes the image: a checkpoint of another model must not resume.
+    // What changes the image: the BTF model override and the files the scene reads (a part
+    // rendered with another BTF or mesh must not merge, a checkpoint of it must not resume).
     let mut fp_defines = defines.clone();
     if let Some(m) = &args.btf_model {
         fp_defines.push(("--btf-model".into(), m.clone()));
     }
-    // So does the integrator once its batched kernels round differently: packet checkpoints are
-    // their own (scalar fingerprints stay as they were).
+    fp_defines.push(("inputs".into(), inputs_fingerprint(&scene.inputs)?));
+    let scene_bytes = std::fs::read(&args.scene)
+        .with_context(|| format!("{}: cannot read the scene file", args.scene.display()))?;
+    // The integrators give the same image bits, so parts of either merge; a checkpoint holds
+    // the integrator's own sums and resumes only with the same one.
+    let scene_fp = scene_fingerprint(&scene_bytes, &format!("{fp_defines:?}"));
     let integrator = args.integrator.as_deref().unwrap_or("packet");
     if integrator != "scalar" {
         fp_defines.push(("--integrator".into(), integrator.to_string()));
     }
     let fp = fingerprint(&args.scene, &fp_defines, &settings);
-    let scene_bytes = std::fs::read(&args.scene)
-        .with_context(|| format!("{}: cannot read the scene file", args.scene.display()))?;
-    let scene_fp = scene_fingerprint(&scene_bytes, &format!("{fp_defines:?}"));
 
     let scene_spp = scene.spp;
     let btf_uses = scene.btf_uses.clone();
@@ -270,12 +278,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     eprintln!("{}", rs.summary());
     for b in &btf_uses {
         eprintln!(
-            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s",
+            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s{}",
             b.file.display(),
             b.model,
             b.texels.0,
             b.texels.1,
-            b.seconds
+            b.seconds,
+            b.origin
+                .as_ref()
+                .map_or(String::new(), |o| format!(" ({o})"))
         );
     }
     let [cx, cy, cw, ch] = crop;
@@ -359,6 +370,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         spp_end,
         seed: args.seed,
         scene: scene_fp,
+        whole: Some(whole),
     };
     write_partial_exr(&out, &img, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;

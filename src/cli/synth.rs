@@ -4,7 +4,6 @@
 use super::output::BtfOutput;
 use anyhow::{Context, bail};
 use btfpt::btf::DirectionSet;
-use btfpt::btf::RawBtf;
 use btfpt::btf::cache::write_raw;
 use btfpt::btf::synth::{MaterialKind, SynthSettings, measure};
 use btfpt::btf::ubo2003::{ImageKind, write_folder};
@@ -48,6 +47,9 @@ pub struct SynthArgs {
     /// Largest B one sample's inter-reflection may add (inf = unbiased, noisier).
     #[arg(long, default_value_t = 1.0)]
     pub indirect_clamp: f32,
+    /// Write into an existing non-empty folder, replacing the UBO2003 images it holds.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
@@ -67,21 +69,6 @@ fn parse_size(s: &str) -> anyhow::Result<(usize, usize)> {
             let n = parse(s)?;
             Ok((n, n))
         }
-    }
-}
-
-/// Says how many values an sRGB PNG folder clips at 1 (the same values in EXR are kept).
-fn warn_clipped(btf: &RawBtf, format: &str) {
-    let values = btf.data();
-    let clipped = values.iter().filter(|v| v.to_f32() > 1.0).count();
-    if clipped > 0 {
-        let max = values.iter().map(|v| v.to_f32()).fold(0.0f32, f32::max);
-        eprintln!(
-            "warning: {clipped} of {} values ({:.3}%) exceed 1 (up to {max:.2}) and are clipped to 1 \
-             by --format {format}; --format exr keeps them",
-            values.len(),
-            100.0 * clipped as f64 / values.len().max(1) as f64
-        );
     }
 }
 
@@ -112,7 +99,7 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
     let Some(out) = args.output else {
         bail!("synth: give an output with -o (a folder, or NAME.btfc)");
     };
-    let target = super::output::btf_output(&out)?;
+    let target = super::output::btf_output(&out, args.force)?;
     if target == BtfOutput::Folder && args.directions.eq_ignore_ascii_case("ubo2014") {
         bail!(
             "{}: --directions ubo2014 has 151 directions but a UBO2003 folder holds the 81 \
@@ -148,8 +135,9 @@ pub fn run(args: SynthArgs) -> anyhow::Result<()> {
         BtfOutput::Cache => write_raw(&btf, &out)?,
         BtfOutput::Folder => {
             if kind != ImageKind::Exr {
-                warn_clipped(&btf, &args.format);
+                super::output::warn_clipped(&btf, &format!("--format {}", args.format));
             }
+            super::output::clear_btf_folder(&out)?;
             write_folder(&btf, &out, kind)
                 .with_context(|| format!("writing the UBO2003 folder {}", out.display()))?
         }

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, bail};
 use btfpt::btf::tiling;
-use btfpt::io::{RgbImage, write_png_srgb};
+use btfpt::io::RgbImage;
 use btfpt::math::rng::mix64;
 use btfpt::model::codec;
 use std::path::PathBuf;
@@ -13,7 +13,7 @@ use std::path::PathBuf;
 pub struct TilePreviewArgs {
     /// The model file (.plmc).
     pub model: PathBuf,
-    /// Output PNG (sRGB).
+    /// Output image: `.png` (8-bit sRGB) or `.exr` (linear float), by its extension.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Grid of tiles: CxR (or N for N×N).
@@ -50,7 +50,7 @@ pub struct TilePreviewArgs {
 
 /// Runs `btfpt tile-preview`.
 pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
-    super::output::check_file(&a.output)?;
+    super::output::image_file(&a.output, &super::output::ANY_IMAGE, "-o")?;
     let (cols, rows) = tiling::parse_size(&a.repeat).context("--repeat")?;
     if cols * rows > 1 << 16 {
         bail!("--repeat {cols}x{rows}: at most 65536 cells");
@@ -102,7 +102,7 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
                 )
             })?;
             let stitch = section.stitch(&a.model)?;
-            let source = btfpt::btf::open(d)?;
+            let source = btfpt::btf::open(&super::btf_input::resolve(d)?)?;
             if (source.width(), source.height()) != (stitch.sample_w, stitch.sample_h)
                 || source.views().len() != model.views.len()
                 || source.lights().len() != model.lights.len()
@@ -152,7 +152,7 @@ pub fn run(a: TilePreviewArgs) -> anyhow::Result<()> {
             }
         }
     }
-    write_png_srgb(&a.output, &out)?;
+    super::output::write_image(&a.output, &out)?;
     println!(
         "{}: {}×{} texels, {cols}×{rows} cells of {tw}×{th} ({count} tile{}), view {} light {}",
         a.output.display(),

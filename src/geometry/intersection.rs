@@ -11,7 +11,7 @@ pub struct SurfaceInteraction {
     pub t: f32,
     /// Unit geometric normal (world), from the triangle winding (p1 − p0) × (p2 − p0).
     pub n: Vec3,
-    /// Shading frame: n = interpolated shading normal, s from ∂p/∂u (DESIGN §2).
+    /// Shading frame: n = interpolated shading normal, s from ∂p/∂u (docs/conventions.md).
     pub sh_frame: Frame,
     /// Texture coordinates.
     pub uv: Vec2,

@@ -23,7 +23,7 @@ impl Frame {
         Frame { s, t, n }
     }
 
-    /// The BTF shading frame of DESIGN §2: s = normalize(∂p/∂u − n (n·∂p/∂u)), t = n × s.
+    /// The BTF shading frame of docs/conventions.md: s = normalize(∂p/∂u − n (n·∂p/∂u)), t = n × s.
     /// Falls back to [`Frame::from_normal`] when ∂p/∂u is zero or parallel to n.
     pub fn from_normal_tangent(n: Vec3, dpdu: Vec3) -> Self {
         let s = dpdu - n * n.dot(dpdu);

@@ -1,5 +1,5 @@
 //! Deterministic random numbers: the stream of a sample is a pure function of (seed, pixel, sample
-//! index), never of the thread or tile schedule (DESIGN §2).
+//! index), never of the thread or tile schedule (docs/conventions.md, "Determinism").
 
 /// PCG32 (O'Neill 2014, XSH-RR variant): small state, good statistics, cheap to seed per sample.
 #[derive(Clone, Debug)]

@@ -2,7 +2,7 @@
 //! reconstruction at the measured directions.
 //!
 //! A reconstruction is `max(0, Σ_j a_j Y^j)` with `Y = ρ·max(0, D·u)^n` (LM: the polynomial is the
-//! identity), in the model's [`ValueSpace`]: linear cosine-baked RGB (DESIGN §2), or the sRGB
+//! identity), in the model's [`ValueSpace`]: linear cosine-baked RGB (docs/conventions.md), or the sRGB
 //! encoding for models fitted to 8-bit data in their stored encoding (then decoded with the sRGB
 //! EOTF to give the BTF value).
 

@@ -183,6 +183,7 @@ pub(crate) mod tests_support {
     pub fn empty_scene(emitters: Vec<Emitter>) -> Scene {
         Scene {
             btf_uses: Vec::new(),
+            inputs: Vec::new(),
             source: "test.xml".into(),
             camera: Camera {
                 to_world: Mat4::IDENTITY,

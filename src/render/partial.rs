@@ -1,8 +1,9 @@
-//! Partial renders as EXR files (DESIGN §6): the image holds the per-pixel *mean* of the
-//! samples [spp_begin, spp_end) of the pixels in a window of the full film. The window is the
-//! EXR data window inside the display window (the full film), and one text attribute `btfpt`
-//! records film size, window, sample range, seed and a fingerprint of the scene and options (so
-//! parts of different renders are never merged). Merging weights each input by its sample
+//! Partial renders as EXR files (docs/formats.md, docs/farm.md): the image holds the per-pixel
+//! *mean* of the samples [spp_begin, spp_end) of the pixels in a window of the full film. The
+//! window is the EXR data window inside the display window (the full film), and one text
+//! attribute `btfpt` records film size, window, sample range, seed, a fingerprint of the scene,
+//! the files it reads and the options (so parts of different renders are never merged), and
+//! the window of the whole render the part belongs to (so a merge can say what is missing). Merging weights each input by its sample
 //! count, so crop tiles and sample-range splits recombine into the single-machine image (bit
 //! for bit for crop tiles, to float rounding for sample ranges).
 
@@ -25,6 +26,71 @@ pub struct PartialMeta {
     pub seed: u64,
     /// [`scene_fingerprint`] of the scene file and the options that change the image.
     pub scene: u64,
+    /// The window (x, y, w, h) of the whole render this part was split from (`--band` splits
+    /// it); None in files written before it was recorded.
+    pub whole: Option<[u32; 4]>,
+}
+
+/// Largest prefix of a file read for its fingerprint: its header and the start of its data.
+const FINGERPRINT_PREFIX: u64 = 1 << 20;
+
+/// Identifies the content of a file the scene reads (mesh, texture, BTF data or model) cheaply
+/// and independently of where it lies: its size and the CRC-32 of its first MiB. A folder (a
+/// UBO2003 BTF) is identified by the names and sizes of its files, one sub-folder level deep. A
+/// name that is no file (a `synth:` source) stands for itself.
+pub fn input_fingerprint(path: &Path) -> Result<u32> {
+    use std::io::Read;
+    let mut h = crc32fast::Hasher::new();
+    if path.is_dir() {
+        let mut entries: Vec<(String, u64)> = Vec::new();
+        let list = |dir: &Path, prefix: &str, out: &mut Vec<(String, u64)>| -> Result<()> {
+            for e in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+                let e = e.map_err(|e| Error::io(dir, e))?;
+                let meta = e.metadata().map_err(|err| Error::io(e.path(), err))?;
+                let name = format!("{prefix}{}", e.file_name().to_string_lossy());
+                out.push((name, if meta.is_dir() { u64::MAX } else { meta.len() }));
+            }
+            Ok(())
+        };
+        list(path, "", &mut entries)?;
+        let subdirs: Vec<String> = entries
+            .iter()
+            .filter(|e| e.1 == u64::MAX)
+            .map(|e| e.0.clone())
+            .collect();
+        for d in subdirs {
+            list(&path.join(&d), &format!("{d}/"), &mut entries)?;
+        }
+        entries.sort();
+        h.update(b"folder");
+        for (name, len) in entries {
+            h.update(name.as_bytes());
+            h.update(&len.to_le_bytes());
+        }
+    } else if path.is_file() {
+        let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+        let mut prefix = Vec::new();
+        f.take(FINGERPRINT_PREFIX)
+            .read_to_end(&mut prefix)
+            .map_err(|e| Error::io(path, e))?;
+        h.update(b"file");
+        h.update(&len.to_le_bytes());
+        h.update(&prefix);
+    } else {
+        h.update(b"name");
+        h.update(path.to_string_lossy().as_bytes());
+    }
+    Ok(h.finalize())
+}
+
+/// [`input_fingerprint`] of every file in order, as text for [`scene_fingerprint`]'s options.
+pub fn inputs_fingerprint(paths: &[std::path::PathBuf]) -> Result<String> {
+    let mut s = String::from("inputs");
+    for p in paths {
+        s.push_str(&format!(" {:08x}", input_fingerprint(p)?));
+    }
+    Ok(s)
 }
 
 /// Identifies what a partial render is a part of: the scene file's bytes and the options that
@@ -47,8 +113,11 @@ const ATTR: &str = "btfpt";
 impl PartialMeta {
     fn to_text(self) -> String {
         let [x, y, w, h] = self.crop;
+        let whole = self.whole.map_or(String::new(), |[x, y, w, h]| {
+            format!(" whole={x},{y},{w},{h}")
+        });
         format!(
-            "v2 film={}x{} window={x},{y},{w},{h} spp={}..{} seed={} scene={:016x}",
+            "v2 film={}x{} window={x},{y},{w},{h} spp={}..{} seed={} scene={:016x}{whole}",
             self.width, self.height, self.spp_begin, self.spp_end, self.seed, self.scene
         )
     }
@@ -79,15 +148,22 @@ impl PartialMeta {
         let spp = field("spp")?;
         let seed = field("seed")?;
         let scene = field("scene")?;
+        // Optional trailing fields (older readers ignore them).
+        let whole = match it.next() {
+            None => None,
+            Some(kv) => Some(kv.strip_prefix("whole=").ok_or_else(bad)?),
+        };
         let (fw, fh) = film.split_once('x').ok_or_else(bad)?;
-        let win: Vec<u32> = window
-            .split(',')
-            .map(|v| v.parse().map_err(|_| bad()))
-            .collect::<Result<_>>()?;
+        let window4 = |text: &str| -> Result<[u32; 4]> {
+            let v: Vec<u32> = text
+                .split(',')
+                .map(|v| v.parse().map_err(|_| bad()))
+                .collect::<Result<_>>()?;
+            v.try_into().map_err(|_| bad())
+        };
+        let win = window4(&window)?;
+        let whole = whole.map(window4).transpose()?;
         let (a, b) = spp.split_once("..").ok_or_else(bad)?;
-        if win.len() != 4 {
-            return Err(bad());
-        }
         let m = PartialMeta {
             width: fw.parse().map_err(|_| bad())?,
             height: fh.parse().map_err(|_| bad())?,
@@ -96,6 +172,7 @@ impl PartialMeta {
             spp_end: b.parse().map_err(|_| bad())?,
             seed: seed.parse().map_err(|_| bad())?,
             scene: u64::from_str_radix(&scene, 16).map_err(|_| bad())?,
+            whole,
         };
         let [x, y, w, h] = m.crop;
         if m.spp_begin >= m.spp_end
@@ -224,8 +301,9 @@ pub fn merge(
         if m.scene != first.scene {
             return Err(Error::Invalid(format!(
                 "{}: rendered from another scene or with other options than {} (scene \
-                 fingerprint {:016x} vs {:016x}: scene file, -D defines or --btf-model differ); \
-                 merging them would mix two images",
+                 fingerprint {:016x} vs {:016x}: the scene file, a file it reads (mesh, \
+                 texture, BTF data or model), -D defines or --btf-model differ); merging them \
+                 would mix two images",
                 name(i),
                 name(0),
                 m.scene,
@@ -336,6 +414,25 @@ pub fn merge(
             spp_end,
             seed: first.seed,
             scene: first.scene,
+            whole: first.whole,
         },
+    ))
+}
+
+/// What a merged part lacks of its whole render: None if it covers the whole window (or the
+/// inputs did not record it), else a sentence naming the window covered and the whole one.
+pub fn missing_parts(meta: &PartialMeta) -> Option<String> {
+    let whole = meta.whole?;
+    if whole == meta.crop {
+        return None;
+    }
+    let [x, y, w, h] = meta.crop;
+    let [wx, wy, ww, wh] = whole;
+    Some(format!(
+        "the merged image covers window {x},{y},{w}×{h} (rows {y}..{}) of the render's window \
+         {wx},{wy},{ww}×{wh} (rows {wy}..{}): bands or tiles are missing, and the output holds \
+         only the part given",
+        y + h,
+        wy + wh
     ))
 }

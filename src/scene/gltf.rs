@@ -121,6 +121,20 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
     }
     let (doc, buffers, images) =
         ::gltf::import(path).map_err(|e| Error::format(path, format!("cannot load glTF: {e}")))?;
+    // External buffers and images (not `data:` URIs, not the .glb's own chunk).
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let external = |uri: &str| (!uri.starts_with("data:")).then(|| dir.join(uri));
+    let inputs: Vec<std::path::PathBuf> = doc
+        .buffers()
+        .filter_map(|b| match b.source() {
+            ::gltf::buffer::Source::Uri(u) => external(u),
+            ::gltf::buffer::Source::Bin => None,
+        })
+        .chain(doc.images().filter_map(|i| match i.source() {
+            ::gltf::image::Source::Uri { uri, .. } => external(uri),
+            ::gltf::image::Source::View { .. } => None,
+        }))
+        .collect();
     let scene = doc
         .default_scene()
         .or_else(|| doc.scenes().next())
@@ -156,6 +170,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
         bsdfs: b.bsdfs,
         emitters: b.emitters,
         btf_uses: Vec::new(),
+        inputs,
     })
 }
 

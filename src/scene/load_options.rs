@@ -12,6 +12,10 @@ pub struct LoadOptions {
     /// Model used by every `<bsdf type="btf">` instead of its own `model` property (the CLI's
     /// `--btf-model`); None leaves the scene as written.
     pub btf_model: Option<BtfModel>,
+    /// Folder where generated `synth:` materials are kept between processes (the CLI passes
+    /// the user's cache folder, [`crate::btf::synth::disk_cache::default_cache_dir`]); None
+    /// generates them in memory, once per process.
+    pub synth_cache: Option<std::path::PathBuf>,
 }
 
 impl LoadOptions {

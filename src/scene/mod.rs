@@ -162,6 +162,9 @@ pub struct Scene {
     pub emitters: Vec<Emitter>,
     /// The file and model each `<bsdf type="btf">` renders, in scene order (for the summary).
     pub btf_uses: Vec<btf_bsdf::BtfUse>,
+    /// Every file the scene reads besides its own (included files, meshes, textures, BTF data
+    /// and models), in load order: what a partial render's fingerprint covers.
+    pub inputs: Vec<std::path::PathBuf>,
 }
 
 /// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`), with the caller's

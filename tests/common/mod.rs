@@ -13,9 +13,15 @@ use std::sync::atomic::AtomicBool;
 /// Mitsuba's `lookat` (camera x = left): the library's, re-exported for the tests.
 pub use btfpt::math::transform::look_at as lookat;
 
-/// The `btfpt` binary built for these tests, ready for arguments.
+/// The `btfpt` binary built for these tests, ready for arguments; its `synth:` cache is a folder
+/// of the build's scratch space, never the user's cache.
 pub fn btfpt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_btfpt"))
+    let mut c = Command::new(env!("CARGO_BIN_EXE_btfpt"));
+    c.env(
+        "BTFPT_CACHE_DIR",
+        std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("synth-cache"),
+    );
+    c
 }
 
 /// Runs `btfpt ARGS` to completion: (exit success, stdout, stderr).
@@ -45,6 +51,7 @@ pub fn scene(
 ) -> Scene {
     Scene {
         btf_uses: Vec::new(),
+        inputs: Vec::new(),
         source: "in-code.xml".into(),
         camera: Camera {
             to_world: lookat(origin, target, Vec3::Y),

@@ -53,7 +53,7 @@ impl PlmcBsdf {
         &self.material
     }
 
-    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (DESIGN §2).
+    /// Texel (column, row) of uv: ⌊frac(u·uv_scale)·W⌋, ⌊frac(v·uv_scale)·H⌋ (docs/conventions.md).
     #[inline]
     pub fn texel(&self, uv: Vec2) -> (usize, usize) {
         let m = &self.material;

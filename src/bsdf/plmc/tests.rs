@@ -234,7 +234,7 @@ fn eval_at_measured_directions_is_the_reconstruction() {
     }
 }
 
-/// Straightforward scalar reference of the DESIGN §4 rendering rule, with the two range clamps.
+/// Straightforward scalar reference of the docs/model.md rendering rule, with the two range clamps.
 fn reference_b(
     m: &PlmcModel,
     interp: &DirectionInterp,
@@ -544,7 +544,7 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     let id = |f: &str| PathBuf::from(f);
     let build = |line: u32, file: &str, uv: f32, m: Option<&str>| {
         let m = m.map(|m| BtfModel::parse(m).unwrap());
-        build_btf(scene, line, file, &id, uv, m)
+        build_btf(scene, line, file, &id, uv, m, None)
     };
     let (a, used) = build(3, &mat, 1.0, Some("plmc")).unwrap();
     assert_eq!(used.model, BtfModel::Fitted(ModelKind::PlmC));

@@ -1,6 +1,6 @@
 //! The virtual gonioreflectometer: per view an orthographic camera rectified to the reference
 //! plane, per light a directional source of unit irradiance; self-shadowing, masking and one
-//! BRDF-sampled bounce of inter-reflection. Output B = π · L_o (DESIGN §2).
+//! BRDF-sampled bounce of inter-reflection. Output B = π · L_o (docs/conventions.md).
 //!
 //! Work per view: camera rays and bounce rays depend only on the view, so they are traced once per
 //! sub-texel sample and cached; then, light by light, only the two shadow rays and two BRDF

@@ -30,7 +30,9 @@ pub enum ColorModel {
     Rgb,
     /// 1: YUV.
     Yuv,
-    /// 3: PCA colour space: rgb = v · M + mean (M stored column-major).
+    /// 3: PCA colour space, as Bonn's btflib decodes it: rgb = v · M + mean for the row vector
+    /// v, i.e. rgb_j = Σᵢ vᵢ · M(i, j) + mean_j. `matrix` is M row by row, `matrix[3·i + j]` =
+    /// M(i, j), the order of the file (btflib writes `fwrite(M')` and reads it back row-major).
     Pca { mean: [f32; 3], matrix: [f32; 9] },
     /// 4: YCoCg.
     YCoCg,
@@ -86,9 +88,9 @@ impl ColorModel {
         match self {
             ColorModel::Rgb => v,
             ColorModel::Yuv => yuv(v),
-            ColorModel::Pca { mean, matrix: m } => std::array::from_fn(|j| {
-                v[0] * m[3 * j] + v[1] * m[3 * j + 1] + v[2] * m[3 * j + 2] + mean[j]
-            }),
+            ColorModel::Pca { mean, matrix: m } => {
+                std::array::from_fn(|j| v[0] * m[j] + v[1] * m[3 + j] + v[2] * m[6 + j] + mean[j])
+            }
             ColorModel::YCoCg => [v[0] + v[1] - v[2], v[0] + v[2], v[0] - v[1] - v[2]],
             ColorModel::YlogUv => yuv([v[0].exp() - DRR_EPS, v[1], v[2]]),
             ColorModel::YlogUlogVlog => {
@@ -113,7 +115,8 @@ pub struct Ubo2014Header {
     pub version: u32,
     /// 1 if the stored values include cos θ_l, 0 if not (then we multiply it in).
     pub cosine_flag: u32,
-    /// Per-channel scale applied on decode.
+    /// Per-channel RGB scale factor of the header, reported but not applied: Bonn's btflib
+    /// reads it and never uses it, and the reference reader `btf.hh` skips it.
     pub rgb_scale: [f32; 3],
     /// Channel names (R, G, B unless the header says otherwise).
     pub channels: Vec<String>,

@@ -1,6 +1,6 @@
 //! Bonn UBO2014 `.btf` files: full-matrix-factorised payloads (FMF: `!FMF06FC`, `!FMF12FCE`;
 //! DFMF: `!DFMF08FC`; each optionally followed by `R` = rotations in the header), decoded one view
-//! at a time into linear, cosine-baked RGB (DESIGN §2–3).
+//! at a time into linear, cosine-baked RGB (docs/conventions.md, docs/formats.md).
 //!
 //! Payload layout (as documented by the public `btf.hh` of zeroeffects/btf and Bonn's btflib):
 //! the BTF matrix of one channel is U · (S·V)ᵀ. With "ABRDFs stacked" (the usual case) U has
@@ -8,11 +8,14 @@
 //! `row = y · width + x` (row 0 = first stored row; we do not flip). FMF factorises all channels
 //! together (U rows interleave the channel fastest: `row = (view · nL + light) · 3 + c`, one shared
 //! S·V); DFMF factorises each decorrelated channel separately and stores a colour model (YUV
-//! variants, PCA with mean and matrix, YCoCg, log encodings) that is inverted on decode. The
-//! transposed variant ("images stacked", U rows = texels) is accepted too. Scalars are f16, f32 or
-//! f64. After the colour model (and FMF's log dynamic-range reduction), values are multiplied by
-//! the header's per-channel RGB scale, by cos θ_l when the cosine flag is 0 (the data then lack
-//! the cosine), and clamped at 0 (factorisation ringing can go slightly negative).
+//! variants, PCA with mean and matrix, YCoCg, log encodings) that is inverted on decode exactly as
+//! btflib's `undecorrelate` does (PCA: rgb = v · M + mean, M stored row by row). The transposed
+//! variant ("images stacked", U rows = texels) is accepted too. Scalars are f16, f32 or f64.
+//! After the colour model (and FMF's log dynamic-range reduction), values are multiplied by
+//! cos θ_l when the cosine flag is 0 (the data then lack the cosine) and clamped at 0
+//! (factorisation ringing can go slightly negative). The header's per-channel RGB scale is not
+//! applied, as in the reference readers (btflib reads it and never uses it, `btf.hh` skips it);
+//! `btfpt info` shows it.
 //!
 //! Files: `header.rs` (the header and what it announces), `writer.rs` (writing factorised files,
 //! for test data and interchange), this file (decoding the payload one view at a time).
@@ -274,16 +277,14 @@ impl Ubo2014Btf {
                 }
                 for (li, img) in imgs.chunks_exact_mut(3 * n_xy).enumerate() {
                     let cos = h.lights.dirs[l0 + li].z.max(0.0);
-                    let factor = h
-                        .rgb_scale
-                        .map(|s| if h.cosine_flag == 0 { s * cos } else { s });
+                    let factor = if h.cosine_flag == 0 { cos } else { 1.0 };
                     for px in img.chunks_exact_mut(3) {
                         let mut v = self.color.decode([px[0], px[1], px[2]]);
                         if self.drr {
                             v = v.map(|x| x.exp() - DRR_EPS);
                         }
                         for c in 0..3 {
-                            let x = v[c] * factor[c];
+                            let x = v[c] * factor;
                             px[c] = if x > 0.0 { x } else { 0.0 };
                         }
                     }

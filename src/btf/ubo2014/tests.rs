@@ -79,11 +79,12 @@ fn expected(f: &FactorisedBtf, view: usize, light: usize, x: usize, y: usize) ->
     };
     let cos = f.lights.dirs[light].z;
     std::array::from_fn(|c| {
+        // The header's RGB scale is not applied (as btflib and btf.hh).
         let mut v = if f.drr {
             rgb[c].exp() - DRR_EPS
         } else {
             rgb[c]
-        } * f.rgb_scale[c];
+        };
         // Version 1 headers carry no cosine flag: the reader then assumes 0.
         if f.cosine_flag == 0 || f.version < 2 {
             v *= cos;
@@ -290,10 +291,11 @@ fn colour_models_follow_the_btflib_formulas() {
     ));
     let pca = ColorModel::Pca {
         mean: [1.0, 2.0, 3.0],
-        // Column-major M: rgb_j = Σ_i v_i M(i, j) + mean_j; M(0,1) = 2 is file element 3.
+        // M row by row: rgb_j = Σ_i v_i M(i, j) + mean_j; M(1, 0) = 2 is file element 3.
         matrix: [1.0, 0.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0],
     };
-    assert!(close(pca.decode([1.0, 1.0, 1.0]), [2.0, 5.0, 4.0]));
+    assert!(close(pca.decode([1.0, 1.0, 1.0]), [4.0, 3.0, 4.0]));
+    assert!(close(pca.decode([0.0, 1.0, 0.0]), [3.0, 3.0, 3.0]));
     let y = (0.5f32).ln();
     // Y = exp(ln 0.5) − ε, U = 0.2 · (Y + ε) = 0.1, V = −0.4 · 0.5 = −0.2.
     let got = ColorModel::YlogUdivYVdivY.decode([y, 0.2, -0.4]);
@@ -344,4 +346,74 @@ fn truncated_and_corrupt_files_are_clear_errors() {
         std::fs::write(&p, &b).unwrap();
         let _ = load_btf(&p);
     }
+}
+
+/// A PCA colour matrix M (rows = principal axes in RGB), row by row as in the file, and its mean.
+const PCA_M: [f32; 9] = [0.5, 0.5, 0.5, 0.75, 0.0, -0.75, -0.25, 0.5, -0.25];
+const PCA_MEAN: [f32; 3] = [0.0625, 0.125, 0.03125];
+/// A decorrelated texel value v.
+const PCA_V: [f32; 3] = [0.49079, -0.00509, 0.05361];
+/// btflib's rgb = v · M + mean for PCA_V, by hand:
+/// r = 0.5·0.49079 + 0.75·(−0.00509) − 0.25·0.05361 + 0.0625 = 0.290675,
+/// g = 0.5·0.49079 + 0 + 0.5·0.05361 + 0.125 = 0.3972,
+/// b = 0.5·0.49079 − 0.75·(−0.00509) − 0.25·0.05361 + 0.03125 = 0.26706.
+/// (The transpose, rgb = M · vᵀ + mean, would give (0.332155, 0.452885, −0.107395 → 0).)
+const PCA_RGB: [f32; 3] = [0.290675, 0.3972, 0.26706];
+
+#[test]
+fn pca_colour_model_decodes_as_btflib_hand_computed() {
+    let pca = ColorModel::Pca {
+        mean: PCA_MEAN,
+        matrix: PCA_M,
+    };
+    let got = pca.decode(PCA_V);
+    for c in 0..3 {
+        assert!((got[c] - PCA_RGB[c]).abs() < 1e-6, "{got:?} vs {PCA_RGB:?}");
+    }
+}
+
+#[test]
+fn a_pca_file_in_btflib_layout_decodes_to_the_hand_computed_texel_and_ignores_rgb_scale() {
+    // One texel, one light and view, one component per channel: U = 1, S·V = v_c.
+    let one = DirectionSet::from_angles_deg(vec![(0.0, 0.0)]);
+    let f = FactorisedBtf {
+        kind: PayloadKind::Dfmf,
+        color: ColorModel::Pca {
+            mean: PCA_MEAN,
+            matrix: PCA_M,
+        },
+        drr: false,
+        version: 4,
+        cosine_flag: 1,
+        rgb_scale: [2.0, 4.0, 8.0],
+        rotations: false,
+        scalar_size: 4,
+        views: one.clone(),
+        lights: one,
+        width: 1,
+        height: 1,
+        u: vec![vec![1.0]; 3],
+        sxv: PCA_V.iter().map(|&v| vec![v as f64]).collect(),
+        components: vec![1; 3],
+    };
+    let bytes = f.to_bytes();
+    // The file holds mean then M row by row (btflib: fwrite(mean), fwrite(M')).
+    let mut expect = Vec::new();
+    for x in PCA_MEAN.iter().chain(&PCA_M) {
+        expect.extend_from_slice(&x.to_le_bytes());
+    }
+    assert!(
+        bytes.windows(expect.len()).any(|w| w == expect.as_slice()),
+        "mean and M are not stored in btflib's order"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("pca.btf");
+    std::fs::write(&p, &bytes).unwrap();
+    let btf = load_btf(&p).unwrap();
+    let got = btf.texel(0, 0, 0, 0);
+    for c in 0..3 {
+        // f16 storage of the decoded value.
+        assert!((got[c] - PCA_RGB[c]).abs() < 4e-4, "{got:?} vs {PCA_RGB:?}");
+    }
+    assert_eq!(open_btf(&p).unwrap().header().rgb_scale, [2.0, 4.0, 8.0]);
 }

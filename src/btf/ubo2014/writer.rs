@@ -1,4 +1,6 @@
-//! Writing factorised UBO2014 `.btf` files (test data and interchange).
+//! Writing factorised UBO2014 `.btf` files from given factors: the test data of the reader and of
+//! the bad-input tests. No command writes `.btf` (that needs a factorisation of the measured
+//! data, which btfpt does not compute; `convert` writes `.btfc` or UBO2003 folders).
 
 use super::{ColorModel, PayloadKind};
 use crate::btf::DirectionSet;
@@ -6,7 +8,8 @@ use crate::{Error, Result};
 use half::f16;
 use std::path::Path;
 
-/// Everything needed to write a factorised `.btf` (used to make test data and for interchange).
+/// Everything needed to write a factorised `.btf` from its factors (test data). A PCA colour
+/// model's matrix is written row by row, as btflib writes it.
 /// Matrices are row-major with `components` columns, in the "ABRDFs stacked" orientation.
 #[derive(Clone, Debug)]
 pub struct FactorisedBtf {
@@ -20,7 +23,7 @@ pub struct FactorisedBtf {
     pub version: u32,
     /// 1 = values include cos θ_l.
     pub cosine_flag: u32,
-    /// Per-channel scale.
+    /// Per-channel scale of the header (readers report it, none applies it).
     pub rgb_scale: [f32; 3],
     /// Write the `R` flag and an (identity) rotation table.
     pub rotations: bool,

@@ -365,6 +365,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                     &|f| x.resolve(f),
                     uv_scale,
                     self.btf_model.or(model),
+                    self.synth_cache.as_deref(),
                 )?;
                 self.btf_uses.push(used);
                 return Ok(bsdf);

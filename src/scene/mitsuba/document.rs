@@ -56,6 +56,9 @@ pub(crate) struct XmlDoc<'a> {
     includes: HashMap<Key, usize>,
     /// Root-level `<path>` folders, most recent first (Mitsuba prepends them to its resolver).
     search: Vec<PathBuf>,
+    /// Every filename resolved for a plugin, in order (meshes, textures, BTFs …): with the
+    /// included files, what the scene reads besides its root file.
+    resolved: std::cell::RefCell<Vec<PathBuf>>,
 }
 
 /// The substitution pass state.
@@ -122,6 +125,7 @@ impl<'a> XmlDoc<'a> {
             ids: HashMap::new(),
             includes: HashMap::new(),
             search: Vec::new(),
+            resolved: std::cell::RefCell::new(Vec::new()),
         };
         let mut w = Walk {
             params: Vec::new(),
@@ -549,16 +553,31 @@ impl<'a> XmlDoc<'a> {
     /// error message).
     pub fn resolve(&self, p: &str) -> PathBuf {
         let p = Path::new(p);
-        if p.is_absolute() {
-            return p.to_path_buf();
+        let found = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.search
+                .iter()
+                .chain(std::iter::once(&self.dir))
+                .map(|d| d.join(p))
+                .chain(std::iter::once(p.to_path_buf()))
+                .find(|c| c.exists())
+                .unwrap_or_else(|| self.dir.join(p))
+        };
+        self.resolved.borrow_mut().push(found.clone());
+        found
+    }
+
+    /// The files the scene reads besides its root file: included XML files, then every
+    /// filename resolved so far, in order, without repeats.
+    pub fn inputs(&self) -> Vec<PathBuf> {
+        let mut out: Vec<PathBuf> = Vec::new();
+        for f in self.files[1..].iter().chain(self.resolved.borrow().iter()) {
+            if !out.contains(f) {
+                out.push(f.clone());
+            }
         }
-        self.search
-            .iter()
-            .chain(std::iter::once(&self.dir))
-            .map(|d| d.join(p))
-            .chain(std::iter::once(p.to_path_buf()))
-            .find(|c| c.exists())
-            .unwrap_or_else(|| self.dir.join(p))
+        out
     }
 
     /// Parses a finite float attribute value.

@@ -48,6 +48,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                     let mut b = Builder {
                         x: &x,
                         btf_model: options.btf_model,
+                        synth_cache: options.synth_cache.clone(),
                         btf_uses: Vec::new(),
                         bsdfs: Vec::new(),
                         bsdf_memo: HashMap::new(),
@@ -93,6 +94,8 @@ pub(super) struct Builder<'a, 'x> {
     x: &'x XmlDoc<'a>,
     /// [`LoadOptions::btf_model`]: replaces every BTF's `model` property.
     btf_model: Option<BtfModel>,
+    /// [`LoadOptions::synth_cache`]: where generated `synth:` materials are kept.
+    synth_cache: Option<PathBuf>,
     /// The file and model of every `<bsdf type="btf">` built, in order.
     btf_uses: Vec<BtfUse>,
     bsdfs: Vec<Bsdf>,
@@ -218,6 +221,15 @@ impl<'a, 'x> Builder<'a, 'x> {
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),
             emitters: std::mem::take(&mut self.emitters),
+            inputs: {
+                let mut inputs = x.inputs();
+                for u in &self.btf_uses {
+                    if !inputs.contains(&u.file) {
+                        inputs.push(u.file.clone());
+                    }
+                }
+                inputs
+            },
             btf_uses: std::mem::take(&mut self.btf_uses),
         })
     }
