@@ -6,6 +6,7 @@
 //! replays the scalar integrator on the same random stream, the same samples as `--integrator
 //! scalar` up to floating-point association in the batched kernels.
 
+pub mod escaped;
 pub mod lanes;
 pub mod megakernel;
 pub mod pool;
