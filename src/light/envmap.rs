@@ -228,25 +228,35 @@ impl EnvMapLight {
         let y = v * (h - 1) as f32;
         let iy: [u32; WIDTH] = lanes(|l| (y.0[l] as u32).min(h as u32 - 2));
         let fy = y - Fx(lanes(|l| iy[l] as f32));
+        // Each lane's four texels: (ix, iy), (ix + 1, iy), (ix, iy + 1), (ix + 1, iy + 1).
         let last = self.data.len() - 1;
-        let texel = |k: usize| {
-            let at: [usize; WIDTH] = lanes(|l| {
-                let (ix, iy) = (ix[l] as usize, iy[l] as usize);
-                let ix1 = if ix + 1 == w { 0 } else { ix + 1 };
-                let col = if k & 1 == 0 { ix } else { ix1 };
-                ((iy + (k >> 1)) * w + col).min(last)
-            });
-            V3x::new(
-                Fx(lanes(|l| self.data[at[l]].x)),
-                Fx(lanes(|l| self.data[at[l]].y)),
-                Fx(lanes(|l| self.data[at[l]].z)),
-            )
-        };
-        let (a, b, c, d) = (texel(0), texel(1), texel(2), texel(3));
+        let mut at = [[0usize; WIDTH]; 4];
+        for l in 0..WIDTH {
+            let (x0, y0) = (ix[l] as usize, iy[l] as usize);
+            let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+            let (r0, r1) = (y0 * w, (y0 + 1) * w);
+            at[0][l] = (r0 + x0).min(last);
+            at[1][l] = (r0 + x1).min(last);
+            at[2][l] = (r1 + x0).min(last);
+            at[3][l] = (r1 + x1).min(last);
+        }
+        let (a, b) = (self.texels_x(&at[0]), self.texels_x(&at[1]));
+        let (c, d) = (self.texels_x(&at[2]), self.texels_x(&at[3]));
         let gx = 1.0 - fx;
         let top = a.scale(gx).add(b.scale(fx));
         let bot = c.scale(gx).add(d.scale(fx));
         top.scale(1.0 - fy).add(bot.scale(fy))
+    }
+
+    /// The texels at flat indices `at` (each in range), one per lane.
+    #[inline(always)]
+    fn texels_x(&self, at: &[usize; WIDTH]) -> V3x {
+        let (mut x, mut y, mut z) = ([0f32; WIDTH], [0f32; WIDTH], [0f32; WIDTH]);
+        for l in 0..WIDTH {
+            let t = self.data[at[l]];
+            (x[l], y[l], z[l]) = (t.x, t.y, t.z);
+        }
+        V3x::new(Fx(x), Fx(y), Fx(z))
     }
 
     /// Samples a world direction; returns (direction, radiance, solid-angle pdf).
