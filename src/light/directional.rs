@@ -1,6 +1,7 @@
 //! Directional (distant) light (Mitsuba `directional`).
 
-use super::LightSample;
+use super::{LightSample, LightSampleX};
+use crate::math::simd::wide::{Fx, Mx, V3x};
 use crate::math::{Spectrum, Vec3};
 use crate::{Error, Result};
 
@@ -41,6 +42,22 @@ impl DirectionalLight {
             weight: self.irradiance,
             pdf: 1.0,
             delta: true,
+        }
+    }
+
+    /// [`DirectionalLight::sample_li`] for 16 reference points (the same bits per lane).
+    #[inline(always)]
+    pub fn sample_li_x(&self, p: V3x, bsphere: (Vec3, f32)) -> LightSampleX {
+        let (c, r) = bsphere;
+        // f32::max(r, x) with r not NaN: x where x > r, else r (also for a NaN x).
+        let len = p.sub(V3x::splat(c)).length();
+        LightSampleX {
+            wi: V3x::splat(-self.direction),
+            dist: 2.0 * Fx::select(len.gt(Fx::splat(r)), len, Fx::splat(r)),
+            n_geo: V3x::ZERO,
+            weight: V3x::splat(self.irradiance),
+            pdf: Fx::splat(1.0),
+            delta: Mx::splat(true),
         }
     }
 }

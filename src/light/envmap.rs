@@ -1,23 +1,28 @@
 //! Lat-long environment map with Mitsuba 3's `envmap` mapping and bilinear lookup, importance
-//! sampled by a piecewise-constant distribution over the cells of the bilinear interpolant.
+//! sampled by alias tables over the cells of the bilinear interpolant.
 //!
 //! Mapping (local frame, +y up): direction d ↔ uv = (atan2(d.x, −d.z)/2π, acos(d.y)/π), both
 //! evaluated as atan2 by [`crate::math::fastmath`] (no normalisation needed); the image
 //! is looked up bilinearly with texel centres at u = (i + ½)/W (periodic in u) and rows at
 //! v = j/(H − 1), exactly as Mitsuba's `eval_spectrum`. The sampling cells are the W × (H − 1)
 //! patches between four neighbouring texels; each cell is chosen with probability ∝ mean corner
-//! luminance × its solid angle, and sampled uniformly in (φ, cos θ), so the solid-angle pdf is
-//! constant per cell (no 1/sin θ singularity at the poles).
+//! luminance × its solid angle — a row by one alias table, then a column by that row's — and
+//! sampled uniformly in (φ, cos θ), so the solid-angle pdf is constant per cell (no 1/sin θ
+//! singularity at the poles) and is one table read. Alias tables take one read per draw where a
+//! CDF search takes a data-dependent loop, so the packet kernel samples 16 lanes with gathers
+//! ([`EnvMapLight::sample_x`], [`EnvMapLight::eval_pdf_x`]: the scalar code's `_x` twins).
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::LightSample;
+use super::{LightSample, LightSampleX};
 use crate::io::RgbImage;
+use crate::math::alias::AliasTable;
 use crate::math::color::luminance;
-use crate::math::distribution::Distribution1D;
-use crate::math::fastmath;
+use crate::math::fastmath::{self, atan2_x, floor_small_x};
+use crate::math::simd::WIDTH;
 use crate::math::simd::lane::sin_cos;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x, lanes};
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::path::Path;
@@ -32,15 +37,15 @@ pub struct EnvMapLight {
     /// Rotation part of to_world and its inverse (directions only).
     to_world: glam::Mat3,
     to_local: glam::Mat3,
-    /// Over rows (H − 1 bins).
-    rows: Option<Distribution1D>,
-    /// Per row, over columns (W bins); None where the row has no energy.
-    cols: Vec<Option<Distribution1D>>,
+    /// Over sampling rows (H − 1 bins, by their total weight); None if the map is black.
+    rows: Option<AliasTable>,
+    /// Per sampling row, over its W cells.
+    cols: AliasTable,
     /// cos θ at each texel row j (θ_j = π j / (H − 1)).
     cos_row: Vec<f32>,
-    /// Per sampling row j, P(row j) / solid angle of one of its cells (sr⁻¹): times a column's
-    /// probability, the solid-angle pdf of that cell, the same product in sample and pdf.
-    row_density: Vec<f32>,
+    /// Per cell (row-major, W per sampling row): the solid-angle pdf of sampling a direction in
+    /// it (sr⁻¹), read by `sample` and `pdf` alike.
+    cell_pdf: Vec<f32>,
 }
 
 impl EnvMapLight {
@@ -76,27 +81,35 @@ impl EnvMapLight {
         let cos_row: Vec<f32> = (0..h)
             .map(|j| (PI * j as f32 / (h - 1) as f32).cos())
             .collect();
-        let mut cols = Vec::with_capacity(h - 1);
-        let mut row_w = Vec::with_capacity(h - 1);
+        // Solid angle of one cell of sampling row j.
+        let omega = |j: usize| {
+            (cos_row[j] as f64 - cos_row[j + 1] as f64).max(0.0) * 2.0 * std::f64::consts::PI
+                / w as f64
+        };
+        let mut cell_w = vec![0f64; (h - 1) * w];
         for j in 0..h - 1 {
-            let d_omega =
-                (cos_row[j] as f64 - cos_row[j + 1] as f64).max(0.0) * 2.0 * std::f64::consts::PI
-                    / w as f64;
-            let cells = (0..w).map(|i| {
+            for i in 0..w {
                 let i1 = (i + 1) % w;
                 let m =
                     lum[j * w + i] + lum[j * w + i1] + lum[(j + 1) * w + i] + lum[(j + 1) * w + i1];
-                0.25 * m * d_omega
-            });
-            let dist = Distribution1D::new(cells);
-            row_w.push(dist.as_ref().map_or(0.0, |d| d.total()));
-            cols.push(dist);
+                cell_w[j * w + i] = 0.25 * m * omega(j);
+            }
         }
-        let rows = Distribution1D::new(row_w);
-        let row_density = (0..h - 1)
-            .map(|j| {
-                let omega = (cos_row[j] - cos_row[j + 1]) * 2.0 * PI / w as f32;
-                rows.as_ref().map_or(0.0, |r| r.pmf(j) / omega)
+        let too_big = || Error::format(filename, "environment map too large to sample");
+        let cols = AliasTable::rows(&cell_w, w).ok_or_else(too_big)?;
+        let row_w: Vec<f64> = (0..h - 1).map(|j| cols.total(j)).collect();
+        let rows = AliasTable::new(&row_w);
+        let total: f64 = row_w.iter().sum();
+        let cell_pdf = cell_w
+            .iter()
+            .enumerate()
+            .map(|(k, &cw)| {
+                let o = omega(k / w);
+                if total > 0.0 && o > 0.0 {
+                    (cw / total / o) as f32
+                } else {
+                    0.0
+                }
             })
             .collect();
         Ok(EnvMapLight {
@@ -108,7 +121,7 @@ impl EnvMapLight {
             rows,
             cols,
             cos_row,
-            row_density,
+            cell_pdf,
         })
     }
 
@@ -124,6 +137,14 @@ impl EnvMapLight {
         let uv = self.lat_long(d);
         let col = self.column(uv.x);
         (self.lookup(col, uv.y), self.pdf_at(col.0, uv.y))
+    }
+
+    /// [`EnvMapLight::eval_pdf`] for 16 directions (the same bits per lane).
+    #[inline(always)]
+    pub fn eval_pdf_x(&self, d: V3x) -> (V3x, Fx) {
+        let (u, v) = self.lat_long_x(d);
+        let col = self.column_x(u);
+        (self.lookup_x(col, v), self.pdf_at_x(col.0, v))
     }
 
     /// Lat-long coordinates (u = azimuth / 2π, v = polar angle / π) of world direction `d`.
@@ -145,6 +166,18 @@ impl EnvMapLight {
         )
     }
 
+    /// [`EnvMapLight::lat_long`] per lane: (u, v).
+    #[inline(always)]
+    fn lat_long_x(&self, d: V3x) -> (Fx, Fx) {
+        let v = d.transform(&self.to_local);
+        let bad = v.is_finite().not().or(v.is_zero());
+        let r = (v.x * v.x + v.z * v.z).sqrt();
+        let u = atan2_x(v.x, -v.z) * (0.5 / PI);
+        let t = atan2_x(r, v.y) * (1.0 / PI);
+        let half = Fx::splat(0.5);
+        (Fx::select(bad, half, u), Fx::select(bad, half, t))
+    }
+
     /// The texel column left of lat-long `u` (periodic) and the fraction of the way to the next
     /// one: shared by the bilinear lookup and the pdf (whose cell is that column).
     #[inline]
@@ -155,6 +188,17 @@ impl EnvMapLight {
         let x = u * w as f32;
         let ix = (x as usize).min(w - 1);
         (ix, x - ix as f32)
+    }
+
+    /// [`EnvMapLight::column`] per lane.
+    #[inline(always)]
+    fn column_x(&self, u: Fx) -> ([u32; WIDTH], Fx) {
+        let w = self.width;
+        let u = u - 0.5 / w as f32;
+        let u = u - floor_small_x(u);
+        let x = u * w as f32;
+        let ix: [u32; WIDTH] = lanes(|l| (x.0[l] as u32).min(w as u32 - 1));
+        (ix, x - Fx(lanes(|l| ix[l] as f32)))
     }
 
     /// Mitsuba's bilinear lookup at texel column `col` (from [`EnvMapLight::column`]) and
@@ -176,24 +220,98 @@ impl EnvMapLight {
         top * (1.0 - fy) + bot * fy
     }
 
+    /// [`EnvMapLight::lookup`] per lane: four texel gathers per lane, the blends in SoA.
+    #[inline(always)]
+    fn lookup_x(&self, (ix, fx): ([u32; WIDTH], Fx), v: Fx) -> V3x {
+        let (w, h) = (self.width, self.height);
+        let v = v - floor_small_x(v);
+        let y = v * (h - 1) as f32;
+        let iy: [u32; WIDTH] = lanes(|l| (y.0[l] as u32).min(h as u32 - 2));
+        let fy = y - Fx(lanes(|l| iy[l] as f32));
+        // Each lane's four texels: (ix, iy), (ix + 1, iy), (ix, iy + 1), (ix + 1, iy + 1).
+        let last = self.data.len() - 1;
+        let mut at = [[0usize; WIDTH]; 4];
+        for l in 0..WIDTH {
+            let (x0, y0) = (ix[l] as usize, iy[l] as usize);
+            let x1 = if x0 + 1 == w { 0 } else { x0 + 1 };
+            let (r0, r1) = (y0 * w, (y0 + 1) * w);
+            at[0][l] = (r0 + x0).min(last);
+            at[1][l] = (r0 + x1).min(last);
+            at[2][l] = (r1 + x0).min(last);
+            at[3][l] = (r1 + x1).min(last);
+        }
+        let (a, b) = (self.texels_x(&at[0]), self.texels_x(&at[1]));
+        let (c, d) = (self.texels_x(&at[2]), self.texels_x(&at[3]));
+        let gx = 1.0 - fx;
+        let top = a.scale(gx).add(b.scale(fx));
+        let bot = c.scale(gx).add(d.scale(fx));
+        top.scale(1.0 - fy).add(bot.scale(fy))
+    }
+
+    /// The texels at flat indices `at` (each in range), one per lane.
+    #[inline(always)]
+    fn texels_x(&self, at: &[usize; WIDTH]) -> V3x {
+        let (mut x, mut y, mut z) = ([0f32; WIDTH], [0f32; WIDTH], [0f32; WIDTH]);
+        for l in 0..WIDTH {
+            let t = self.data[at[l]];
+            (x[l], y[l], z[l]) = (t.x, t.y, t.z);
+        }
+        V3x::new(Fx(x), Fx(y), Fx(z))
+    }
+
     /// Samples a world direction; returns (direction, radiance, solid-angle pdf).
     pub fn sample(&self, u: Vec2) -> Option<(Vec3, Spectrum, f32)> {
         let rows = self.rows.as_ref()?;
-        let (j, _, uy) = rows.sample(u.y);
-        let cols = self.cols[j].as_ref()?;
-        let (i, pi, ux) = cols.sample(u.x);
+        let w = self.width;
+        let (j, uy) = rows.sample(0, u.y);
+        let (i, ux) = self.cols.sample(j, u.x);
+        let pdf = self.cell_pdf[j * w + i];
         let (c0, c1) = (self.cos_row[j], self.cos_row[j + 1]);
         let cos_t = c0 + (c1 - c0) * uy;
         let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-        let u_lat = (i as f32 + ux) / self.width as f32 + 0.5 / self.width as f32;
+        let u_lat = (i as f32 + ux) / w as f32 + 0.5 / w as f32;
         let (sp, cp) = sin_cos(2.0 * PI * u_lat);
         let local = Vec3::new(sin_t * sp, cos_t, -sin_t * cp);
         let d = (self.to_world * local).normalize_or_zero();
-        let pdf = pi * self.row_density[j];
         if !(pdf > 0.0) || !pdf.is_finite() || d == Vec3::ZERO {
             return None;
         }
-        Some((d, self.eval(d), pdf))
+        // The radiance at the sampled lat-long point itself: the cell's column and fraction,
+        // and the polar angle of (sin θ, cos θ).
+        let v = fastmath::atan2(sin_t, cos_t) * (1.0 / PI);
+        Some((d, self.lookup((i, ux), v), pdf))
+    }
+
+    /// [`EnvMapLight::sample`] for 16 lanes: (direction, radiance, pdf, lanes where the scalar
+    /// code returns a sample), the same bits per lane.
+    #[inline(always)]
+    pub fn sample_x(&self, u: V2x) -> (V3x, V3x, Fx, Mx) {
+        let Some(rows) = self.rows.as_ref() else {
+            return (V3x::ZERO, V3x::ZERO, Fx::splat(0.0), Mx::splat(false));
+        };
+        let w = self.width;
+        let (j, uy) = rows.sample_x([0; WIDTH], u.y);
+        let (i, ux) = self.cols.sample_x(j, u.x);
+        let last = self.cell_pdf.len() - 1;
+        let pdf = Fx(lanes(|l| {
+            self.cell_pdf[(j[l] as usize * w + i[l] as usize).min(last)]
+        }));
+        let top = self.cos_row.len() - 1;
+        let c0 = Fx(lanes(|l| self.cos_row[(j[l] as usize).min(top)]));
+        let c1 = Fx(lanes(|l| self.cos_row[(j[l] as usize + 1).min(top)]));
+        let cos_t = c0 + (c1 - c0) * uy;
+        let sin_t = (1.0 - cos_t * cos_t).max(Fx::splat(0.0)).sqrt();
+        let fi = Fx(lanes(|l| i[l] as f32));
+        let u_lat = (fi + ux) / w as f32 + 0.5 / w as f32;
+        let (sp, cp) = (2.0 * PI * u_lat).sin_cos();
+        let local = V3x::new(sin_t * sp, cos_t, -sin_t * cp);
+        let d = local.transform(&self.to_world).normalize_or_zero();
+        let ok = pdf
+            .gt(Fx::splat(0.0))
+            .and(pdf.is_finite())
+            .and(d.is_zero().not());
+        let v = atan2_x(sin_t, cos_t) * (1.0 / PI);
+        (d, self.lookup_x((i, ux), v), pdf, ok)
     }
 
     /// [`EnvMapLight::sample`] as a light sample (pdf in solid angle, no selection).
@@ -210,6 +328,21 @@ impl EnvMapLight {
         })
     }
 
+    /// [`EnvMapLight::sample_li`] for 16 lanes: the samples and the lanes that have one.
+    #[inline(always)]
+    pub fn sample_li_x(&self, u: V2x) -> (LightSampleX, Mx) {
+        let (wi, val, pdf, ok) = self.sample_x(u);
+        let s = LightSampleX {
+            wi,
+            dist: Fx::splat(f32::INFINITY),
+            n_geo: V3x::ZERO,
+            weight: val.div(pdf),
+            pdf,
+            delta: Mx::splat(false),
+        };
+        (s, ok)
+    }
+
     /// Solid-angle pdf with which [`EnvMapLight::sample`] returns world direction `d`.
     pub fn pdf(&self, d: Vec3) -> f32 {
         let uv = self.lat_long(d);
@@ -221,149 +354,21 @@ impl EnvMapLight {
     #[inline]
     fn pdf_at(&self, i: usize, v: f32) -> f32 {
         let j = ((v * (self.height - 1) as f32) as usize).min(self.height - 2);
-        match &self.cols[j] {
-            Some(cols) => cols.pmf(i) * self.row_density[j],
-            None => 0.0,
-        }
+        self.cell_pdf[j * self.width + i]
+    }
+
+    /// [`EnvMapLight::pdf_at`] per lane.
+    #[inline(always)]
+    fn pdf_at_x(&self, i: [u32; WIDTH], v: Fx) -> Fx {
+        let (w, h) = (self.width, self.height);
+        let y = v * (h - 1) as f32;
+        let last = self.cell_pdf.len() - 1;
+        Fx(lanes(|l| {
+            let j = (y.0[l] as usize).min(h - 2);
+            self.cell_pdf[(j * w + i[l] as usize).min(last)]
+        }))
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::math::Pcg32;
-
-    fn test_map() -> RgbImage {
-        let (w, h) = (8, 5);
-        let mut img = RgbImage::new(w, h);
-        for j in 0..h {
-            for i in 0..w {
-                let v =
-                    0.1 + (i * 7 + j * 3) as f32 % 5.0 + if (i, j) == (2, 1) { 40.0 } else { 0.0 };
-                img.set(i, j, [v, 0.5 * v, 0.25]);
-            }
-        }
-        img
-    }
-
-    #[test]
-    fn mitsuba_mapping_up_is_row_zero_and_texel_centres_are_exact() {
-        let img = test_map();
-        let env = EnvMapLight::new(&img, Mat4::IDENTITY, 2.0, Path::new("t.exr")).unwrap();
-        // +y (θ = 0) is row 0; with u at a texel centre the lookup is exact.
-        let want = Spectrum::from(img.get(0, 0)) * 2.0;
-        // Texel (i, j) sits at u = (i + ½)/W, v = j/(H−1).
-        let u = 0.5 / 8.0;
-        let phi = 2.0 * PI * u;
-        let theta = PI * 1.0 / 4.0; // row 1
-        let d = Vec3::new(
-            theta.sin() * phi.sin(),
-            theta.cos(),
-            -theta.sin() * phi.cos(),
-        );
-        let got = env.eval(d);
-        let want1 = Spectrum::from(img.get(0, 1)) * 2.0;
-        assert!((got - want1).length() < 1e-4, "{got} vs {want1}");
-        let top = env.eval(Vec3::new(0.0, 1.0, 0.0));
-        // At the pole v = 0 the lookup interpolates along row 0 only.
-        assert!((top.z - want.z).abs() < 1e-5);
-    }
-
-    /// A zero or non-finite direction looks up the map at (½, ½), as the normalised zero
-    /// vector did before the atan2 mapping, instead of returning NaN.
-    #[test]
-    fn degenerate_directions_map_to_the_centre() {
-        let img = test_map();
-        let env = EnvMapLight::new(&img, Mat4::IDENTITY, 1.0, Path::new("t.exr")).unwrap();
-        let centre = env.lookup(env.column(0.5), 0.5);
-        for d in [Vec3::ZERO, Vec3::NAN, Vec3::new(f32::INFINITY, 0.0, 1.0)] {
-            assert_eq!(env.lat_long(d), Vec2::splat(0.5));
-            assert_eq!(env.eval(d), centre);
-            assert!(env.pdf(d).is_finite());
-        }
-    }
-
-    #[test]
-    fn rotation_moves_the_map() {
-        let img = test_map();
-        let rot = Mat4::from_rotation_x(0.5 * PI);
-        let a = EnvMapLight::new(&img, Mat4::IDENTITY, 1.0, Path::new("t.exr")).unwrap();
-        let b = EnvMapLight::new(&img, rot, 1.0, Path::new("t.exr")).unwrap();
-        let d = Vec3::new(0.3, 0.5, -0.2).normalize();
-        let rd = rot.transform_vector3(d);
-        assert!((a.eval(d) - b.eval(rd)).length() < 1e-4);
-        assert!((a.pdf(d) - b.pdf(rd)).abs() < 1e-3 * a.pdf(d));
-    }
-
-    /// Chi-square test of the sampled directions against the pdf, on a (cos θ, φ) grid of
-    /// equal-solid-angle bins whose expected counts come from integrating `pdf` numerically.
-    #[test]
-    fn sampling_matches_pdf_chi_square() {
-        let img = test_map();
-        let rot = Mat4::from_rotation_z(0.3) * Mat4::from_rotation_x(0.2);
-        let env = EnvMapLight::new(&img, rot, 1.0, Path::new("t.exr")).unwrap();
-        let (nt, np) = (10usize, 20usize);
-        let n = 200_000;
-        let mut hist = vec![0f64; nt * np];
-        let mut rng = Pcg32::new(11, 12);
-        let bin = |d: Vec3| {
-            let t = (((1.0 - d.z) * 0.5 * nt as f32) as usize).min(nt - 1);
-            let mut phi = d.y.atan2(d.x);
-            if phi < 0.0 {
-                phi += 2.0 * PI;
-            }
-            let p = ((phi / (2.0 * PI) * np as f32) as usize).min(np - 1);
-            t * np + p
-        };
-        for _ in 0..n {
-            let (d, val, pdf) = env.sample(rng.next_2d()).unwrap();
-            assert!((d.length() - 1.0).abs() < 1e-4);
-            assert!(
-                (pdf - env.pdf(d)).abs() <= 1e-3 * pdf,
-                "{pdf} vs {}",
-                env.pdf(d)
-            );
-            assert!((val - env.eval(d)).length() < 1e-5);
-            hist[bin(d)] += 1.0;
-        }
-        // Expected: integrate pdf over each bin with a fine stratified grid.
-        let sub = 64;
-        let mut expect = vec![0f64; nt * np];
-        let mut total = 0.0;
-        for t in 0..nt * sub {
-            for p in 0..np * sub {
-                let z = 1.0 - 2.0 * (t as f32 + 0.5) / (nt * sub) as f32;
-                let phi = 2.0 * PI * (p as f32 + 0.5) / (np * sub) as f32;
-                let r = (1.0 - z * z).sqrt();
-                let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
-                let w =
-                    env.pdf(d) as f64 * 4.0 * std::f64::consts::PI / (nt * np * sub * sub) as f64;
-                expect[bin(d)] += w;
-                total += w;
-            }
-        }
-        assert!((total - 1.0).abs() < 0.01, "pdf integrates to {total}");
-        let mut chi2 = 0.0;
-        let mut dof = 0;
-        let mut pooled = (0.0, 0.0);
-        for k in 0..nt * np {
-            let e = expect[k] * n as f64;
-            if e < 5.0 {
-                pooled.0 += hist[k];
-                pooled.1 += e;
-                continue;
-            }
-            chi2 += (hist[k] - e).powi(2) / e;
-            dof += 1;
-        }
-        if pooled.1 >= 5.0 {
-            chi2 += (pooled.0 - pooled.1).powi(2) / pooled.1;
-            dof += 1;
-        }
-        // Critical value at α = 0.001 for ≈200 dof is ≈ 267; Wilson–Hilferty bound used.
-        let k = (dof - 1) as f64;
-        let z = 3.09;
-        let crit = k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3);
-        assert!(chi2 < crit, "chi2 {chi2} > {crit} (dof {k})");
-    }
-}
+mod tests;

@@ -5,11 +5,13 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{
-    AreaLight, ConstantLight, DirectionalLight, EnvMapLight, Light, LightSample, PointLight,
-    SphereAreaLight, SpotLight,
+    AreaLight, ConstantLight, DirectionalLight, EnvMapLight, Light, LightSample, LightSampleX,
+    PointLight, SphereAreaLight, SpotLight,
 };
 use crate::Result;
 use crate::geometry::{Mesh, SurfaceInteraction};
+use crate::math::simd::WIDTH;
+use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
 use crate::scene::{Emitter, Scene};
 
@@ -141,6 +143,60 @@ impl LightSet {
         Some(with_selection(s, sel))
     }
 
+    /// [`LightSet::sample`] for the 16 lanes of `want`, each with the emitter `chosen[l]` (from
+    /// [`LightSet::select`] of its `u_sel`): the samples, selection included, and the lanes that
+    /// have one — the same bits per lane. The lanes that chose one emitter are sampled together
+    /// in SoA (an analytic sphere's lane by lane).
+    #[inline(always)]
+    pub fn sample_x(&self, p: V3x, chosen: &[u32; WIDTH], want: Mx, u: V2x) -> (LightSampleX, Mx) {
+        let mut out = LightSampleX {
+            wi: V3x::splat(Vec3::Z),
+            dist: Fx::splat(1.0),
+            n_geo: V3x::ZERO,
+            weight: V3x::ZERO,
+            pdf: Fx::splat(1.0),
+            delta: Mx::splat(false),
+        };
+        let mut ok = Mx::splat(false);
+        if self.lights.is_empty() {
+            return (out, ok);
+        }
+        let sel = self.select_pdf();
+        let mut left = want;
+        while let Some(first) = (0..WIDTH).find(|&l| left.0[l]) {
+            let idx = chosen[first];
+            let m = Mx(std::array::from_fn(|l| left.0[l] && chosen[l] == idx));
+            left = left.and(m.not());
+            let (s, has) = match &self.lights[idx as usize] {
+                Light::Point(l) => l.sample_li_x(p),
+                Light::Spot(l) => l.sample_li_x(p),
+                Light::Directional(l) => (l.sample_li_x(p, self.bsphere), Mx::splat(true)),
+                Light::Constant(l) => (l.sample_li_x(u), Mx::splat(true)),
+                Light::EnvMap(l) => l.sample_li_x(u),
+                Light::Area(_) | Light::SphereArea(_) => {
+                    let mut s = out;
+                    let mut has = Mx::splat(false);
+                    for l in (0..WIDTH).filter(|&l| m.0[l]) {
+                        let got = match &self.lights[idx as usize] {
+                            Light::Area(a) => a.sample_li(p.get(l), u.get(l)),
+                            Light::SphereArea(a) => a.sample_li(p.get(l), u.get(l)),
+                            _ => None,
+                        };
+                        if let Some(ls) = got {
+                            s.set(l, &ls);
+                            has.0[l] = true;
+                        }
+                    }
+                    (s, has)
+                }
+            };
+            let m = m.and(has);
+            out = LightSampleX::select(m, &s.with_selection(sel), &out);
+            ok = ok.or(m);
+        }
+        (out, ok)
+    }
+
     /// The index in `lights` of the emitter that sample number `u_sel` selects (uniformly; 0
     /// when there are none).
     #[inline]
@@ -190,6 +246,20 @@ impl LightSet {
             Light::Constant(l) => l.eval_pdf(),
             Light::EnvMap(env) => env.eval_pdf(d),
             _ => return (Spectrum::ZERO, 0.0),
+        };
+        (le, pdf * self.select_pdf())
+    }
+
+    /// [`LightSet::eval_infinite`] for 16 escaped rays (the same bits per lane).
+    #[inline(always)]
+    pub fn eval_infinite_x(&self, k: usize, d: V3x) -> (V3x, Fx) {
+        let (le, pdf) = match &self.lights[self.infinite[k] as usize] {
+            Light::Constant(l) => {
+                let (le, pdf) = l.eval_pdf();
+                (V3x::splat(le), Fx::splat(pdf))
+            }
+            Light::EnvMap(env) => env.eval_pdf_x(d),
+            _ => return (V3x::ZERO, Fx::splat(0.0)),
         };
         (le, pdf * self.select_pdf())
     }

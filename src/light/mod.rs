@@ -97,3 +97,6 @@ pub struct LightSample {
     /// True for point, spot and directional lights (no MIS).
     pub delta: bool,
 }
+
+#[cfg(test)]
+mod tests;

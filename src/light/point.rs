@@ -3,7 +3,8 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::LightSample;
+use super::{LightSample, LightSampleX};
+use crate::math::simd::wide::{Fx, Mx, V3x};
 use crate::math::{Spectrum, Vec3};
 
 /// An isotropic point light.
@@ -32,5 +33,23 @@ impl PointLight {
             pdf: 1.0,
             delta: true,
         })
+    }
+
+    /// [`PointLight::sample_li`] for 16 reference points: the samples and the lanes that have
+    /// one (the same bits per lane).
+    #[inline(always)]
+    pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, Mx) {
+        let to = V3x::splat(self.position).sub(p);
+        let d2 = to.length_squared();
+        let dist = d2.sqrt();
+        let s = LightSampleX {
+            wi: to.div(dist),
+            dist,
+            n_geo: V3x::ZERO,
+            weight: V3x::splat(self.intensity).div(d2),
+            pdf: Fx::splat(1.0),
+            delta: Mx::splat(true),
+        };
+        (s, d2.gt(Fx::splat(0.0)))
     }
 }

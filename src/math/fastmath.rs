@@ -8,6 +8,8 @@
 //! (absolute) of the exact value (tests below). No fused multiply-adds: the crate is built
 //! without a target CPU, where `mul_add` would be a libm call.
 
+use crate::math::simd::wide::{Fx, lanes};
+
 /// k·π/4 for k = 0..4 rounded to f32 (high parts) and the remainders k·π/4 − high (low parts):
 /// every atan2 result is one of these plus or minus atan of a reduced argument. Padded to 8 so
 /// the index can be masked instead of bounds-checked.
@@ -110,6 +112,19 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 pub fn floor_small(x: f32) -> f32 {
     let t = x as i32 as f32;
     if t > x { t - 1.0 } else { t }
+}
+
+/// [`atan2`] per lane (the packet kernels' twin: the same bits).
+#[inline(always)]
+pub fn atan2_x(y: Fx, x: Fx) -> Fx {
+    Fx(lanes(|l| atan2(y.0[l], x.0[l])))
+}
+
+/// [`floor_small`] per lane (the same bits).
+#[inline(always)]
+pub fn floor_small_x(x: Fx) -> Fx {
+    let t = Fx(lanes(|l| x.0[l] as i32 as f32));
+    Fx::select(t.gt(x), t - 1.0, t)
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
 //! Small numeric building blocks shared by every subsystem.
 
+pub mod alias;
 pub mod cie1931;
 pub mod color;
 pub mod distribution;

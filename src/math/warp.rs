@@ -60,6 +60,15 @@ pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     Vec3::new(r * c, r * s, z)
 }
 
+/// [`square_to_uniform_sphere`] per lane.
+#[inline(always)]
+pub fn square_to_uniform_sphere_x(u: V2x) -> V3x {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(Fx::splat(0.0)).sqrt();
+    let (s, c) = (2.0 * PI * u.y).sin_cos();
+    V3x::new(r * c, r * s, z)
+}
+
 /// Solid-angle pdf of [`square_to_uniform_sphere`].
 #[inline]
 pub fn square_to_uniform_sphere_pdf() -> f32 {

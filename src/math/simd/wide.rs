@@ -407,6 +407,23 @@ impl V3x {
         self.x.max(self.y.max(self.z))
     }
 
+    /// glam's `Mat3 * Vec3` per lane: (x_axis·x + y_axis·y) + z_axis·z.
+    #[inline(always)]
+    pub fn transform(self, m: &glam::Mat3) -> V3x {
+        let (a, b, c) = (m.x_axis, m.y_axis, m.z_axis);
+        let col = |v: glam::Vec3, s: Fx| V3x::new(s * v.x, s * v.y, s * v.z);
+        col(a, self.x).add(col(b, self.y)).add(col(c, self.z))
+    }
+
+    /// Every component finite (`Vec3::is_finite`).
+    #[inline(always)]
+    pub fn is_finite(self) -> Mx {
+        self.x
+            .is_finite()
+            .and(self.y.is_finite())
+            .and(self.z.is_finite())
+    }
+
     /// Lanes of `a` where `m`, of `b` elsewhere.
     #[inline(always)]
     pub fn select(m: Mx, a: V3x, b: V3x) -> V3x {
@@ -458,6 +475,8 @@ mod tests {
                 assert_eq!(a.length().0[l], av[l].length());
                 assert_eq!(a.is_zero().0[l], av[l] == Vec3::ZERO);
                 assert_eq!(a.x.min(Fx::splat(0.95)).0[l], av[l].x.min(0.95));
+                let m = glam::Mat3::from_cols(av[(l + 1) % W], bv[l], av[(l + 5) % W]);
+                assert_eq!(bits(b.transform(&m).get(l)), bits(m * bv[l]));
             }
         }
     }

@@ -6,13 +6,14 @@
 //! rays lane by lane → one any-hit pass over all pending shadow rays → write finished radiance and
 //! free those lanes.
 //!
-//! A lane does exactly what the scalar [`PathTracer::li`] does for the same (pixel, sample), in
+//! A lane does exactly what the scalar [`crate::render::integrator::PathTracer::li`] does for the same (pixel, sample), in
 //! the same order on the same random stream, so the two integrators agree sample by sample.
 
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::chunk::{Chunk, FilmSample};
+use super::escaped::shade_escaped;
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
@@ -22,7 +23,7 @@ use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::{Pcg32, Spectrum};
 use crate::render::RenderScene;
-use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
+use crate::render::integrator::TraceStats;
 
 /// How the pool is run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -215,7 +216,7 @@ pub fn trace_chunk(
             lanes.shade_issued += (b - a).div_ceil(LANES) as u64 * LANES as u64;
             let slots = &scratch.order[a..b];
             match k.checked_sub(1) {
-                None => shade_escaped(rs, pt, pool, slots),
+                None => shade_escaped(isa, rs, pool, slots),
                 Some(bsdf) => {
                     let bsdf = &rs.scene.bsdfs[bsdf];
                     for batch in slots.chunks(LANES) {
@@ -261,25 +262,4 @@ fn pass_through_emitter(rs: &RenderScene, pool: &mut PathPool, i: usize, stats: 
     pool.ray_t[i] = pool.cam_t[i] - travelled;
     pool.passthrough[i] = true;
     stats.rays += 1;
-}
-
-/// Escaped rays: the lights at infinity seen along them (hidden from the camera with
-/// `hide_emitters`), with MIS against the emitter sampling of the previous vertex; the paths end.
-fn shade_escaped(rs: &RenderScene, pt: &PathTracer, pool: &mut PathPool, slots: &[u32]) {
-    let lights = &rs.lights;
-    for &i in slots {
-        let i = i as usize;
-        let (depth, ray_d) = (pool.depth[i], pool.ray_d.get(i));
-        let (throughput, mut result) = (pool.throughput.get(i), pool.result.get(i));
-        let (prev_pdf, prev_delta) = (pool.prev_pdf[i], pool.prev_delta[i]);
-        if !(depth == 0 && pt.hide_emitters) {
-            for k in 0..lights.infinite_count() {
-                let (le, pdf_e) = lights.eval_infinite(k, ray_d);
-                let em_pdf = if prev_delta || !pt.nee { 0.0 } else { pdf_e };
-                result += throughput * le * mis_weight(prev_pdf, em_pdf);
-            }
-        }
-        pool.result.set(i, result);
-        pool.ending[i] = true;
-    }
 }

@@ -7,6 +7,7 @@
 //! scalar` up to floating-point association in the batched kernels.
 
 pub mod chunk;
+pub mod escaped;
 pub mod lanes;
 pub mod megakernel;
 pub mod pool;

@@ -13,8 +13,10 @@
 //! same random stream, so a lane's path is the same bits as
 //! [`crate::render::path`]'s (`tests/render_packet.rs` compares them).
 //! What is not arithmetic stays scalar per lane: the gathers (mesh vertices, the pool's slots),
-//! the random numbers, emitter selection, emission at emitter hits, and emitters other than
-//! triangle-mesh area lights (sampled through [`crate::light::LightSet::sample`]).
+//! the random numbers, emitter selection and emission at emitter hits. Emitters other than
+//! triangle-mesh area lights sample the lanes that chose them together
+//! ([`crate::light::LightSet::sample_x`]: SoA for environment maps, constant, point, spot and
+//! directional lights; an analytic sphere's lane by lane).
 
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -226,24 +228,30 @@ fn shade(
         y: Fx(rng.next_f32(&live)),
     };
 
-    // ------------------------- emitter choice (scalar) -------------------------
+    // -------------- emitter choice (scalar); other emitters' samples (SoA) --------------
+    // Each emitter other than a triangle-mesh area light samples the lanes that chose it
+    // together (`LightSet::sample_x`); area lights follow below.
+    let mut chosen = [0u32; L];
+    let mut want_other = Mx::splat(false);
     for l in 0..n {
         if !nee[l] {
             continue;
         }
-        match lights.lights.get(lights.select(u_sel[l])) {
+        let k = lights.select(u_sel[l]);
+        match lights.lights.get(k) {
             None => {}
             Some(Light::Area(a)) => {
                 area[l] = Some(a);
                 is_area.0[l] = true;
             }
             Some(_) => {
-                if let Some(ls) = lights.sample(p.get(l), u_sel[l], u_light.get(l)) {
-                    other.set(l, &ls);
-                    is_other.0[l] = true;
-                }
+                chosen[l] = k as u32;
+                want_other.0[l] = true;
             }
         }
+    }
+    if want_other.0.contains(&true) {
+        (other, is_other) = lights.sample_x(p, &chosen, want_other, u_light);
     }
 
     // ----------- area lights: triangle by area (SoA if the lanes share a light) -----------
