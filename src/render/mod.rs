@@ -9,6 +9,7 @@ pub mod integrator;
 pub mod packet;
 pub mod partial;
 
+use crate::geometry::Mesh;
 use crate::geometry::accel::Accel;
 use crate::light::LightSet;
 use crate::scene::Scene;
@@ -40,6 +41,8 @@ pub struct RenderScene {
     pub kind: IntegratorKind,
     /// Lane utilisation of the packet integrator, summed over the render.
     pub lanes: packet::LaneCounters,
+    /// Seconds spent building the BVH.
+    pub bvh_secs: f64,
 }
 
 impl RenderScene {
@@ -70,7 +73,16 @@ impl RenderScene {
                 )));
             }
         }
+        let total: u64 = scene.meshes.iter().map(|m| m.indices.len() as u64).sum();
+        if total >= u32::MAX as u64 {
+            return Err(Error::Invalid(format!(
+                "{total} triangles in the scene: the BVH numbers triangles in 32 bits (at most {})",
+                u32::MAX - 1
+            )));
+        }
+        let t0 = std::time::Instant::now();
         let accel = Accel::build(&scene.meshes);
+        let bvh_secs = t0.elapsed().as_secs_f64();
         let lights = LightSet::new(&scene, accel.bounds())?;
         let camera = PerspectiveCamera::new(&scene.camera)?;
         let integrator = PathTracer::new(&scene.integrator)?;
@@ -82,6 +94,7 @@ impl RenderScene {
             integrator,
             kind: IntegratorKind::Scalar,
             lanes: packet::LaneCounters::default(),
+            bvh_secs,
         })
     }
 
@@ -114,7 +127,7 @@ impl RenderScene {
             )
         };
         format!(
-            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  {}",
+            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  resident: meshes {:.1} MiB, BVH {:.1} MiB\n  {} BSDFs, {} emitters ({} at infinity)\n  {}",
             s.source.display(),
             s.camera.width,
             s.camera.height,
@@ -129,12 +142,19 @@ impl RenderScene {
             hi.x,
             hi.y,
             hi.z,
+            mib(s.meshes.iter().map(Mesh::resident_bytes).sum()),
+            mib(self.accel.resident_bytes()),
             s.bsdfs.len(),
             self.lights.lights.len(),
             self.lights.infinite_count(),
             integrator,
         )
     }
+}
+
+/// `bytes` in MiB.
+fn mib(bytes: usize) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
 }
 
 #[cfg(test)]
