@@ -161,8 +161,12 @@ pub(super) fn build(ids: &TriIds, part_tris: usize) -> (Built, Option<(Vec3, Vec
         return (out, None);
     }
     let bounds_v = (Vec3::from(bounds.min), Vec3::from(bounds.max));
+    // Wide nodes hold about 15 triangles on average: reserve so the 64-byte aligned nodes are
+    // rarely copied by growth.
+    out.nodes.reserve(valid.len() / 12 + 16);
     if valid.len() <= part_tris {
         build_part(ids, &valid, &mut out);
+        out.tris = packets(ids, &out.ids);
         return (out, Some(bounds_v));
     }
     // Sort along a Morton curve (10 bits per axis) of the centroids; the id in the low bits
@@ -203,9 +207,8 @@ pub(super) fn build(ids: &TriIds, part_tris: usize) -> (Built, Option<(Vec3, Vec
         roots = up;
     }
     out.nodes[0] = wide_node(&roots);
-    out.nodes.shrink_to_fit();
-    out.tris.shrink_to_fit();
     out.ids.shrink_to_fit();
+    out.tris = packets(ids, &out.ids);
     (out, Some(bounds_v))
 }
 
@@ -232,8 +235,8 @@ fn spread10(x: u32) -> u32 {
     x
 }
 
-/// Builds obvhs's BVH over the triangles `gids` (global ids), flattens it into `out` and fills
-/// its packets; returns the index of its root wide node and its box.
+/// Builds obvhs's BVH over the triangles `gids` (global ids) and flattens it into `out`'s
+/// nodes and packet ids; returns the index of its root wide node and its box.
 fn build_part(ids: &TriIds, gids: &[u32], out: &mut Built) -> (u32, Aabb) {
     let n = gids.len();
     let leaves: Vec<Bvh2Node> = gids
@@ -265,27 +268,24 @@ fn build_part(ids: &TriIds, gids: &[u32], out: &mut Built) -> (u32, Aabb) {
     drop(reinsertion);
     bvh2.parents = Vec::new();
     let root_box = *bvh2.nodes[0].aabb();
-    let first_packet = out.ids.len();
     let root = flatten(&bvh2, gids, &mut out.nodes, &mut out.ids);
-    drop(bvh2);
-    let new = &out.ids[first_packet..];
-    let packs: Vec<TriPack> = new
-        .par_iter()
+    (root, root_box)
+}
+
+/// The triangle packets of `ids` (global triangle ids per lane), built in parallel into one
+/// allocation of the exact size (a growing `Vec` of 64-byte aligned packets would be copied
+/// on every growth, two copies resident at once).
+fn packets(tri_ids: &TriIds, ids: &[[u32; LANES]]) -> Vec<TriPack> {
+    ids.par_iter()
         .map(|lanes| {
             let mut pk = TriPack::default();
             for (k, &g) in lanes.iter().enumerate() {
                 if g != u32::MAX {
-                    let p = ids.corners(g);
+                    let p = tri_ids.corners(g);
                     pk.set(k, p[0], p[1], p[2]);
                 }
             }
             pk
         })
-        .collect();
-    if out.tris.is_empty() {
-        out.tris = packs;
-    } else {
-        out.tris.extend_from_slice(&packs);
-    }
-    (root, root_box)
+        .collect()
 }
