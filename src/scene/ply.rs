@@ -394,7 +394,10 @@ fn check_counts(path: &Path, elements: &[Element], ascii: bool, data_len: usize)
             .iter()
             .map(|p| match p.list_count {
                 None => value(p.ty),
-                Some(c) if el.name == "face" && matches!(p.name.as_str(), "vertex_indices" | "vertex_index") => {
+                Some(c)
+                    if el.name == "face"
+                        && matches!(p.name.as_str(), "vertex_indices" | "vertex_index") =>
+                {
                     value(c) + 3 * value(p.ty)
                 }
                 Some(c) => value(c),
@@ -411,7 +414,9 @@ fn check_counts(path: &Path, elements: &[Element], ascii: bool, data_len: usize)
     if indices >= 1 << 31 {
         return Err(Error::format(
             path,
-            format!("the header declares {faces} faces: {indices} or more vertex indices, at least 2^31, more than a mesh can hold"),
+            format!(
+                "the header declares {faces} faces: {indices} or more vertex indices, at least 2^31, more than a mesh can hold"
+            ),
         ));
     }
     // ASCII: the last value needs no separator after it.
@@ -429,8 +434,12 @@ fn check_counts(path: &Path, elements: &[Element], ascii: bool, data_len: usize)
             ),
         ));
     }
-    super::shapes::check_mesh_fits(vertices as u64, faces as u64, super::shapes::available_memory())
-        .map_err(|m| Error::format(path, m))
+    super::shapes::check_mesh_fits(
+        vertices as u64,
+        faces as u64,
+        super::shapes::available_memory(),
+    )
+    .map_err(|m| Error::format(path, m))
 }
 
 /// Which vertex properties hold positions, normals and uvs.
@@ -480,7 +489,12 @@ fn binary_vertices(
             .iter()
             .zip(&offs)
             .all(|(p, &o)| p.ty.decode(&r[o..]).is_finite())
-            && Vec3::new(get(r, roles.xyz[0]), get(r, roles.xyz[1]), get(r, roles.xyz[2])).is_finite()
+            && Vec3::new(
+                get(r, roles.xyz[0]),
+                get(r, roles.xyz[1]),
+                get(r, roles.xyz[2]),
+            )
+            .is_finite()
     });
     if !finite {
         return None;
@@ -555,7 +569,11 @@ fn binary_faces(el: &Element, data: &[u8], list: usize, out: &mut LocalMesh) -> 
                 let mut o = 0;
                 el.props.iter().enumerate().all(|(i, p)| {
                     let fin = i == list || p.ty.decode(&r[o..]).is_finite();
-                    o += if i == list { ct.size() + n0 * it.size() } else { p.ty.size() };
+                    o += if i == list {
+                        ct.size() + n0 * it.size()
+                    } else {
+                        p.ty.size()
+                    };
                     fin
                 })
             }

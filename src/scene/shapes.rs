@@ -65,7 +65,11 @@ pub fn available_memory() -> Option<u64> {
 /// Refuses, from a file's declared counts and before anything is allocated for them, a mesh of
 /// 2³¹ indices or more (u32 indices, as Mitsuba's) or one whose estimated footprint exceeds
 /// `available` bytes (unchecked when None). The message is for the caller to prefix with the file.
-pub fn check_mesh_fits(vertices: u64, triangles: u64, available: Option<u64>) -> Result<(), String> {
+pub fn check_mesh_fits(
+    vertices: u64,
+    triangles: u64,
+    available: Option<u64>,
+) -> Result<(), String> {
     let indices = triangles as u128 * 3;
     if indices >= 1 << 31 {
         return Err(format!(
@@ -73,7 +77,9 @@ pub fn check_mesh_fits(vertices: u64, triangles: u64, available: Option<u64>) ->
         ));
     }
     if vertices > u32::MAX as u64 {
-        return Err(format!("{vertices} vertices: more than u32 indices can address"));
+        return Err(format!(
+            "{vertices} vertices: more than u32 indices can address"
+        ));
     }
     let need = triangles as u128 * PEAK_BYTES_PER_TRIANGLE as u128
         + vertices as u128 * PEAK_BYTES_PER_VERTEX as u128;
@@ -203,7 +209,10 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
 /// the result is the same bits for any number of threads.
 pub fn angle_weighted_normals(pos: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     let mut acc = vec![Vec3::ZERO; pos.len()];
-    let band = pos.len().div_ceil(2 * rayon::current_num_threads()).max(1 << 16);
+    let band = pos
+        .len()
+        .div_ceil(2 * rayon::current_num_threads())
+        .max(1 << 16);
     acc.par_chunks_mut(band).enumerate().for_each(|(k, acc)| {
         let (lo, hi) = ((k * band) as u32, (k * band + acc.len()) as u32);
         for t in indices {

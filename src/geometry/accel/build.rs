@@ -172,7 +172,8 @@ pub(super) fn build(ids: &TriIds, part_tris: usize) -> (Built, Option<(Vec3, Vec
     // Sort along a Morton curve (10 bits per axis) of the centroids; the id in the low bits
     // makes every key distinct, so the order does not depend on the sort algorithm.
     let lo = bounds.min;
-    let scale = Vec3A::splat(1023.0) / (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
+    let scale =
+        Vec3A::splat(1023.0) / (bounds.max - bounds.min).max(Vec3A::splat(f32::MIN_POSITIVE));
     let mut keys: Vec<u64> = valid
         .par_iter()
         .map(|&g| {

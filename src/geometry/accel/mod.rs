@@ -118,7 +118,11 @@ impl Accel {
 
     /// Number of triangles in the hierarchy.
     pub fn triangle_count(&self) -> usize {
-        self.ids.iter().flatten().filter(|&&g| g != u32::MAX).count()
+        self.ids
+            .iter()
+            .flatten()
+            .filter(|&&g| g != u32::MAX)
+            .count()
     }
 
     /// Axis-aligned bounds (min, max) of all geometry in world units.

@@ -364,7 +364,14 @@ fn parts_match_brute_force() {
     assert_eq!(accel.bounds(), whole.bounds());
     // The root joins part roots: inner children only.
     assert!(accel.nodes[0].count.iter().all(|&c| c == 0));
-    assert!(accel.nodes[0].child.iter().filter(|&&c| c != u32::MAX).count() >= 2);
+    assert!(
+        accel.nodes[0]
+            .child
+            .iter()
+            .filter(|&&c| c != u32::MAX)
+            .count()
+            >= 2
+    );
     let mut rng = crate::math::Pcg32::new(5, 11);
     let mut rays = Vec::new();
     for k in 0..3000 {
@@ -379,13 +386,24 @@ fn parts_match_brute_force() {
 #[test]
 fn leaves_share_packets() {
     use crate::geometry::generate::sphere_displaced;
-    let meshes = vec![sphere_displaced(Vec3::ZERO, 1.0, 64, 128, false, true, |_| 0.0)];
+    let meshes = vec![sphere_displaced(
+        Vec3::ZERO,
+        1.0,
+        64,
+        128,
+        false,
+        true,
+        |_| 0.0,
+    )];
     let accel = Accel::build(&meshes);
     let n = accel.triangle_count();
     assert_eq!(n, meshes[0].indices.len());
     // Each wide node packs its leaves: far fuller packets than one leaf per packet.
     let lanes = accel.tris.len() * tri::LANES;
-    assert!(n as f64 > 0.7 * lanes as f64, "{n} triangles in {lanes} lanes");
+    assert!(
+        n as f64 > 0.7 * lanes as f64,
+        "{n} triangles in {lanes} lanes"
+    );
 }
 
 #[test]
