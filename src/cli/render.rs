@@ -192,6 +192,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         synth_cache: btfpt::btf::synth::disk_cache::default_cache_dir(),
     };
     let scene = btfpt::scene::load(&args.scene, &load_options)?;
+    let read_secs = run_start.elapsed().as_secs_f64();
     if scene.meshes.is_empty() && scene.emitters.is_empty() {
         bail!(
             "{}: the scene is empty (no shapes and no emitters), the image would be black",
@@ -291,7 +292,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     }
     let [cx, cy, cw, ch] = crop;
     eprintln!(
-        "loaded in {load_secs:.2} s; rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end} ({} spp{}), seed {} → {}",
+        "loaded in {load_secs:.2} s (reading {read_secs:.2} s, BVH {:.2} s, rest {:.2} s); rendering window {cx},{cy},{cw}×{ch}, samples {spp_begin}..{spp_end} ({} spp{}), seed {} → {}",
+        rs.bvh_secs,
+        (load_secs - read_secs - rs.bvh_secs).max(0.0),
         spp_end - spp_begin,
         if (spp_begin, spp_end) != (0, scene_spp) {
             format!(", the scene asks for {scene_spp}")

@@ -40,6 +40,14 @@ impl Mesh {
         0.5 * (p1 - p0).cross(p2 - p0).length()
     }
 
+    /// Bytes of vertex and index data held by the mesh.
+    pub fn resident_bytes(&self) -> usize {
+        std::mem::size_of_val(self.positions.as_slice())
+            + std::mem::size_of_val(self.normals.as_slice())
+            + std::mem::size_of_val(self.uvs.as_slice())
+            + std::mem::size_of_val(self.indices.as_slice())
+    }
+
     /// Total surface area.
     pub fn area(&self) -> f32 {
         if let Some(s) = &self.sphere {

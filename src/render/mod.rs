@@ -13,6 +13,7 @@ pub mod packet;
 pub mod partial;
 pub mod path;
 
+use crate::geometry::Mesh;
 use crate::geometry::accel::Accel;
 use crate::light::LightSet;
 use crate::scene::Scene;
@@ -50,6 +51,8 @@ pub struct RenderScene {
     pub kind: IntegratorKind,
     /// Lane utilisation of the packet integrator, summed over the render.
     pub lanes: packet::LaneCounters,
+    /// Seconds spent building the BVH.
+    pub bvh_secs: f64,
 }
 
 impl RenderScene {
@@ -80,7 +83,16 @@ impl RenderScene {
                 )));
             }
         }
+        let total: u64 = scene.meshes.iter().map(|m| m.indices.len() as u64).sum();
+        if total >= u32::MAX as u64 {
+            return Err(Error::Invalid(format!(
+                "{total} triangles in the scene: the BVH numbers triangles in 32 bits (at most {})",
+                u32::MAX - 1
+            )));
+        }
+        let t0 = std::time::Instant::now();
         let accel = Accel::build(&scene.meshes);
+        let bvh_secs = t0.elapsed().as_secs_f64();
         let lights = LightSet::new(&scene, accel.bounds())?;
         let camera = PerspectiveCamera::new(&scene.camera)?;
         let integrator = PathTracer::new(&scene.integrator)?;
@@ -92,6 +104,7 @@ impl RenderScene {
             integrator,
             kind: IntegratorKind::default(),
             lanes: packet::LaneCounters::default(),
+            bvh_secs,
         })
     }
 
@@ -149,7 +162,7 @@ impl RenderScene {
             )
         };
         format!(
-            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}, filter {}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  {}\n  {}",
+            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}, filter {}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  resident: meshes {:.1} MiB, BVH {:.1} MiB\n  {} BSDFs, {} emitters ({} at infinity)\n  {}\n  {}",
             s.source.display(),
             s.camera.width,
             s.camera.height,
@@ -165,6 +178,8 @@ impl RenderScene {
             hi.x,
             hi.y,
             hi.z,
+            mib(s.meshes.iter().map(Mesh::resident_bytes).sum()),
+            mib(self.accel.resident_bytes()),
             s.bsdfs.len(),
             self.lights.lights.len(),
             self.lights.infinite_count(),
@@ -172,6 +187,11 @@ impl RenderScene {
             self.integrator_line(),
         )
     }
+}
+
+/// `bytes` in MiB.
+fn mib(bytes: usize) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
 }
 
 #[cfg(test)]

@@ -34,6 +34,20 @@ impl Ty {
             _ => return None,
         })
     }
+    /// The little-endian value at the start of `b` (at least `size()` bytes).
+    #[inline]
+    fn decode(self, b: &[u8]) -> f64 {
+        match self {
+            Ty::I8 => b[0] as i8 as f64,
+            Ty::U8 => b[0] as f64,
+            Ty::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+            Ty::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+            Ty::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Ty::F64 => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
+        }
+    }
     fn size(self) -> usize {
         match self {
             Ty::I8 | Ty::U8 => 1,
@@ -111,16 +125,7 @@ impl Source<'_> {
                     ));
                 };
                 *pos += n;
-                let v = match ty {
-                    Ty::I8 => b[0] as i8 as f64,
-                    Ty::U8 => b[0] as f64,
-                    Ty::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
-                    Ty::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
-                    Ty::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                    Ty::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                    Ty::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                    Ty::F64 => f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
-                };
+                let v = ty.decode(b);
                 if !v.is_finite() {
                     return Err(Error::format(
                         path,
@@ -216,6 +221,7 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
         }
     }
     let ascii = ascii.ok_or_else(|| Error::format(path, "PLY header has no format line"))?;
+    check_counts(path, &elements, ascii, bytes.len().saturating_sub(body))?;
     let header_lines = String::from_utf8_lossy(&bytes[..body.min(bytes.len())])
         .lines()
         .count();
@@ -263,6 +269,28 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
                 path,
                 "face element lacks a vertex_indices list",
             ));
+        }
+        if let Source::Binary { data, pos } = &mut src {
+            let rest = &data[(*pos).min(data.len())..];
+            let used = if is_vertex && !out.positions.is_empty() {
+                None
+            } else if is_vertex {
+                let roles = VertexRoles {
+                    xyz: [ix, iy, iz],
+                    n: has_n.then_some([inx, iny, inz]),
+                    uv: has_uv.then_some([iu, iv]),
+                };
+                binary_vertices(el, rest, &roles, flip_tex_coords, &mut out)
+            } else if is_face && out.indices.is_empty() {
+                face_list.and_then(|fl| binary_faces(el, rest, fl, &mut out))
+            } else {
+                None
+            };
+            if let Some(used) = used {
+                *pos += used;
+                saw_vertex |= is_vertex;
+                continue;
+            }
         }
         let mut vals = vec![0.0f64; el.props.len()];
         let mut poly: Vec<u32> = Vec::new();
@@ -352,6 +380,222 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
     Ok(out)
 }
 
+/// Rejects, before anything is allocated for them, element counts that the file cannot hold
+/// (a truncated file or a header that lies: every value takes at least its binary size, or two
+/// characters in ASCII, and a face at least three indices), meshes of 2³¹ indices or more, and
+/// meshes that would not fit in the memory available.
+fn check_counts(path: &Path, elements: &[Element], ascii: bool, data_len: usize) -> Result<()> {
+    let value = |t: Ty| if ascii { 2 } else { t.size() as u128 };
+    let mut need: u128 = 0;
+    let (mut vertices, mut faces) = (0u128, 0u128);
+    for el in elements {
+        let per: u128 = el
+            .props
+            .iter()
+            .map(|p| match p.list_count {
+                None => value(p.ty),
+                Some(c)
+                    if el.name == "face"
+                        && matches!(p.name.as_str(), "vertex_indices" | "vertex_index") =>
+                {
+                    value(c) + 3 * value(p.ty)
+                }
+                Some(c) => value(c),
+            })
+            .sum();
+        need += el.count as u128 * per;
+        match el.name.as_str() {
+            "vertex" => vertices += el.count as u128,
+            "face" => faces += el.count as u128,
+            _ => {}
+        }
+    }
+    let indices = 3 * faces;
+    if indices >= 1 << 31 {
+        return Err(Error::format(
+            path,
+            format!(
+                "the header declares {faces} faces: {indices} or more vertex indices, at least 2^31, more than a mesh can hold"
+            ),
+        ));
+    }
+    // ASCII: the last value needs no separator after it.
+    let slack = if ascii { 1 } else { 0 };
+    if need > data_len as u128 + slack {
+        return Err(Error::format(
+            path,
+            format!(
+                "the header declares {} but only {data_len} bytes follow it, fewer than the {need} those need at least: the file is truncated or its header is wrong",
+                elements
+                    .iter()
+                    .map(|e| format!("{} '{}'", e.count, e.name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        ));
+    }
+    super::shapes::check_mesh_fits(
+        vertices as u64,
+        faces as u64,
+        super::shapes::available_memory(),
+    )
+    .map_err(|m| Error::format(path, m))
+}
+
+/// Which vertex properties hold positions, normals and uvs.
+struct VertexRoles {
+    xyz: [Option<usize>; 3],
+    n: Option<[Option<usize>; 3]>,
+    uv: Option<[Option<usize>; 2]>,
+}
+
+/// Byte offset of every property in a record without lists (None if the element has lists).
+fn fixed_layout(el: &Element) -> Option<(Vec<usize>, usize)> {
+    let mut offs = Vec::with_capacity(el.props.len());
+    let mut o = 0;
+    for p in &el.props {
+        if p.list_count.is_some() {
+            return None;
+        }
+        offs.push(o);
+        o += p.ty.size();
+    }
+    Some((offs, o))
+}
+
+/// Binary vertex element of fixed-size records, decoded in parallel. None (nothing read) if
+/// it has lists, is cut short or holds a non-finite value or position: the sequential reader
+/// then reports the exact place.
+fn binary_vertices(
+    el: &Element,
+    data: &[u8],
+    roles: &VertexRoles,
+    flip_tex_coords: bool,
+    out: &mut LocalMesh,
+) -> Option<usize> {
+    use rayon::prelude::*;
+    let (offs, rec) = fixed_layout(el)?;
+    let len = el.count.checked_mul(rec)?;
+    if rec == 0 || data.len() < len {
+        return None;
+    }
+    let recs = &data[..len];
+    let get = |r: &[u8], i: Option<usize>| {
+        i.map(|i| el.props[i].ty.decode(&r[offs[i]..]) as f32)
+            .unwrap_or(0.0)
+    };
+    let finite = recs.par_chunks_exact(rec).all(|r| {
+        el.props
+            .iter()
+            .zip(&offs)
+            .all(|(p, &o)| p.ty.decode(&r[o..]).is_finite())
+            && Vec3::new(
+                get(r, roles.xyz[0]),
+                get(r, roles.xyz[1]),
+                get(r, roles.xyz[2]),
+            )
+            .is_finite()
+    });
+    if !finite {
+        return None;
+    }
+    let [ix, iy, iz] = roles.xyz;
+    out.positions = recs
+        .par_chunks_exact(rec)
+        .map(|r| Vec3::new(get(r, ix), get(r, iy), get(r, iz)))
+        .collect();
+    if let Some([nx, ny, nz]) = roles.n {
+        out.normals = recs
+            .par_chunks_exact(rec)
+            .map(|r| Vec3::new(get(r, nx), get(r, ny), get(r, nz)))
+            .collect();
+    }
+    if let Some([u, v]) = roles.uv {
+        out.uvs = recs
+            .par_chunks_exact(rec)
+            .map(|r| {
+                let (u, v) = (get(r, u), get(r, v));
+                Vec2::new(u, if flip_tex_coords { 1.0 - v } else { v })
+            })
+            .collect();
+    }
+    Some(len)
+}
+
+/// Binary face element whose faces all have the first face's vertex count (a triangle or quad
+/// mesh), decoded in parallel and fan-triangulated. None (nothing read) otherwise, or on a bad
+/// value, for the sequential reader to handle and report.
+fn binary_faces(el: &Element, data: &[u8], list: usize, out: &mut LocalMesh) -> Option<usize> {
+    use rayon::prelude::*;
+    if el.count == 0 {
+        return Some(0);
+    }
+    let mut before = 0;
+    let mut after = 0;
+    for (i, p) in el.props.iter().enumerate() {
+        if i == list {
+            continue;
+        }
+        if p.list_count.is_some() {
+            return None;
+        }
+        if i < list {
+            before += p.ty.size();
+        } else {
+            after += p.ty.size();
+        }
+    }
+    let lp = &el.props[list];
+    let (ct, it) = (lp.list_count?, lp.ty);
+    let n0 = ct.decode(data.get(before..before + ct.size())?);
+    if !(3.0..=1024.0).contains(&n0) {
+        return None;
+    }
+    let n0 = n0 as usize;
+    let rec = before + ct.size() + n0 * it.size() + after;
+    let len = el.count.checked_mul(rec)?;
+    if data.len() < len {
+        return None;
+    }
+    let recs = &data[..len];
+    // Every face the same size, every other value finite, every index a u32.
+    let ok = recs.par_chunks_exact(rec).all(|r| {
+        ct.decode(&r[before..]) == n0 as f64
+            && (0..n0).all(|k| {
+                let v = it.decode(&r[before + ct.size() + k * it.size()..]);
+                (0.0..=u32::MAX as f64).contains(&v)
+            })
+            && {
+                let mut o = 0;
+                el.props.iter().enumerate().all(|(i, p)| {
+                    let fin = i == list || p.ty.decode(&r[o..]).is_finite();
+                    o += if i == list {
+                        ct.size() + n0 * it.size()
+                    } else {
+                        p.ty.size()
+                    };
+                    fin
+                })
+            }
+    });
+    if !ok {
+        return None;
+    }
+    let per = n0 - 2;
+    let mut tris = vec![[0u32; 3]; el.count.checked_mul(per)?];
+    tris.par_chunks_mut(per)
+        .zip(recs.par_chunks_exact(rec))
+        .for_each(|(t, r)| {
+            let idx = |k: usize| it.decode(&r[before + ct.size() + k * it.size()..]) as u32;
+            let first = idx(0);
+            for (i, tri) in t.iter_mut().enumerate() {
+                *tri = [first, idx(i + 1), idx(i + 2)];
+            }
+        });
+    out.indices = tris;
+    Some(len)
+}
+
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -433,5 +677,145 @@ property list uchar int vertex_indices\nend_header\n"
         std::fs::write(&tr, b).unwrap();
         let e = load(&tr, false).unwrap_err().to_string();
         assert!(e.contains("trunc.ply") && e.contains("end of file"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod size_tests {
+    use super::*;
+
+    /// A binary PLY header with `vertices` and `faces` declared, followed by `body`.
+    fn write(path: &Path, vertices: u64, faces: u64, body: &[u8]) {
+        let mut b = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\n\
+             property float y\nproperty float z\nelement face {faces}\n\
+             property list uchar uint vertex_indices\nend_header\n"
+        )
+        .into_bytes();
+        b.extend_from_slice(body);
+        std::fs::write(path, b).unwrap();
+    }
+
+    #[test]
+    fn header_claiming_2_pow_40_faces_fails_fast() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("liar.ply");
+        write(&p, 3, 1 << 40, &[0; 64]);
+        let e = load(&p, false).unwrap_err().to_string();
+        assert!(e.contains("liar.ply") && e.contains("2^31"), "{e}");
+    }
+
+    #[test]
+    fn header_claiming_more_than_the_file_holds_fails() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("short.ply");
+        // 1000 vertices and 2000 triangles declared, 40 bytes present.
+        write(&p, 1000, 2000, &[0; 40]);
+        let e = load(&p, false).unwrap_err().to_string();
+        assert!(
+            e.contains("short.ply") && e.contains("header") && e.contains("40 bytes"),
+            "{e}"
+        );
+        let a = dir.path().join("short_ascii.ply");
+        std::fs::write(
+            &a,
+            "ply\nformat ascii 1.0\nelement vertex 100000\nproperty float x\nproperty float y\n\
+             property float z\nend_header\n0 0 0\n",
+        )
+        .unwrap();
+        let e = load(&a, false).unwrap_err().to_string();
+        assert!(e.contains("short_ascii.ply") && e.contains("header"), "{e}");
+    }
+
+    #[test]
+    fn meshes_beyond_memory_or_index_range_are_refused() {
+        use crate::scene::shapes::check_mesh_fits;
+        assert!(check_mesh_fits(1 << 20, 1 << 21, Some(1 << 34)).is_ok());
+        let e = check_mesh_fits(1 << 20, 1 << 21, Some(1 << 28)).unwrap_err();
+        assert!(e.contains("GiB") && e.contains("available"), "{e}");
+        let e = check_mesh_fits(3, (1 << 31) / 3 + 1, None).unwrap_err();
+        assert!(e.contains("2^31"), "{e}");
+        assert!(check_mesh_fits(3, (1 << 31) / 3, None).is_ok());
+    }
+
+    /// A binary triangle strip of `n` quads, with a float `quality` per face.
+    fn strip(n: u32, face: impl Fn(u32) -> Vec<u8>) -> Vec<u8> {
+        let mut b = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n\
+             property float y\nproperty float z\nproperty float u\nproperty float v\n\
+             element face {}\nproperty list uchar int vertex_indices\nproperty float quality\n\
+             end_header\n",
+            2 * (n + 1),
+            n
+        )
+        .into_bytes();
+        for i in 0..=n {
+            for y in [0.0f32, 1.0] {
+                for v in [i as f32, y, 0.5 * i as f32, i as f32 / n as f32, y] {
+                    b.extend_from_slice(&v.to_le_bytes());
+                }
+            }
+        }
+        for i in 0..n {
+            b.extend_from_slice(&face(i));
+            b.extend_from_slice(&0.25f32.to_le_bytes());
+        }
+        b
+    }
+
+    fn quad_face(i: u32) -> Vec<u8> {
+        let mut f = vec![4u8];
+        for k in [2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1] {
+            f.extend_from_slice(&(k as i32).to_le_bytes());
+        }
+        f
+    }
+
+    #[test]
+    fn parallel_and_sequential_binary_readers_agree() {
+        let dir = tempfile::tempdir().unwrap();
+        let n = 5000;
+        // All quads: the parallel reader; one triangle among them: the sequential one.
+        let fast = dir.path().join("fast.ply");
+        std::fs::write(&fast, strip(n, quad_face)).unwrap();
+        let slow = dir.path().join("slow.ply");
+        std::fs::write(
+            &slow,
+            strip(n, |i| {
+                if i == n - 1 {
+                    let mut f = vec![3u8];
+                    for k in [2 * i, 2 * i + 2, 2 * i + 3] {
+                        f.extend_from_slice(&(k as i32).to_le_bytes());
+                    }
+                    f
+                } else {
+                    quad_face(i)
+                }
+            }),
+        )
+        .unwrap();
+        let a = load(&fast, true).unwrap();
+        let b = load(&slow, true).unwrap();
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.uvs, b.uvs);
+        assert_eq!(a.indices.len(), 2 * n as usize);
+        assert_eq!(b.indices.len(), 2 * n as usize - 1);
+        assert_eq!(a.indices[..b.indices.len()], b.indices[..]);
+        assert_eq!(a.uvs[3], Vec2::new(1.0 / n as f32, 0.0));
+        // A bad index in the parallel path is reported as by the sequential one.
+        let bad = dir.path().join("bad.ply");
+        std::fs::write(
+            &bad,
+            strip(n, |i| {
+                let mut f = quad_face(i);
+                if i == 77 {
+                    f[1..5].copy_from_slice(&(-1i32).to_le_bytes());
+                }
+                f
+            }),
+        )
+        .unwrap();
+        let e = load(&bad, false).unwrap_err().to_string();
+        assert!(e.contains("bad.ply") && e.contains("#77"), "{e}");
     }
 }

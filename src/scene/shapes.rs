@@ -5,6 +5,7 @@
 use crate::geometry::Mesh;
 use crate::math::transform::{normal_matrix, xf_point};
 use crate::math::{Mat4, Vec2, Vec3};
+use rayon::prelude::*;
 
 /// Sphere tessellation: rings in θ (pole to pole) and segments in φ.
 pub const SPHERE_RINGS: usize = 128;
@@ -45,19 +46,69 @@ pub struct MeshOptions {
     pub keep_orientation: bool,
 }
 
+/// Bytes per triangle a loaded mesh costs at the peak of loading and BVH building (indices,
+/// the vertex data a height field shares among two triangles, the BVH and its transient build
+/// buffers; measured by scripts/scaling.sh, rounded up).
+pub const PEAK_BYTES_PER_TRIANGLE: u64 = 160;
+
+/// Bytes per vertex of a loaded mesh: position, normal and uv, and the file's copy of them.
+pub const PEAK_BYTES_PER_VERTEX: u64 = 64;
+
+/// Memory the system can still give this process (Linux `MemAvailable`), None if unknown.
+pub fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses, from a file's declared counts and before anything is allocated for them, a mesh of
+/// 2³¹ indices or more (u32 indices, as Mitsuba's) or one whose estimated footprint exceeds
+/// `available` bytes (unchecked when None). The message is for the caller to prefix with the file.
+pub fn check_mesh_fits(
+    vertices: u64,
+    triangles: u64,
+    available: Option<u64>,
+) -> Result<(), String> {
+    let indices = triangles as u128 * 3;
+    if indices >= 1 << 31 {
+        return Err(format!(
+            "{triangles} triangles need {indices} vertex indices, at least 2^31, more than a mesh can hold"
+        ));
+    }
+    if vertices > u32::MAX as u64 {
+        return Err(format!(
+            "{vertices} vertices: more than u32 indices can address"
+        ));
+    }
+    let need = triangles as u128 * PEAK_BYTES_PER_TRIANGLE as u128
+        + vertices as u128 * PEAK_BYTES_PER_VERTEX as u128;
+    if let Some(avail) = available
+        && need > avail as u128
+    {
+        let gib = |b: u128| b as f64 / (1u64 << 30) as f64;
+        return Err(format!(
+            "{vertices} vertices and {triangles} triangles need about {:.1} GiB to load and render, but only {:.1} GiB of memory is available",
+            gib(need),
+            gib(avail as u128)
+        ));
+    }
+    Ok(())
+}
+
 /// Places `local` in the world with `m`. Errors (as a message for the caller to locate) on
 /// non-finite data, out-of-range indices and singular transforms. Zero-area triangles are dropped.
 pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, String> {
     let LocalMesh {
-        positions,
-        normals,
+        positions: mut pos,
+        normals: mut nrm,
         uvs,
         mut indices,
     } = local;
     let nm = normal_matrix(m).ok_or("to_world is singular (zero scale?)")?;
-    let n = positions.len();
-    if !normals.is_empty() && normals.len() != n {
-        return Err(format!("{} normals for {n} vertices", normals.len()));
+    let n = pos.len();
+    if !nrm.is_empty() && nrm.len() != n {
+        return Err(format!("{} normals for {n} vertices", nrm.len()));
     }
     if !uvs.is_empty() && uvs.len() != n {
         return Err(format!(
@@ -65,45 +116,58 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
             uvs.len()
         ));
     }
-    let mut pos = Vec::with_capacity(n);
-    for (i, p) in positions.iter().enumerate() {
+    // In place and in parallel: a big mesh's vertices are transformed without a second copy.
+    let bad = pos.par_iter_mut().enumerate().find_map_first(|(i, p)| {
         if !p.is_finite() {
-            return Err(format!("vertex {i} has a non-finite position {p:?}"));
+            return Some(format!("vertex {i} has a non-finite position {p:?}"));
         }
         let w = xf_point(m, *p);
         if !w.is_finite() {
-            return Err(format!("vertex {i} is not finite after to_world ({w:?})"));
+            return Some(format!("vertex {i} is not finite after to_world ({w:?})"));
         }
-        pos.push(w);
+        *p = w;
+        None
+    });
+    if let Some(e) = bad {
+        return Err(e);
     }
     if let Some((i, uv)) = uvs.iter().enumerate().find(|(_, uv)| !uv.is_finite()) {
         return Err(format!(
             "vertex {i} has a non-finite texture coordinate {uv:?}"
         ));
     }
-    let mut nrm = Vec::new();
-    if !opts.face_normals && !normals.is_empty() {
-        nrm.reserve(n);
-        for (i, v) in normals.iter().enumerate() {
+    if opts.face_normals {
+        nrm = Vec::new();
+    } else {
+        let bad = nrm.par_iter_mut().enumerate().find_map_first(|(i, v)| {
             let w = (nm * *v).normalize();
             if !w.is_finite() {
-                return Err(format!("vertex {i} has a zero or non-finite normal {v:?}"));
+                return Some(format!("vertex {i} has a zero or non-finite normal {v:?}"));
             }
-            nrm.push(w);
+            *v = w;
+            None
+        });
+        if let Some(e) = bad {
+            return Err(e);
         }
     }
-    for (f, t) in indices.iter().enumerate() {
-        if t.iter().any(|&i| i as usize >= n) {
-            return Err(format!(
-                "triangle {f} references a vertex beyond the {n} vertices"
-            ));
-        }
+    if let Some(f) = indices
+        .par_iter()
+        .position_first(|t| t.iter().any(|&i| i as usize >= n))
+    {
+        return Err(format!(
+            "triangle {f} references a vertex beyond the {n} vertices"
+        ));
     }
-    indices.retain(|t| {
+    let keep = |t: &[u32; 3]| {
         let (a, b, c) = (pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]);
         let area2 = (b - a).cross(c - a).length();
         area2 > 0.0 && area2.is_finite()
-    });
+    };
+    // Most meshes have no zero-area triangle: test in parallel, compact only if needed.
+    if !indices.par_iter().all(keep) {
+        indices.retain(keep);
+    }
     if opts.keep_orientation && nrm.len() == n {
         // Make the geometric normal agree with the (inverse-transpose) shading normal.
         for t in indices.iter_mut() {
@@ -139,35 +203,51 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
 }
 
 /// Mitsuba's `recompute_vertex_normals`: face normals weighted by the corner angle.
+///
+/// In parallel over bands of vertices: each band's worker walks all triangles in order and adds
+/// only the corners of its own vertices, so every vertex sums its corners in triangle order and
+/// the result is the same bits for any number of threads.
 pub fn angle_weighted_normals(pos: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
     let mut acc = vec![Vec3::ZERO; pos.len()];
-    for t in indices {
-        let v = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
-        let n = (v[1] - v[0]).cross(v[2] - v[0]);
-        let len = n.length();
-        if len == 0.0 || !len.is_finite() {
-            continue;
-        }
-        let n = n / len;
-        for i in 0..3 {
-            let d0 = (v[(i + 1) % 3] - v[i]).normalize();
-            let d1 = (v[(i + 2) % 3] - v[i]).normalize();
-            let angle = d0.dot(d1).clamp(-1.0, 1.0).acos();
-            if angle.is_finite() {
-                acc[t[i] as usize] += n * angle;
+    let band = pos
+        .len()
+        .div_ceil(2 * rayon::current_num_threads())
+        .max(1 << 16);
+    acc.par_chunks_mut(band).enumerate().for_each(|(k, acc)| {
+        let (lo, hi) = ((k * band) as u32, (k * band + acc.len()) as u32);
+        for t in indices {
+            if !t.iter().any(|&i| (lo..hi).contains(&i)) {
+                continue;
+            }
+            let v = [pos[t[0] as usize], pos[t[1] as usize], pos[t[2] as usize]];
+            let n = (v[1] - v[0]).cross(v[2] - v[0]);
+            let len = n.length();
+            if len == 0.0 || !len.is_finite() {
+                continue;
+            }
+            let n = n / len;
+            for i in 0..3 {
+                if !(lo..hi).contains(&t[i]) {
+                    continue;
+                }
+                let d0 = (v[(i + 1) % 3] - v[i]).normalize();
+                let d1 = (v[(i + 2) % 3] - v[i]).normalize();
+                let angle = d0.dot(d1).clamp(-1.0, 1.0).acos();
+                if angle.is_finite() {
+                    acc[(t[i] - lo) as usize] += n * angle;
+                }
             }
         }
-    }
-    acc.into_iter()
-        .map(|n| {
+        for n in acc.iter_mut() {
             let l = n.length();
-            if l > 0.0 && l.is_finite() {
-                n / l
+            *n = if l > 0.0 && l.is_finite() {
+                *n / l
             } else {
                 Vec3::X
-            }
-        })
-        .collect()
+            };
+        }
+    });
+    acc
 }
 
 /// Mitsuba `rectangle`: [-1, 1]² in the z = 0 plane, normal +z, uv = ((x+1)/2, (y+1)/2).
@@ -550,5 +630,39 @@ mod tests {
             m.normals[0]
         );
         assert!((m.normals[2] - Vec3::new(1.0, 0.0, 1.0).normalize()).length() < 1e-5);
+    }
+
+    #[test]
+    fn parallel_normals_match_the_sequential_sum() {
+        // A noisy 400 × 400 grid: several vertex bands, triangles spanning band borders.
+        let n = 400u32;
+        let mut pos = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let h = ((i * 7919 + j * 104729) % 97) as f32 / 970.0;
+                pos.push(Vec3::new(i as f32, j as f32, h));
+            }
+        }
+        let mut idx = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i;
+                idx.push([a, a + 1, a + n + 2]);
+                idx.push([a, a + n + 2, a + n + 1]);
+            }
+        }
+        let mut acc = vec![Vec3::ZERO; pos.len()];
+        for t in &idx {
+            let v = t.map(|i| pos[i as usize]);
+            let g = (v[1] - v[0]).cross(v[2] - v[0]);
+            let g = g / g.length();
+            for i in 0..3 {
+                let d0 = (v[(i + 1) % 3] - v[i]).normalize();
+                let d1 = (v[(i + 2) % 3] - v[i]).normalize();
+                acc[t[i] as usize] += g * d0.dot(d1).clamp(-1.0, 1.0).acos();
+            }
+        }
+        let want: Vec<Vec3> = acc.iter().map(|n| *n / n.length()).collect();
+        assert_eq!(angle_weighted_normals(&pos, &idx), want);
     }
 }

@@ -1,6 +1,7 @@
 //! Ray acceleration: obvhs builds a binary BVH (PLOC + reinsertion + SAH leaf collapse) over
-//! every triangle of every mesh; we flatten it into an 8-wide BVH with SoA f32 child bounds
-//! ([`node`], [`flatten`]) and traverse that by hand ([`traverse`]): one 8-lane slab test per
+//! every triangle of every mesh, straight from the mesh vertices and in parts for big scenes
+//! ([`build`]); we flatten it into an 8-wide BVH with SoA f32 child bounds
+//! ([`node`], [`flatten`]; leaves of one node share 8-lane packets) and traverse that by hand ([`traverse`]): one 8-lane slab test per
 //! node, front-to-back child order for closest hits, 8-triangle Möller–Trumbore leaf packets
 //! ([`tri`]), and the hit's barycentrics returned so shading does not intersect the triangle
 //! again. The traversal is compiled twice, for AVX2 ([`lanes`]: one ymm register per 8-lane
@@ -12,6 +13,7 @@
 //! by lane) at every node and sorts nothing; on incoherent rays it ran at ~1 Mray/s on 130k
 //! triangles where this layout is several times faster (`cargo bench --bench traversal`).
 
+mod build;
 mod flatten;
 mod lanes;
 mod node;
@@ -28,9 +30,6 @@ use crate::math::simd::wide::{Fx, V3x};
 use crate::math::simd::{self, Isa};
 use crate::math::{Vec2, Vec3};
 use node::Node8;
-use obvhs::BvhBuildParams;
-use obvhs::bvh2::builder::build_bvh2_from_tris;
-use obvhs::triangle::Triangle;
 use tri::{LANES, TriPack};
 
 /// A closest hit: distance along the (unit) ray direction, the triangle that was hit and where.
@@ -46,16 +45,16 @@ pub struct Hit {
     pub b: Vec2,
 }
 
-/// Most triangles in one leaf (obvhs's SAH collapse decides below that): one 8-lane packet.
-const MAX_LEAF_TRIS: u32 = 8;
-
 /// The scene's bounding volume hierarchy (8-wide, built from obvhs's binary BVH).
 pub struct Accel {
     nodes: Vec<Node8>,
     /// Triangle packets in leaf order.
     tris: Vec<TriPack>,
-    /// (mesh, triangle) of each packet lane (LANES per packet; padding lanes are never hit).
-    ids: Vec<[u32; 2]>,
+    /// Global triangle id (see `mesh_first`) of each packet lane; u32::MAX in padding lanes,
+    /// which are never hit.
+    ids: Vec<[u32; LANES]>,
+    /// Global id of each mesh's first triangle (the meshes' triangles numbered in order).
+    mesh_first: Vec<u32>,
     /// World-space bounds of all geometry (min, max); both zero for an empty scene.
     bounds: (Vec3, Vec3),
     /// Analytic spheres and their mesh index, tested one by one next to the BVH (scenes
@@ -66,14 +65,21 @@ pub struct Accel {
 }
 
 impl Accel {
-    /// Builds the BVH over all triangles of `meshes` (obvhs `medium_build` preset, leaves of at
-    /// most [`MAX_LEAF_TRIS`] triangles) and flattens it to the 8-wide layout.
+    /// Builds the BVH over all triangles of `meshes` (obvhs's PLOC with `medium_build`'s
+    /// settings, reinsertion sized by the triangle count, leaves of at most eight triangles;
+    /// big scenes in parts, see [`build`]) and flattens it to the 8-wide layout. The meshes
+    /// must hold fewer than u32::MAX triangles in all (`RenderScene::new` checks).
     pub fn build(meshes: &[Mesh]) -> Accel {
-        let mut src = Vec::new();
-        let mut src_ids = Vec::new();
+        Self::build_in_parts(meshes, build::PART_TRIS)
+    }
+
+    /// [`Accel::build`] with parts of at most `part_tris` triangles.
+    fn build_in_parts(meshes: &[Mesh], part_tris: usize) -> Accel {
+        let ids = build::TriIds::new(meshes);
+        let (built, tri_bounds) = build::build(&ids, part_tris);
+        let mut spheres = Vec::new();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
-        let mut spheres = Vec::new();
         for (mi, mesh) in meshes.iter().enumerate() {
             if let Some(s) = mesh.sphere {
                 let (a, b) = s.bounds();
@@ -81,71 +87,42 @@ impl Accel {
                 hi = hi.max(b);
                 spheres.push((s, mi as u32));
             }
-            for (ti, idx) in mesh.indices.iter().enumerate() {
-                let p = idx.map(|i| mesh.positions[i as usize]);
-                // Non-finite or degenerate triangles cannot be hit; keep them out of the BVH.
-                if !p.iter().all(|q| q.is_finite())
-                    || (p[1] - p[0]).cross(p[2] - p[0]) == Vec3::ZERO
-                {
-                    continue;
-                }
-                for q in p {
-                    lo = lo.min(q);
-                    hi = hi.max(q);
-                }
-                src.push(Triangle {
-                    v0: p[0].into(),
-                    v1: p[1].into(),
-                    v2: p[2].into(),
-                });
-                src_ids.push([mi as u32, ti as u32]);
-            }
         }
-        let isa = simd::isa();
-        if src.is_empty() {
-            return Accel {
-                nodes: Vec::new(),
-                tris: Vec::new(),
-                ids: Vec::new(),
-                bounds: if spheres.is_empty() {
-                    (Vec3::ZERO, Vec3::ZERO)
-                } else {
-                    (lo, hi)
-                },
-                spheres,
-                isa,
-            };
+        if let Some((a, b)) = tri_bounds {
+            lo = lo.min(a);
+            hi = hi.max(b);
         }
-        let params = BvhBuildParams {
-            max_prims_per_leaf: MAX_LEAF_TRIS,
-            ..BvhBuildParams::medium_build()
+        let bounds = if spheres.is_empty() && tri_bounds.is_none() {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
         };
-        let bvh2 = build_bvh2_from_tris(&src, params, &mut std::time::Duration::default());
-        let (nodes, order) = flatten::flatten(&bvh2);
-        let mut tris = vec![TriPack::default(); order.len()];
-        let mut ids = vec![[u32::MAX; 2]; LANES * order.len()];
-        for (pk, lanes) in order.iter().enumerate() {
-            for (k, &i) in lanes.iter().enumerate() {
-                if i != u32::MAX {
-                    let t = &src[i as usize];
-                    tris[pk].set(k, t.v0.into(), t.v1.into(), t.v2.into());
-                    ids[LANES * pk + k] = src_ids[i as usize];
-                }
-            }
-        }
         Accel {
-            nodes,
-            tris,
-            ids,
-            bounds: (lo, hi),
+            nodes: built.nodes,
+            tris: built.tris,
+            ids: built.ids,
+            mesh_first: ids.first,
+            bounds,
             spheres,
-            isa,
+            isa: simd::isa(),
         }
+    }
+
+    /// Bytes held by the hierarchy (nodes, packets, lane ids) while rendering.
+    pub fn resident_bytes(&self) -> usize {
+        std::mem::size_of_val(self.nodes.as_slice())
+            + std::mem::size_of_val(self.tris.as_slice())
+            + std::mem::size_of_val(self.ids.as_slice())
+            + std::mem::size_of_val(self.mesh_first.as_slice())
     }
 
     /// Number of triangles in the hierarchy.
     pub fn triangle_count(&self) -> usize {
-        self.ids.iter().filter(|i| i[0] != u32::MAX).count()
+        self.ids
+            .iter()
+            .flatten()
+            .filter(|&&g| g != u32::MAX)
+            .count()
     }
 
     /// Axis-aligned bounds (min, max) of all geometry in world units.
@@ -189,7 +166,8 @@ impl Accel {
         if !h.is_hit() {
             return best;
         }
-        let [mesh, prim] = self.ids[h.slot as usize];
+        let g = self.ids[h.slot as usize / LANES][h.slot as usize % LANES];
+        let (mesh, prim) = build::TriIds::locate(&self.mesh_first, g);
         Some(Hit {
             t: h.t,
             mesh,

@@ -341,3 +341,77 @@ fn offset_origin_escapes_the_surface() {
         assert!(accel.intersect(o, d, f32::INFINITY).is_none());
     }
 }
+
+#[test]
+fn parts_match_brute_force() {
+    use crate::geometry::generate::sphere_displaced;
+    use crate::math::warp::square_to_uniform_sphere;
+    // ~4.6k triangles in parts of 256: more than eight parts, so the top needs two levels.
+    let meshes = vec![
+        sphere_displaced(Vec3::ZERO, 1.0, 32, 64, false, true, |d| {
+            0.1 * (7.0 * d.x).sin() * (5.0 * d.y).cos()
+        }),
+        quad(1.5),
+        Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+            indices: vec![[0, 1, 2]],
+            ..Default::default()
+        },
+    ];
+    let accel = Accel::build_in_parts(&meshes, 256);
+    let whole = Accel::build(&meshes);
+    assert_eq!(accel.triangle_count(), whole.triangle_count());
+    assert_eq!(accel.bounds(), whole.bounds());
+    // The root joins part roots: inner children only.
+    assert!(accel.nodes[0].count.iter().all(|&c| c == 0));
+    assert!(
+        accel.nodes[0]
+            .child
+            .iter()
+            .filter(|&&c| c != u32::MAX)
+            .count()
+            >= 2
+    );
+    let mut rng = crate::math::Pcg32::new(5, 11);
+    let mut rays = Vec::new();
+    for k in 0..3000 {
+        let o = square_to_uniform_sphere(rng.next_2d()) * (0.5 + 3.0 * rng.next_f32());
+        let d = (square_to_uniform_sphere(rng.next_2d()) * 0.9 - o).normalize();
+        let tmax = if k % 3 == 0 { 2.0 } else { f32::INFINITY };
+        rays.push((o, d, tmax));
+    }
+    assert!(check_all_isas(&accel, &meshes, &rays) > 1000);
+}
+
+#[test]
+fn leaves_share_packets() {
+    use crate::geometry::generate::sphere_displaced;
+    let meshes = vec![sphere_displaced(
+        Vec3::ZERO,
+        1.0,
+        64,
+        128,
+        false,
+        true,
+        |_| 0.0,
+    )];
+    let accel = Accel::build(&meshes);
+    let n = accel.triangle_count();
+    assert_eq!(n, meshes[0].indices.len());
+    // Each wide node packs its leaves: far fuller packets than one leaf per packet.
+    let lanes = accel.tris.len() * tri::LANES;
+    assert!(
+        n as f64 > 0.7 * lanes as f64,
+        "{n} triangles in {lanes} lanes"
+    );
+}
+
+#[test]
+fn reinsertion_budget_falls_with_size() {
+    assert_eq!(build::reinsertion_ratio(1000), 0.05);
+    let (a, b) = (
+        build::reinsertion_ratio(1 << 20),
+        build::reinsertion_ratio(1 << 22),
+    );
+    assert!(a < 0.05 && b < a && b > 0.005, "{a} {b}");
+}
