@@ -1,5 +1,6 @@
 //! Subcommands, one file each.
 
+pub mod check;
 pub mod compare;
 pub mod convert;
 pub mod figures;
@@ -63,6 +64,10 @@ pub enum Command {
     /// mean z ≈ 0 ± stderr and var(z) ≈ 1 for an unbiased test. Without a variance it prints
     /// "no statistical test run". See docs/model.md.
     Compare(compare::CompareArgs),
+    /// Run a regression suite: render every case, compare it with its reference by the
+    /// calibrated test, print one line per case, write report/index.html and report/junit.xml;
+    /// non-zero exit when any case fails.
+    Check(check::CheckArgs),
     /// Render a model's seamless tile(s) for one view and light repeated over a grid (sRGB PNG).
     TilePreview(tile_preview::TilePreviewArgs),
 }
@@ -78,6 +83,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Check(a) => check::run(a),
         Command::TilePreview(a) => tile_preview::run(a),
     }
 }

@@ -1,0 +1,541 @@
+//! The calibrated verdict of `btfpt compare` and `btfpt check`: z-tests of a render against a
+//! reference at several block scales whose false-alarm rate over the whole image is held at α.
+//!
+//! - Noise: the test image's variance of its mean is *predicted* from the reference's per-sample
+//!   variance (`sample_var / spp`, the per-sample variance floored as Mitsuba's render tests
+//!   floor it) when the reference has one; otherwise it is the test render's own *estimate*,
+//!   which at low spp misses rare bright paths (caustics), so it is trusted only pooled over
+//!   blocks of at least [`Calibration::min_estimated_block`]² pixels. The reference's variance
+//!   of its mean is added when known, and every cell gets an f32 rounding floor
+//!   ([`super::ztest::rounding_variance`]).
+//! - Family: each block scale (b×b block means, Šidák-corrected over its cells × 3 channels)
+//!   and one global bias test (the mean z of the finest scale in the verdict) share α equally
+//!   (Bonferroni), so under the null hypothesis with normal cell means the image fails with
+//!   probability ≤ α. docs/model.md gives the measured false-alarm rate and power.
+
+use super::normal::normal_isf;
+use super::ztest::{ZTest, z_test};
+use super::{check_same_size, ztest::check_variance};
+use crate::io::RgbImage;
+use crate::{Error, Result};
+use serde::Serialize;
+
+/// Where the variance of the test image's mean comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum TestNoise<'a> {
+    /// Predicted from the reference's per-sample variance and the test's samples per pixel.
+    Predicted {
+        sample_var: &'a RgbImage,
+        spp: u32,
+    },
+    /// The test render's own estimate of its variance of the mean (`render --variance`).
+    Estimated(&'a RgbImage),
+}
+
+/// The noise of both images: the test's (if known) and the reference's variance of its mean.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoiseModel<'a> {
+    pub test: Option<TestNoise<'a>>,
+    pub reference: Option<&'a RgbImage>,
+}
+
+/// Settings of the calibrated test.
+#[derive(Clone, Debug, Serialize)]
+pub struct Calibration {
+    /// Probability that a correct render fails (family-wise over all scales and the bias test).
+    pub alpha: f64,
+    /// Block sides of the scales in the verdict, in pixels (1 = per pixel); sides larger than
+    /// the image are dropped.
+    pub scales: Vec<usize>,
+    /// Least per-sample variance assumed where the reference's is nonzero (radiance², as the
+    /// 1e-4 of Mitsuba's render tests).
+    pub sample_variance_floor: f64,
+    /// Smallest block side whose test is in the verdict when the test's variance is estimated.
+    pub min_estimated_block: usize,
+}
+
+impl Default for Calibration {
+    fn default() -> Self {
+        Calibration {
+            alpha: 0.01,
+            scales: vec![4, 8, 16, 32],
+            sample_variance_floor: 1e-4,
+            min_estimated_block: 8,
+        }
+    }
+}
+
+/// One block scale of the verdict.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScaleTest {
+    /// True when this scale's failures fail the image.
+    pub in_verdict: bool,
+    /// Why a scale is not in the verdict (shown for information only).
+    pub note: Option<String>,
+    #[serde(flatten)]
+    pub test: ZTest,
+}
+
+/// The global bias test: mean z of one scale against its standard error.
+#[derive(Clone, Debug, Serialize)]
+pub struct BiasTest {
+    /// Block side of the scale whose mean z is tested.
+    pub block: usize,
+    pub mean_z: f64,
+    /// Standard error of the mean z for an unbiased image, 1/√(3·cells).
+    pub stderr: f64,
+    /// mean_z / stderr.
+    pub z: f64,
+    /// Two-sided threshold on |z| at this test's share of α.
+    pub threshold: f64,
+    pub failed: bool,
+}
+
+/// The calibrated verdict and every figure behind it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Verdict {
+    /// Where the test's variance came from, in words.
+    pub noise: String,
+    /// True when the test's variance is its own low-spp estimate (fine scales not in the verdict).
+    pub estimated: bool,
+    pub alpha: f64,
+    /// Tests sharing α (the scales in the verdict and the bias test).
+    pub tests_in_verdict: usize,
+    /// α / tests_in_verdict.
+    pub alpha_per_test: f64,
+    pub sample_variance_floor: f64,
+    pub rounding_ulps: f64,
+    /// The per-pixel test first, then the block scales from fine to coarse.
+    pub scales: Vec<ScaleTest>,
+    pub bias: BiasTest,
+    pub passed: bool,
+    /// One sentence per failed test.
+    pub failures: Vec<String>,
+}
+
+impl Verdict {
+    /// The per-pixel test (always computed, for the z-map and the worst pixels).
+    pub fn pixel_test(&self) -> &ZTest {
+        &self.scales[0].test
+    }
+
+    /// A few lines: one per scale and the bias test, then PASS or FAILED.
+    pub fn report(&self) -> String {
+        let mut s = format!(
+            "calibrated test ({}): α = {} over {} tests (α {:.2e} each)",
+            self.noise, self.alpha, self.tests_in_verdict, self.alpha_per_test
+        );
+        for sc in &self.scales {
+            s.push_str("\n  ");
+            s.push_str(&sc.test.summary());
+            if let Some(n) = &sc.note {
+                s.push_str(&format!(" [not in the verdict: {n}]"));
+            }
+        }
+        let b = &self.bias;
+        s.push_str(&format!(
+            "\n  global bias: mean z {:+.4} on {b}×{b} blocks = {:+.2} standard errors (|·| ≤ {:.2} to pass)",
+            b.mean_z,
+            b.z,
+            b.threshold,
+            b = b.block
+        ));
+        s
+    }
+}
+
+/// The per-pixel variance of (test − reference) under `noise` (before the rounding floor).
+pub fn pixel_variance(noise: &NoiseModel, sample_variance_floor: f64) -> Result<RgbImage> {
+    let base = match (noise.test, noise.reference) {
+        (Some(TestNoise::Predicted { sample_var, .. }), _) => sample_var,
+        (Some(TestNoise::Estimated(v)), _) => v,
+        (None, Some(r)) => r,
+        (None, None) => {
+            return Err(Error::Invalid(
+                "the calibrated test needs a variance: the reference's per-sample variance with \
+                 the test's spp, the test's own variance, or the reference's variance of its mean"
+                    .into(),
+            ));
+        }
+    };
+    let mut out = RgbImage::new(base.width, base.height);
+    match noise.test {
+        Some(TestNoise::Predicted { sample_var, spp }) => {
+            if spp == 0 {
+                return Err(Error::Invalid(
+                    "the test render's spp must be at least 1".into(),
+                ));
+            }
+            check_variance(sample_var, "sample variance")?;
+            let floor = sample_variance_floor.max(0.0) as f32;
+            for (o, &v) in out.data.iter_mut().zip(&sample_var.data) {
+                *o = if v > 0.0 { v.max(floor) / spp as f32 } else { 0.0 };
+            }
+        }
+        Some(TestNoise::Estimated(v)) => {
+            check_variance(v, "test variance")?;
+            out.data.copy_from_slice(&v.data);
+        }
+        None => {}
+    }
+    if let Some(r) = noise.reference {
+        check_same_size(&out, r, "test variance vs reference variance")?;
+        check_variance(r, "reference variance")?;
+        for (o, v) in out.data.iter_mut().zip(&r.data) {
+            *o += v;
+        }
+    }
+    Ok(out)
+}
+
+/// The calibrated verdict of `test` against `reference` under `noise` (see the module docs).
+pub fn verdict(
+    test: &RgbImage,
+    reference: &RgbImage,
+    noise: &NoiseModel,
+    cal: &Calibration,
+) -> Result<Verdict> {
+    check_same_size(test, reference, "test vs reference")?;
+    if !(cal.alpha > 0.0 && cal.alpha < 1.0) {
+        return Err(Error::Invalid(format!(
+            "alpha {} must be in (0, 1)",
+            cal.alpha
+        )));
+    }
+    let var = pixel_variance(noise, cal.sample_variance_floor)?;
+    check_same_size(test, &var, "test vs variance")?;
+    let estimated = matches!(noise.test, Some(TestNoise::Estimated(_)));
+    let side = test.width.min(test.height).max(1);
+    let mut sides: Vec<usize> = cal
+        .scales
+        .iter()
+        .copied()
+        .filter(|&b| b >= 1 && b <= side)
+        .collect();
+    sides.sort_unstable();
+    sides.dedup();
+    let counted = |b: usize| !estimated || b >= cal.min_estimated_block.min(side);
+    if !sides.iter().any(|&b| counted(b)) {
+        sides.push(if estimated {
+            cal.min_estimated_block.min(side)
+        } else {
+            side
+        });
+    }
+    let in_verdict: Vec<usize> = sides.iter().copied().filter(|&b| counted(b)).collect();
+    let tests = in_verdict.len() + 1;
+    let a = cal.alpha / tests as f64;
+    let mut all = sides.clone();
+    if !all.contains(&1) {
+        all.insert(0, 1);
+    }
+    let mut scales = Vec::with_capacity(all.len());
+    for &b in &all {
+        let counts = in_verdict.contains(&b);
+        let note = if counts {
+            None
+        } else if estimated && b < cal.min_estimated_block {
+            Some(format!(
+                "the test's variance is its own estimate, trusted only on blocks of {0}×{0} or more",
+                cal.min_estimated_block
+            ))
+        } else {
+            Some("not one of the verdict's scales".to_string())
+        };
+        scales.push(ScaleTest {
+            in_verdict: counts,
+            note,
+            test: z_test(test, reference, &var, b, a)?,
+        });
+    }
+    let finest = in_verdict[0];
+    let t = &scales
+        .iter()
+        .find(|s| s.test.block == finest)
+        .expect("the finest scale is computed")
+        .test;
+    let threshold = normal_isf(0.5 * a);
+    let bz = t.mean_z / t.mean_z_stderr;
+    let bias = BiasTest {
+        block: finest,
+        mean_z: t.mean_z,
+        stderr: t.mean_z_stderr,
+        z: bz,
+        threshold,
+        failed: !(bz.abs() <= threshold),
+    };
+    let mut failures = Vec::new();
+    for s in scales.iter().filter(|s| s.in_verdict && !s.test.passed()) {
+        let t = &s.test;
+        let what = if t.block == 1 {
+            "pixels".to_string()
+        } else {
+            format!("{b}×{b} blocks", b = t.block)
+        };
+        failures.push(format!(
+            "{} of {} {what} fail the z-test (|z| > {:.2}); worst {}",
+            t.failing,
+            t.cells,
+            t.threshold,
+            t.worst_summary(3)
+        ));
+    }
+    if bias.failed {
+        failures.push(format!(
+            "global bias: mean z {:+.4} on {b}×{b} blocks is {:+.1} standard errors (limit ±{:.2})",
+            bias.mean_z,
+            bias.z,
+            bias.threshold,
+            b = bias.block
+        ));
+    }
+    let noise_words = match noise.test {
+        Some(TestNoise::Predicted { spp, .. }) => {
+            format!("test variance predicted from the reference's per-sample variance at {spp} spp")
+        }
+        Some(TestNoise::Estimated(_)) => "test variance estimated by the test render".to_string(),
+        None => "reference variance only".to_string(),
+    } + if noise.reference.is_some() {
+        " + the reference's variance of its mean"
+    } else {
+        ""
+    };
+    Ok(Verdict {
+        noise: noise_words,
+        estimated,
+        alpha: cal.alpha,
+        tests_in_verdict: tests,
+        alpha_per_test: a,
+        sample_variance_floor: cal.sample_variance_floor,
+        rounding_ulps: super::ztest::ROUNDING_ULPS,
+        scales,
+        bias,
+        passed: failures.is_empty(),
+        failures,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Pcg32;
+
+    fn gauss(rng: &mut Pcg32) -> f64 {
+        let (u1, u2) = (rng.next_f32().max(1e-7) as f64, rng.next_f32() as f64);
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+
+    fn flat(w: usize, h: usize, v: f32) -> RgbImage {
+        RgbImage {
+            width: w,
+            height: h,
+            data: vec![v; 3 * w * h],
+        }
+    }
+
+    /// A per-sample distribution with a known mean and variance.
+    #[derive(Clone, Copy)]
+    enum Samples {
+        /// N(mean, sd²).
+        Gauss { mean: f64, sd: f64 },
+        /// `v` with probability `p`, else `base` (a caustic: rare bright paths).
+        Rare { base: f64, v: f64, p: f64 },
+    }
+
+    impl Samples {
+        fn mean(self) -> f64 {
+            match self {
+                Samples::Gauss { mean, .. } => mean,
+                Samples::Rare { base, v, p } => base + p * (v - base),
+            }
+        }
+        fn var(self) -> f64 {
+            match self {
+                Samples::Gauss { sd, .. } => sd * sd,
+                Samples::Rare { base, v, p } => p * (1.0 - p) * (v - base) * (v - base),
+            }
+        }
+        fn draw(self, rng: &mut Pcg32) -> f64 {
+            match self {
+                Samples::Gauss { mean, sd } => mean + sd * gauss(rng),
+                Samples::Rare { base, v, p } => {
+                    if (rng.next_f32() as f64) < p {
+                        v
+                    } else {
+                        base
+                    }
+                }
+            }
+        }
+    }
+
+    /// A test render of `spp` samples per pixel scaled by `gain`: its mean and its own estimate
+    /// of the variance of its mean.
+    fn render(
+        w: usize,
+        h: usize,
+        s: Samples,
+        spp: u32,
+        gain: f64,
+        rng: &mut Pcg32,
+    ) -> (RgbImage, RgbImage) {
+        let (mut m, mut v) = (flat(w, h, 0.0), flat(w, h, 0.0));
+        for i in 0..3 * w * h {
+            let (mut a, mut a2) = (0.0, 0.0);
+            for _ in 0..spp {
+                let x = gain * s.draw(rng);
+                a += x;
+                a2 += x * x;
+            }
+            let n = spp as f64;
+            let mean = a / n;
+            m.data[i] = mean as f32;
+            v.data[i] = ((a2 / n - mean * mean).max(0.0) * n / (n - 1.0) / n) as f32;
+        }
+        (m, v)
+    }
+
+    /// Fraction of `trials` renders of `s` (scaled by `gain`) that fail against the exact mean.
+    fn failure_rate(s: Samples, gain: f64, estimated: bool, cal: &Calibration, seed: u64) -> f64 {
+        let (w, h, spp, trials) = (32, 32, 64, 60);
+        let reference = flat(w, h, s.mean() as f32);
+        let sample_var = flat(w, h, s.var() as f32);
+        let mut rng = Pcg32::new(seed, 7);
+        let mut failed = 0;
+        for _ in 0..trials {
+            let (t, tv) = render(w, h, s, spp, gain, &mut rng);
+            let noise = NoiseModel {
+                test: Some(if estimated {
+                    TestNoise::Estimated(&tv)
+                } else {
+                    TestNoise::Predicted {
+                        sample_var: &sample_var,
+                        spp,
+                    }
+                }),
+                reference: None,
+            };
+            failed += !verdict(&t, &reference, &noise, cal).unwrap().passed as usize;
+        }
+        failed as f64 / trials as f64
+    }
+
+    fn at(alpha: f64, scales: &[usize]) -> Calibration {
+        Calibration {
+            alpha,
+            scales: scales.to_vec(),
+            sample_variance_floor: 0.0,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn gaussian_noise_fails_near_the_nominal_rate() {
+        // At α = 0.2 over 60 renders: about 12 false alarms expected (Bonferroni over the scales
+        // makes the rate a little lower); 3..=20 holds with probability > 99.9 %.
+        let g = Samples::Gauss { mean: 0.5, sd: 0.2 };
+        for scales in [&[1usize, 4, 8, 16][..], &[4, 8, 16, 32]] {
+            let r = failure_rate(g, 1.0, false, &at(0.2, scales), 11);
+            assert!((0.05..=0.34).contains(&r), "scales {scales:?}: rate {r}");
+        }
+    }
+
+    #[test]
+    fn rare_bright_samples_break_the_per_pixel_test_but_not_the_blocks() {
+        // 1 sample in 200 is 100× brighter: at 64 spp most pixels saw none, a few saw one.
+        let rare = Samples::Rare { base: 0.1, v: 10.0, p: 0.005 };
+        let per_pixel = failure_rate(rare, 1.0, false, &at(0.01, &[1]), 12);
+        assert!(per_pixel > 0.5, "per-pixel false-alarm rate {per_pixel}");
+        let blocks = failure_rate(rare, 1.0, false, &at(0.01, &[4, 8, 16, 32]), 13);
+        assert!(blocks <= 0.05, "block false-alarm rate {blocks}");
+    }
+
+    #[test]
+    fn an_estimated_variance_is_trusted_only_on_large_blocks() {
+        let rare = Samples::Rare { base: 0.1, v: 10.0, p: 0.005 };
+        let cal = Calibration {
+            scales: vec![1, 4, 8, 16, 32],
+            ..at(0.01, &[])
+        };
+        let r = failure_rate(rare, 1.0, true, &cal, 14);
+        assert!(r <= 0.05, "estimated-variance false-alarm rate {r}");
+        // Had the fine scales counted, the low estimates of pixels without a bright sample fail.
+        let all = Calibration {
+            min_estimated_block: 1,
+            ..cal
+        };
+        let r = failure_rate(rare, 1.0, true, &all, 15);
+        assert!(r > 0.5, "rate {r} when trusting single pixels");
+    }
+
+    #[test]
+    fn a_one_percent_shift_is_found() {
+        // Per pixel the shift is 0.025 σ of the mean; over the 32×32 image it is 2.4 standard errors
+        // per channel, found by the global bias test almost always at 2 %.
+        let g = Samples::Gauss { mean: 0.5, sd: 0.5 };
+        let cal = Calibration::default();
+        assert_eq!(failure_rate(g, 1.02, false, &cal, 16), 1.0);
+        let rare = Samples::Rare { base: 0.1, v: 10.0, p: 0.005 };
+        assert!(failure_rate(rare, 1.05, false, &cal, 17) >= 0.95);
+        assert!(failure_rate(rare, 1.05, true, &cal, 18) >= 0.95);
+    }
+
+    #[test]
+    fn float_rounding_alone_passes() {
+        let r = RgbImage {
+            width: 8,
+            height: 8,
+            data: (0..192).map(|i| 0.05 + 0.01 * (i % 13) as f32).collect(),
+        };
+        let mut t = r.clone();
+        for v in &mut t.data {
+            *v = f32::from_bits(v.to_bits() + 1);
+        }
+        let tiny = flat(8, 8, 1e-18);
+        let noise = NoiseModel {
+            test: Some(TestNoise::Estimated(&tiny)),
+            reference: Some(&tiny),
+        };
+        let v = verdict(&t, &r, &noise, &Calibration::default()).unwrap();
+        assert!(v.passed, "{}", v.report());
+        // Four ulps apart is still within 1σ of the floor; 1e-4 relative is not.
+        for v in &mut t.data {
+            *v *= 1.0 + 1e-4;
+        }
+        assert!(!verdict(&t, &r, &noise, &Calibration::default()).unwrap().passed);
+    }
+
+    #[test]
+    fn verdict_lists_scales_and_rejects_bad_input() {
+        let r = flat(20, 12, 0.5);
+        let sv = flat(20, 12, 0.01);
+        let noise = NoiseModel {
+            test: Some(TestNoise::Predicted {
+                sample_var: &sv,
+                spp: 16,
+            }),
+            reference: None,
+        };
+        let v = verdict(&r, &r, &noise, &Calibration::default()).unwrap();
+        // 32 is larger than the 12-pixel side: dropped; the per-pixel test is listed first.
+        let sides: Vec<usize> = v.scales.iter().map(|s| s.test.block).collect();
+        assert_eq!(sides, vec![1, 4, 8]);
+        assert!(!v.scales[0].in_verdict && v.scales[1].in_verdict);
+        assert_eq!(v.tests_in_verdict, 3);
+        assert!(v.passed && v.report().contains("global bias"));
+        assert!(verdict(&r, &r, &NoiseModel::default(), &Calibration::default()).is_err());
+        let bad = Calibration {
+            alpha: 1.0,
+            ..Default::default()
+        };
+        assert!(verdict(&r, &r, &noise, &bad).is_err());
+        let zero = NoiseModel {
+            test: Some(TestNoise::Predicted {
+                sample_var: &sv,
+                spp: 0,
+            }),
+            reference: None,
+        };
+        assert!(verdict(&r, &r, &zero, &Calibration::default()).is_err());
+    }
+}
