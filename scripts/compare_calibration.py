@@ -11,20 +11,22 @@ false alarm) and of each fault (every pass is a miss) are compared with the refe
 A fault whose power is below 95 % at SPP is run again at 4x the spp, up to MAX_SPP.
 
 usage: scripts/compare_calibration.py [--seeds 20] [--spp 64] [--max-spp 1024] [--json out.json]
-Needs target/release/btfpt (cargo build --release). Only the standard library.
+Needs target/release/btfpt (cargo build --release), or the binary named by $BTFPT. Only the
+standard library.
 """
 
 import argparse
 import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import tempfile
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BIN = os.path.join(ROOT, "target", "release", "btfpt")
+BIN = os.environ.get("BTFPT", os.path.join(ROOT, "target", "release", "btfpt"))
 
 
 def scale_values(text, names, factor):
@@ -120,6 +122,8 @@ def main():
     a = ap.parse_args()
     if not os.path.isfile(BIN):
         sys.exit(f"{BIN} not found: run cargo build --release first")
+    # A kill still runs the `finally` that removes the fault scenes written beside the scenes.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit("terminated"))
     tmp = tempfile.mkdtemp(prefix="btfpt-calib-")
     log = os.path.join(tmp, "log.txt")
     # The BTF of btf-sphere once as a folder (a synth: URI would be regenerated per render), as

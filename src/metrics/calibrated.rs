@@ -9,9 +9,9 @@
 //!   of its mean is added when known, and every cell gets an f32 rounding floor
 //!   ([`super::ztest::rounding_variance`]).
 //! - Family: each block scale (b×b block means, Šidák-corrected over its cells × 3 channels)
-//!   and one global bias test (the mean z of the finest scale in the verdict) share α equally
-//!   (Bonferroni), so under the null hypothesis with normal cell means the image fails with
-//!   probability ≤ α. docs/model.md gives the measured false-alarm rate and power.
+//!   and one global bias test ([`BiasTest`]) share α equally (Bonferroni), so under the null
+//!   hypothesis with normal cell means the image fails with probability ≤ α. docs/model.md
+//!   gives the measured false-alarm rate and power.
 
 use super::normal::normal_isf;
 use super::ztest::{ZTest, z_test};
@@ -76,15 +76,22 @@ pub struct ScaleTest {
     pub test: ZTest,
 }
 
-/// The global bias test: mean z of one scale against its standard error.
+/// The global bias test: a one-sample t-test over pixels of u = mean over channels of
+/// w·(test − reference), with weights w fixed before the test image is seen (1/σ of the
+/// predicted noise, or 1/(reference + ε) when the test's noise is its own estimate), so
+/// E[u] = 0 for a correct render whatever the noise's shape, and the standard error is measured
+/// from the spread of u over the image (channels of one path are correlated).
 #[derive(Clone, Debug, Serialize)]
 pub struct BiasTest {
-    /// Block side of the scale whose mean z is tested.
-    pub block: usize,
-    pub mean_z: f64,
-    /// Standard error of the mean z for an unbiased image, 1/√(3·cells).
+    /// "1/sigma" or "relative" (1/(reference + ε), ε = 1 % of the mean reference).
+    pub weights: &'static str,
+    /// Pixels averaged.
+    pub pixels: usize,
+    /// Mean of u (in units of σ for "1/sigma", relative for "relative").
+    pub mean: f64,
+    /// Standard error of the mean of u, from the sample standard deviation of u.
     pub stderr: f64,
-    /// mean_z / stderr.
+    /// mean / stderr.
     pub z: f64,
     /// Two-sided threshold on |z| at this test's share of α.
     pub threshold: f64,
@@ -134,11 +141,8 @@ impl Verdict {
         }
         let b = &self.bias;
         s.push_str(&format!(
-            "\n  global bias: mean z {:+.4} on {b}×{b} blocks = {:+.2} standard errors (|·| ≤ {:.2} to pass)",
-            b.mean_z,
-            b.z,
-            b.threshold,
-            b = b.block
+            "\n  global bias ({} weights, {} pixels): mean {:+.3e} ± {:.3e} = {:+.2} standard errors (|·| ≤ {:.2} to pass)",
+            b.weights, b.pixels, b.mean, b.stderr, b.z, b.threshold
         ));
         s
     }
@@ -186,6 +190,54 @@ pub fn pixel_variance(noise: &NoiseModel, sample_variance_floor: f64) -> Result<
         }
     }
     Ok(out)
+}
+
+/// The bias test's statistic (threshold and verdict are set by the caller).
+fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bool) -> BiasTest {
+    let n = (test.width * test.height).max(1);
+    let eps = 0.01 * reference.data.iter().map(|&r| r.max(0.0) as f64).sum::<f64>()
+        / reference.data.len().max(1) as f64
+        + 1e-12;
+    let mut u = Vec::with_capacity(n);
+    for p in 0..n {
+        let mut acc = 0.0;
+        for c in 0..3 {
+            let i = 3 * p + c;
+            let (t, r, v) = (test.data[i] as f64, reference.data[i] as f64, var.data[i] as f64);
+            if !t.is_finite() {
+                continue;
+            }
+            let w = if relative {
+                1.0 / (r.abs() + eps)
+            } else if v > 0.0 {
+                1.0 / (v + super::ztest::rounding_variance(t, r)).sqrt()
+            } else {
+                0.0
+            };
+            acc += w * (t - r);
+        }
+        u.push(acc / 3.0);
+    }
+    let m = u.len().max(1) as f64;
+    let mean = u.iter().sum::<f64>() / m;
+    let var_u = u.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (m - 1.0).max(1.0);
+    let stderr = (var_u / m).sqrt();
+    let z = if stderr > 0.0 {
+        mean / stderr
+    } else if mean == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY.copysign(mean)
+    };
+    BiasTest {
+        weights: if relative { "relative" } else { "1/sigma" },
+        pixels: u.len(),
+        mean,
+        stderr,
+        z,
+        threshold: f64::INFINITY,
+        failed: false,
+    }
 }
 
 /// The calibrated verdict of `test` against `reference` under `noise` (see the module docs).
@@ -248,22 +300,9 @@ pub fn verdict(
             test: z_test(test, reference, &var, b, a)?,
         });
     }
-    let finest = in_verdict[0];
-    let t = &scales
-        .iter()
-        .find(|s| s.test.block == finest)
-        .expect("the finest scale is computed")
-        .test;
-    let threshold = normal_isf(0.5 * a);
-    let bz = t.mean_z / t.mean_z_stderr;
-    let bias = BiasTest {
-        block: finest,
-        mean_z: t.mean_z,
-        stderr: t.mean_z_stderr,
-        z: bz,
-        threshold,
-        failed: !(bz.abs() <= threshold),
-    };
+    let mut bias = bias_test(test, reference, &var, estimated);
+    bias.threshold = normal_isf(0.5 * a);
+    bias.failed = !(bias.z.abs() <= bias.threshold);
     let mut failures = Vec::new();
     for s in scales.iter().filter(|s| s.in_verdict && !s.test.passed()) {
         let t = &s.test;
@@ -282,11 +321,10 @@ pub fn verdict(
     }
     if bias.failed {
         failures.push(format!(
-            "global bias: mean z {:+.4} on {b}×{b} blocks is {:+.1} standard errors (limit ±{:.2})",
-            bias.mean_z,
+            "global bias: the weighted mean difference is {:+.1} standard errors (limit ±{:.2}; mean luminance ratio {:.5})",
             bias.z,
             bias.threshold,
-            b = bias.block
+            super::mean_luminance_ratio(test, reference)?
         ));
     }
     let noise_words = match noise.test {

@@ -110,14 +110,14 @@ fn figures_table(c: &Checked) -> String {
         let _ = write!(
             s,
             "<tr><td>noise</td><td>{}</td></tr><tr><td>α</td><td>{} over {} tests</td></tr>\
-             <tr><td>global bias</td><td>mean z {:+.4} on {b}×{b} = {:+.2} s.e. (limit ±{:.2})</td></tr>",
+             <tr><td>global bias</td><td>{} weights: mean {:+.3e} = {:+.2} s.e. (limit ±{:.2})</td></tr>",
             esc(&v.noise),
             v.alpha,
             v.tests_in_verdict,
-            v.bias.mean_z,
+            v.bias.weights,
+            v.bias.mean,
             v.bias.z,
-            v.bias.threshold,
-            b = v.bias.block
+            v.bias.threshold
         );
         for sc in &v.scales {
             let t = &sc.test;
