@@ -213,6 +213,12 @@ fn check_inputs(cases: &[Case], update: &[String]) -> anyhow::Result<()> {
             );
         }
     }
+    // References that an updated case writes before the others are checked.
+    let written: Vec<&PathBuf> = cases
+        .iter()
+        .filter(|c| update.contains(&c.name))
+        .map(|c| &c.reference)
+        .collect();
     for c in cases {
         let at = format!("{}: case '{}'", c.file.display(), c.name);
         if !c.scene.is_file() {
@@ -226,7 +232,7 @@ fn check_inputs(cases: &[Case], update: &[String]) -> anyhow::Result<()> {
             {
                 super::output::check_file(p).with_context(|| at.clone())?;
             }
-        } else if !c.reference.is_file() {
+        } else if !c.reference.is_file() && !written.contains(&&c.reference) {
             bail!(
                 "{at}: reference {} not found (write it with --update {})",
                 c.reference.display(),
@@ -256,11 +262,27 @@ pub fn run(args: CheckArgs) -> anyhow::Result<()> {
     };
     let width = cases.iter().map(|c| c.name.len()).max().unwrap_or(4);
     let mut outcomes = Vec::new();
+    // Updated cases first, so the others may check against the references they write.
+    let (mut cases, rest): (Vec<Case>, Vec<Case>) = cases
+        .into_iter()
+        .partition(|c| args.update.contains(&c.name));
+    cases.extend(rest);
     for case in cases {
         let updating = args.update.contains(&case.name);
-        let spp = if updating { case.reference_spp } else { case.spp };
-        let rendered = render_case(&case.scene, &case.defines, spp, case.seed, &pool, &case.name)
-            .with_context(|| format!("{}: case '{}'", case.file.display(), case.name));
+        let spp = if updating {
+            case.reference_spp
+        } else {
+            case.spp
+        };
+        let rendered = render_case(
+            &case.scene,
+            &case.defines,
+            spp,
+            case.seed,
+            &pool,
+            &case.name,
+        )
+        .with_context(|| format!("{}: case '{}'", case.file.display(), case.name));
         if updating {
             let r = rendered?;
             let written = write_reference(&case, &r)?;

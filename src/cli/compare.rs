@@ -248,7 +248,11 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     println!("{}", cmp.report());
 
     if let Some(p) = &args.diff {
-        let zmap = cmp.calibrated.as_ref().map(|v| v.pixel_test()).or(cmp.pixel_test.as_ref());
+        let zmap = cmp
+            .calibrated
+            .as_ref()
+            .map(|v| v.pixel_test())
+            .or(cmp.pixel_test.as_ref());
         let (img, label, scale) = match zmap {
             Some(z) => (
                 metrics::z_diff_image(z),

@@ -29,10 +29,7 @@ use serde::Serialize;
 #[derive(Clone, Copy, Debug)]
 pub enum TestNoise<'a> {
     /// Predicted from the reference's per-sample variance and the test's samples per pixel.
-    Predicted {
-        sample_var: &'a RgbImage,
-        spp: u32,
-    },
+    Predicted { sample_var: &'a RgbImage, spp: u32 },
     /// The test render's own estimate of its variance of the mean (`render --variance`).
     Estimated(&'a RgbImage),
 }
@@ -209,7 +206,11 @@ pub fn pixel_variance(noise: &NoiseModel, sample_variance_floor: f64) -> Result<
             check_variance(sample_var, "sample variance")?;
             let floor = sample_variance_floor.max(0.0) as f32;
             for (o, &v) in out.data.iter_mut().zip(&sample_var.data) {
-                *o = if v > 0.0 { v.max(floor) / spp as f32 } else { 0.0 };
+                *o = if v > 0.0 {
+                    v.max(floor) / spp as f32
+                } else {
+                    0.0
+                };
             }
         }
         Some(TestNoise::Estimated(v)) => {
@@ -239,18 +240,22 @@ fn failing_cells(t: &ZTest, tails: Tails) -> usize {
             Tails::Upper => z > t.threshold,
         }
     };
-    let by_z = t
-        .z
-        .chunks_exact(3)
-        .filter(|c| c.iter().any(|&z| bad(z)))
-        .count();
+    let by_z =
+        t.z.chunks_exact(3)
+            .filter(|c| c.iter().any(|&z| bad(z)))
+            .count();
     by_z + t.exact_mismatches + t.nonfinite
 }
 
 /// The bias test's statistic (threshold and verdict are set by the caller).
 fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bool) -> BiasTest {
     let n = (test.width * test.height).max(1);
-    let eps = 0.01 * reference.data.iter().map(|&r| r.max(0.0) as f64).sum::<f64>()
+    let eps = 0.01
+        * reference
+            .data
+            .iter()
+            .map(|&r| r.max(0.0) as f64)
+            .sum::<f64>()
         / reference.data.len().max(1) as f64
         + 1e-12;
     let mut u = Vec::with_capacity(n);
@@ -260,7 +265,11 @@ fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bo
         let mut acc = 0.0;
         for c in 0..3 {
             let i = 3 * p + c;
-            let (t, r, v) = (test.data[i] as f64, reference.data[i] as f64, var.data[i] as f64);
+            let (t, r, v) = (
+                test.data[i] as f64,
+                reference.data[i] as f64,
+                var.data[i] as f64,
+            );
             if !t.is_finite() {
                 continue;
             }
@@ -570,7 +579,10 @@ mod tests {
         assert!(failure_rate(RARE, 1.1, false, &cal, 17) >= 0.95);
         assert!(failure_rate(RARE, 1.1, true, &cal, 18) >= 0.95);
         // Darker by 3 % of one 8×8 corner only: the lower tail of the fine scales finds it.
-        let g = Samples::Gauss { mean: 0.5, sd: 0.05 };
+        let g = Samples::Gauss {
+            mean: 0.5,
+            sd: 0.05,
+        };
         let (w, h) = (32, 32);
         let reference = flat(w, h, 0.5);
         let sv = flat(w, h, 0.0025);
@@ -616,7 +628,11 @@ mod tests {
         for v in &mut t.data {
             *v *= 1.0 + 1e-4;
         }
-        assert!(!verdict(&t, &r, &noise, &Calibration::default()).unwrap().passed);
+        assert!(
+            !verdict(&t, &r, &noise, &Calibration::default())
+                .unwrap()
+                .passed
+        );
     }
 
     #[test]

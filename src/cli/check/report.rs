@@ -11,7 +11,12 @@ const DIFF_SCALE: f64 = 0.1;
 
 /// The console line of one case.
 pub fn line(case: &Case, seconds: f64, result: &Result<Checked, String>, width: usize) -> String {
-    let head = |tag: &str| format!("{tag:5} {:width$}  {:>5} spp {:6.1} s", case.name, case.spp, seconds);
+    let head = |tag: &str| {
+        format!(
+            "{tag:5} {:width$}  {:>5} spp {:6.1} s",
+            case.name, case.spp, seconds
+        )
+    };
     match result {
         Err(e) => format!("{}  error: {e}", head("ERROR")),
         Ok(c) => {
@@ -28,7 +33,11 @@ pub fn line(case: &Case, seconds: f64, result: &Result<Checked, String>, width: 
             if c.failures.is_empty() {
                 format!("{}  {figures}", head("PASS"))
             } else {
-                format!("{}  {figures}\n      {}", head("FAIL"), c.failures.join("\n      "))
+                format!(
+                    "{}  {figures}\n      {}",
+                    head("FAIL"),
+                    c.failures.join("\n      ")
+                )
             }
         }
     }
@@ -141,8 +150,9 @@ fn figures_table(c: &Checked) -> String {
 /// Writes `dir/index.html`, `dir/junit.xml` and the case images (creating `dir` only).
 pub fn write(dir: &Path, suite: &Path, outcomes: &[Outcome]) -> anyhow::Result<()> {
     if !dir.is_dir() {
-        std::fs::create_dir(dir)
-            .map_err(|e| anyhow::anyhow!("{}: cannot create the report folder: {e}", dir.display()))?;
+        std::fs::create_dir(dir).map_err(|e| {
+            anyhow::anyhow!("{}: cannot create the report folder: {e}", dir.display())
+        })?;
     }
     let passed = outcomes
         .iter()
@@ -184,7 +194,11 @@ pub fn write(dir: &Path, suite: &Path, outcomes: &[Outcome]) -> anyhow::Result<(
         let _ = write!(
             html,
             "<h2 id=\"{name}\">{name} <span class=\"{}\">{}</span></h2>\n<p>{} at {} spp, seed {}{}; reference {}</p>\n",
-            if matches!(&o.result, Ok(c) if c.failures.is_empty()) { "pass" } else { "fail" },
+            if matches!(&o.result, Ok(c) if c.failures.is_empty()) {
+                "pass"
+            } else {
+                "fail"
+            },
             match &o.result {
                 Ok(c) if c.failures.is_empty() => "PASS",
                 Ok(_) => "FAIL",
@@ -196,7 +210,12 @@ pub fn write(dir: &Path, suite: &Path, outcomes: &[Outcome]) -> anyhow::Result<(
             if o.case.defines.is_empty() {
                 String::new()
             } else {
-                let d: Vec<String> = o.case.defines.iter().map(|(k, v)| format!("-D {k}={v}")).collect();
+                let d: Vec<String> = o
+                    .case
+                    .defines
+                    .iter()
+                    .map(|(k, v)| format!("-D {k}={v}"))
+                    .collect();
                 format!(", {}", esc(&d.join(" ")))
             },
             esc(&o.case.reference.display().to_string())
@@ -252,7 +271,8 @@ pub fn write(dir: &Path, suite: &Path, outcomes: &[Outcome]) -> anyhow::Result<(
     for (name, text) in [("index.html", &html), ("junit.xml", &junit)] {
         let p = dir.join(name);
         btfpt::io::write_atomic(&p, |w| {
-            w.write_all(text.as_bytes()).map_err(|e| btfpt::Error::io(&p, e))
+            w.write_all(text.as_bytes())
+                .map_err(|e| btfpt::Error::io(&p, e))
         })?;
     }
     Ok(())

@@ -316,16 +316,23 @@ mod tests {
             format!("{:#}", load(&f).unwrap_err())
         };
         let m = e("[[case]\nname = 1");
-        assert!(m.contains("bad.toml") && m.contains("not a valid suite"), "{m}");
+        assert!(
+            m.contains("bad.toml") && m.contains("not a valid suite"),
+            "{m}"
+        );
         let m = e("[[case]]\nname = \"x\"\nreference = \"r.exr\"");
         assert!(m.contains("case 'x'") && m.contains("no scene"), "{m}");
         let m = e("[[case]]\nname = \"x\"\nscene = \"s.xml\"\nreference = \"r.exr\"\nspeed = 3");
         assert!(m.contains("speed"), "{m}");
         let m = e("[[case]]\nname = \"y\"\nscene = \"s.xml\"\nreference = \"r.exr\"\nalpha = 2.0");
         assert!(m.contains("case 'y'") && m.contains("alpha"), "{m}");
-        let m = e("[[case]]\nname = \"y\"\nscene = \"s.xml\"\nreference = \"r.exr\"\nvariance = \"v.exr\"");
+        let m = e(
+            "[[case]]\nname = \"y\"\nscene = \"s.xml\"\nreference = \"r.exr\"\nvariance = \"v.exr\"",
+        );
         assert!(m.contains("case 'y'") && m.contains("v.exr"), "{m}");
-        let m = e("[[case]]\nname = \"z\"\nscene = \"s.xml\"\nreference = \"r.exr\"\n[[case]]\nname = \"z\"\nscene = \"s.xml\"\nreference = \"r.exr\"");
+        let m = e(
+            "[[case]]\nname = \"z\"\nscene = \"s.xml\"\nreference = \"r.exr\"\n[[case]]\nname = \"z\"\nscene = \"s.xml\"\nreference = \"r.exr\"",
+        );
         assert!(m.contains("'z'") && m.contains("unique"), "{m}");
         let m = e("# nothing");
         assert!(m.contains("no cases"), "{m}");
