@@ -110,12 +110,13 @@ pub struct ScaleTest {
 
 /// The global bias test: a one-sample t-test over pixels of u = mean over channels of
 /// w·(test − reference), with weights w fixed before the test image is seen (1/σ of the
-/// predicted noise, or 1/(reference + ε) when the test's noise is its own estimate), so
+/// predicted noise, or uniform when the test's noise is its own estimate: weights taken from a
+/// noisy reference correlate with its noise), so
 /// E[u] = 0 for a correct render whatever the noise's shape, and the standard error is measured
 /// from the spread of u over the image (channels of one path are correlated).
 #[derive(Clone, Debug, Serialize)]
 pub struct BiasTest {
-    /// "1/sigma" or "relative" (1/(reference + ε), ε = 1 % of the mean reference).
+    /// "1/sigma" or "uniform" (the plain mean difference).
     pub weights: &'static str,
     /// Pixels averaged.
     pub pixels: usize,
@@ -278,7 +279,7 @@ fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bo
                 continue;
             }
             let w = if relative {
-                1.0 / (r.abs() + eps)
+                1.0
             } else if v > 0.0 {
                 1.0 / (v + super::ztest::rounding_variance(t, r)).sqrt()
             } else {
@@ -302,7 +303,7 @@ fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bo
         f64::INFINITY.copysign(mean)
     };
     BiasTest {
-        weights: if relative { "relative" } else { "1/sigma" },
+        weights: if relative { "uniform" } else { "1/sigma" },
         pixels: u.len(),
         mean,
         stderr,
