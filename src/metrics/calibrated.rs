@@ -255,14 +255,6 @@ fn failing_cells(t: &ZTest, tails: Tails) -> usize {
 /// The bias test's statistic (threshold and verdict are set by the caller).
 fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bool) -> BiasTest {
     let n = (test.width * test.height).max(1);
-    let eps = 0.01
-        * reference
-            .data
-            .iter()
-            .map(|&r| r.max(0.0) as f64)
-            .sum::<f64>()
-        / reference.data.len().max(1) as f64
-        + 1e-12;
     let mut u = Vec::with_capacity(n);
     // The mean of u that float rounding alone can make (a floor under its standard error).
     let mut rounding = 0.0;
