@@ -86,7 +86,7 @@ fn fails_on_bias_with_a_clear_message() {
     let s = text(&o);
     assert!(!o.status.success(), "{s}");
     assert!(
-        s.contains("comparison FAILED") && s.contains("pixels fail the z-test"),
+        s.contains("comparison FAILED") && s.contains("blocks fail the z-test"),
         "{s}"
     );
     // At 2 spp (σ ≈ 0.07) no pixel fails (z ≤ 1.5), but 4×4 blocks (z ≈ 5) and mean z do.

@@ -30,16 +30,24 @@ pub struct CompareArgs {
     /// btfpt; with a Mitsuba reference's `_var.exr`, btfpt against Mitsuba.
     #[arg(long, value_name = "TEST_VAR.EXR", conflicts_with_all = ["sample_variance", "spp"])]
     pub test_variance: Option<PathBuf>,
-    /// Family-wise significance level of the z-tests (Šidák-corrected over pixels · 3).
+    /// Probability that a correct render fails the calibrated test: shared by its block scales
+    /// and the global bias test (Bonferroni), Šidák-corrected over the cells of each scale.
     #[arg(long, default_value_t = 0.01)]
     pub alpha: f64,
-    /// Side in pixels of the blocks of the block z-test.
+    /// Block sides of the calibrated test's scales (1 = per pixel; docs/model.md says why the
+    /// default leaves single pixels out of the verdict).
+    #[arg(long, value_delimiter = ',', default_value = "4,8,16,32")]
+    pub scales: Vec<usize>,
+    /// Least per-sample variance assumed where the reference's is nonzero (with --spp).
+    #[arg(long, default_value_t = 1e-4)]
+    pub sample_variance_floor: f64,
+    /// Side in pixels of the blocks counted by --max-failing-blocks.
     #[arg(long, default_value_t = 4)]
     pub block: usize,
-    /// Fail when more pixels than this fail the per-pixel z-test (default 0 when a variance is known).
+    /// Also fail when more pixels than this fail the per-pixel z-test (Šidák at α over pixels).
     #[arg(long)]
     pub max_failing_pixels: Option<usize>,
-    /// Fail when more blocks than this fail the block z-test.
+    /// Also fail when more blocks than this fail the --block z-test.
     #[arg(long)]
     pub max_failing_blocks: Option<usize>,
     /// Fail when |mean z| exceeds this (global bias).
@@ -179,22 +187,6 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let mut terms = Vec::new();
-    if sample_var.is_some() || ref_var.is_some() {
-        terms.push(metrics::predicted_variance(
-            sample_var.as_ref(),
-            args.spp.unwrap_or(1),
-            ref_var.as_ref(),
-        )?);
-    }
-    if let Some(t) = &test_var {
-        // Validated (finite, ≥ 0) like the other variance inputs.
-        terms.push(metrics::predicted_variance(None, 1, Some(t))?);
-    }
-    let variance = terms.into_iter().reduce(|mut a, b| {
-        a.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
-        a
-    });
     if args.block > test.width.min(test.height) {
         bail!(
             "--block {} is larger than the {}×{} image",
@@ -203,9 +195,44 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             test.height
         );
     }
-    let cmp = Comparison::new(&test, &reference, variance.as_ref(), args.block, args.alpha)?;
+    if args.scales.contains(&0) {
+        bail!("--scales: block sides must be at least 1");
+    }
+    if args.sample_variance_floor.is_nan() || args.sample_variance_floor < 0.0 {
+        bail!("--sample-variance-floor must be a non-negative number");
+    }
+    let noise = metrics::NoiseModel {
+        test: match (&sample_var, &test_var) {
+            (Some(s), _) => Some(metrics::TestNoise::Predicted {
+                sample_var: s,
+                spp: args.spp.unwrap_or(1),
+            }),
+            (None, Some(t)) => Some(metrics::TestNoise::Estimated(t)),
+            (None, None) => None,
+        },
+        reference: ref_var.as_ref(),
+    };
+    let has_variance = noise.test.is_some() || noise.reference.is_some();
+    let cal = metrics::Calibration {
+        alpha: args.alpha,
+        scales: args.scales.clone(),
+        sample_variance_floor: args.sample_variance_floor,
+        ..Default::default()
+    };
+    let mut cmp = if has_variance {
+        Comparison::calibrated(&test, &reference, &noise, &cal)?
+    } else {
+        Comparison::new(&test, &reference, None, args.block, args.alpha)?
+    };
+    if has_variance && (args.max_failing_pixels.is_some() || args.max_failing_blocks.is_some()) {
+        // The explicit bounds count failures at Šidák α over one scale, as before.
+        let var = metrics::calibrated::pixel_variance(&noise, args.sample_variance_floor)?;
+        let legacy = Comparison::new(&test, &reference, Some(&var), args.block, args.alpha)?;
+        cmp.pixel_test = legacy.pixel_test;
+        cmp.block_test = legacy.block_test;
+    }
     let criteria = Criteria {
-        max_failing_pixels: args.max_failing_pixels.or(variance.as_ref().map(|_| 0)),
+        max_failing_pixels: args.max_failing_pixels,
         max_failing_blocks: args.max_failing_blocks,
         max_abs_mean_z: args.max_abs_mean_z,
         max_relmse: args.max_relmse,
@@ -225,7 +252,12 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     println!("{}", cmp.report());
 
     if let Some(p) = &args.diff {
-        let (img, label, scale) = match &cmp.pixel_test {
+        let zmap = cmp
+            .calibrated
+            .as_ref()
+            .map(|v| v.pixel_test())
+            .or(cmp.pixel_test.as_ref());
+        let (img, label, scale) = match zmap {
             Some(z) => (
                 metrics::z_diff_image(z),
                 format!("{:.2}Z", z.threshold),
@@ -274,6 +306,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             "test_variance": args.test_variance,
             "comparison": cmp,
             "statistical_test": cmp.pixel_test.is_some(),
+            "calibration": if has_variance { Some(&cal) } else { None },
             "passed": if tested { Some(failures.is_empty()) } else { None },
             "failures": failures,
         });

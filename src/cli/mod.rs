@@ -1,6 +1,7 @@
 //! Subcommands, one file each.
 
 pub mod btf_input;
+pub mod check;
 pub mod compare;
 pub mod convert;
 pub mod figures;
@@ -56,14 +57,18 @@ pub enum Command {
     Eval(eval::EvalArgs),
     /// Measure a procedural material with the virtual gonioreflectometer (UBO2003 folder).
     Synth(synth::SynthArgs),
-    /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, z-tests.
+    /// Compare a render with a reference: MAE, RMSE, relMSE, luminance ratio, calibrated z-tests.
     ///
     /// MAE/RMSE in radiance units; relMSE = mean((t − r)² / (r² + 0.01)); luminance ratio = mean
-    /// Rec.709 luminance of test / reference. The z-test (per pixel and on blocks) runs only
-    /// with a variance: z = (t − r)/√var, failing beyond the Šidák-corrected threshold at α;
-    /// mean z ≈ 0 ± stderr and var(z) ≈ 1 for an unbiased test. Without a variance it prints
-    /// "no statistical test run". See docs/model.md.
+    /// Rec.709 luminance of test / reference. With a variance (--spp with the reference's
+    /// per-sample variance, --test-variance, --variance) the calibrated test runs: z-tests on
+    /// 4–32 px block means and a global bias test sharing α, so a correct render fails with
+    /// probability α. Without a variance it prints "no statistical test run". See docs/model.md.
     Compare(compare::CompareArgs),
+    /// Run a regression suite: render every case, compare it with its reference by the
+    /// calibrated test, print one line per case, write report/index.html and report/junit.xml;
+    /// non-zero exit when any case fails.
+    Check(check::CheckArgs),
     /// Render a model's seamless tile(s) for one view and light repeated over a grid (sRGB PNG).
     TilePreview(tile_preview::TilePreviewArgs),
 }
@@ -79,6 +84,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Eval(a) => eval::run(a),
         Command::Synth(a) => synth::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Check(a) => check::run(a),
         Command::TilePreview(a) => tile_preview::run(a),
     }
 }

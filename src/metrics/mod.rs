@@ -7,10 +7,12 @@
 //! two-sided, Šidák-corrected at α over pixels · 3 tests. Channels whose variance is 0 (directly
 //! seen emitters, background) must agree to 1e-5 relative instead.
 
+pub mod calibrated;
 pub mod diff;
 pub mod normal;
 pub mod ztest;
 
+pub use calibrated::{Calibration, NoiseModel, TestNoise, Verdict, verdict};
 pub use diff::{relative_diff_image, with_legend, z_diff_image};
 pub use ztest::{Outlier, ZTest, block_mean, predicted_variance, z_test};
 
@@ -120,6 +122,8 @@ pub struct Comparison {
     pub pixel_test: Option<ZTest>,
     /// The same test on b×b block means (present when a variance was given).
     pub block_test: Option<ZTest>,
+    /// The calibrated verdict (present when made by [`Comparison::calibrated`]).
+    pub calibrated: Option<Verdict>,
 }
 
 /// Pass/fail bounds on a [`Comparison`]; `None` = not checked.
@@ -162,7 +166,29 @@ impl Comparison {
             mean_luminance_ratio: mean_luminance_ratio(test, reference)?,
             pixel_test,
             block_test,
+            calibrated: None,
         })
+    }
+
+    /// Compares `test` with `reference` and makes the calibrated verdict under `noise`;
+    /// `pixel_test` is the verdict's per-pixel test and `block_test` its 4×4 (or finest) scale.
+    pub fn calibrated(
+        test: &RgbImage,
+        reference: &RgbImage,
+        noise: &NoiseModel,
+        cal: &Calibration,
+    ) -> Result<Comparison> {
+        let mut c = Comparison::new(test, reference, None, 1, cal.alpha)?;
+        let v = verdict(test, reference, noise, cal)?;
+        c.pixel_test = Some(v.pixel_test().clone());
+        c.block_test = v
+            .scales
+            .iter()
+            .find(|s| s.test.block == 4)
+            .or_else(|| v.scales.get(1))
+            .map(|s| s.test.clone());
+        c.calibrated = Some(v);
+        Ok(c)
     }
 
     /// The reasons the comparison fails `c` (empty = pass). A bound that needs a z-test fails
@@ -214,6 +240,9 @@ impl Comparison {
                 ));
             }
         }
+        if let Some(v) = &self.calibrated {
+            out.extend(v.failures.iter().cloned());
+        }
         if let Some(max) = c.max_relmse
             && exceeds(self.relmse, max)
         {
@@ -228,6 +257,11 @@ impl Comparison {
             "{}×{}: MAE {:.4e}, RMSE {:.4e}, relMSE {:.4e}, mean luminance ratio {:.5}",
             self.width, self.height, self.mae, self.rmse, self.relmse, self.mean_luminance_ratio
         );
+        if let Some(v) = &self.calibrated {
+            s.push('\n');
+            s.push_str(&v.report());
+            return s;
+        }
         for t in [&self.pixel_test, &self.block_test].into_iter().flatten() {
             s.push('\n');
             s.push_str(&t.summary());

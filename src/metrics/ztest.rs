@@ -9,6 +9,17 @@ use serde::Serialize;
 /// Number of worst cells kept in [`ZTest::worst`].
 const WORST: usize = 8;
 
+/// Standard deviation, in units of one f32 ulp of the larger of test and reference, added to
+/// every cell with a nonzero variance: two renders that differ only by float rounding (a merge
+/// of partial renders, another summation order) are equal within the test.
+pub const ROUNDING_ULPS: f64 = 4.0;
+
+/// The variance floor of [`ROUNDING_ULPS`] for a cell whose values are `t` and `r`.
+pub fn rounding_variance(t: f64, r: f64) -> f64 {
+    let s = ROUNDING_ULPS * f64::from(f32::EPSILON) * 0.5 * t.abs().max(r.abs());
+    s * s
+}
+
 /// One of the most deviating cells (pixel or block) of a z-test.
 #[derive(Clone, Debug, Serialize)]
 pub struct Outlier {
@@ -146,7 +157,8 @@ pub fn block_mean(img: &RgbImage, b: usize) -> RgbImage {
     out
 }
 
-fn check_variance(v: &RgbImage, what: &str) -> Result<()> {
+/// Fails unless every variance in `v` is finite and ≥ 0; `what` names the image.
+pub(crate) fn check_variance(v: &RgbImage, what: &str) -> Result<()> {
     if let Some(i) = v.data.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
         let p = i / 3;
         return Err(Error::Invalid(format!(
@@ -209,7 +221,8 @@ fn rank(o: &Outlier) -> f64 {
 
 /// z-test of `test` against `reference` on b×b block means (`block` = 1: per pixel). `variance`
 /// is the variance of (test − reference) per pixel and channel ([`predicted_variance`]); pixels
-/// are independent, so a block mean's variance is the mean pixel variance / b². Cells fail when a
+/// are independent, so a block mean's variance is the mean pixel variance / b²; a cell with a
+/// nonzero variance also gets the f32 rounding floor [`rounding_variance`]. Cells fail when a
 /// channel's |z| exceeds the Šidák threshold at family-wise level `alpha` over cells · 3, when a
 /// zero-variance channel differs by more than 1e-5 relative (floor 1e-3), or when the test value is
 /// not finite.
@@ -219,6 +232,19 @@ pub fn z_test(
     variance: &RgbImage,
     block: usize,
     alpha: f64,
+) -> Result<ZTest> {
+    z_test_with_tolerance(test, reference, variance, block, alpha, 1e-5)
+}
+
+/// [`z_test`] with `zero_var_tol` as the relative tolerance of zero-variance cells (1e-5 when
+/// the zero is known, looser when it is a low-spp estimate that may have missed the variation).
+pub(crate) fn z_test_with_tolerance(
+    test: &RgbImage,
+    reference: &RgbImage,
+    variance: &RgbImage,
+    block: usize,
+    alpha: f64,
+    zero_var_tol: f64,
 ) -> Result<ZTest> {
     check_same_size(test, reference, "z-test: test vs reference")?;
     check_same_size(test, variance, "z-test: test vs variance")?;
@@ -255,11 +281,16 @@ pub fn z_test(
         for c in 0..3 {
             let i = 3 * cell + c;
             let (tv, rv, var) = (t.data[i] as f64, r.data[i] as f64, v.data[i] as f64);
+            let sd = if var > 0.0 {
+                (var + rounding_variance(tv, rv)).sqrt()
+            } else {
+                0.0
+            };
             let (zi, fail) = if !tv.is_finite() {
                 nonfinite += 1;
                 (f64::NAN, true)
             } else if var <= 0.0 {
-                let ok = (tv - rv).abs() <= 1e-5 * rv.abs().max(1e-3);
+                let ok = (tv - rv).abs() <= zero_var_tol * rv.abs().max(1e-3);
                 if !ok {
                     exact += 1;
                 }
@@ -272,7 +303,7 @@ pub fn z_test(
                     !ok,
                 )
             } else {
-                let zi = (tv - rv) / var.sqrt();
+                let zi = (tv - rv) / sd;
                 (zi, zi.abs() > threshold)
             };
             bad |= fail;
@@ -294,7 +325,7 @@ pub fn z_test(
                     z: zi,
                     test: tv,
                     reference: rv,
-                    sigma: var.sqrt(),
+                    sigma: sd,
                 };
                 let pos = worst.partition_point(|w| rank(w) >= key);
                 worst.insert(pos, o);
