@@ -1,0 +1,12 @@
+//! The `btfpt` Python module (`btfpt._btfpt`, wrapped by `python/btfpt/__init__.py`): measured
+//! BTFs and fitted models evaluated on numpy arrays through the renderer's batched kernels,
+//! rendering, fitting, evaluation and comparison with the figures the CLI prints.
+
+use pyo3::prelude::*;
+
+/// The extension module.
+#[pymodule]
+fn _btfpt(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    Ok(())
+}
