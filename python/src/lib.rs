@@ -2,11 +2,17 @@
 //! BTFs and fitted models evaluated on numpy arrays through the renderer's batched kernels,
 //! rendering, fitting, evaluation and comparison with the figures the CLI prints.
 
+mod arrays;
+mod btf;
+mod errors;
+mod query;
+
 use pyo3::prelude::*;
 
 /// The extension module.
 #[pymodule]
 fn _btfpt(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<btf::Btf>()?;
     Ok(())
 }
