@@ -282,7 +282,9 @@ fn bench_render(c: &mut Criterion<ProcessCpuTime>) {
             g.bench_function(format!("{name}{suffix}"), |b| {
                 b.iter(|| {
                     let mut st = RenderState::new(settings).expect("settings");
-                    pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
+                    pool.install(|| {
+                        btfpt::render::driver::run_pass(&rs, &mut st, 4, &stop, &|_, _| {})
+                    });
                     st.rays()
                 })
             });

@@ -51,7 +51,9 @@ fn bench(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| {
                 let mut st = RenderState::new(settings).expect("settings");
-                pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
+                pool.install(|| {
+                    btfpt::render::driver::run_pass(&rs, &mut st, 4, &stop, &|_, _| {})
+                });
                 st.rays()
             })
         });

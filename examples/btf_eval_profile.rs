@@ -61,7 +61,7 @@ fn main() {
         for _ in 0..reps {
             let t = cpu_ns(libc::CLOCK_PROCESS_CPUTIME_ID);
             let mut st = RenderState::new(settings).unwrap();
-            pool.install(|| st.run_pass(&rs, 4, &stop, &|_, _| {}));
+            pool.install(|| btfpt::render::driver::run_pass(&rs, &mut st, 4, &stop, &|_, _| {}));
             best = best.min((cpu_ns(libc::CLOCK_PROCESS_CPUTIME_ID) - t) as f64 * 1e-6);
             rays = st.rays();
         }

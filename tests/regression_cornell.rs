@@ -177,7 +177,7 @@ fn render(scene: Scene) -> RgbImage {
     let mut state = RenderState::new(settings).unwrap_or_else(|e| panic!("{e}"));
     let stop = AtomicBool::new(false);
     while !state.is_complete() {
-        state.run_pass(&rs, 1 << 20, &stop, &|_, _| {});
+        btfpt::render::driver::run_pass(&rs, &mut state, 1 << 20, &stop, &|_, _| {});
     }
     assert_eq!(state.invalid_samples(), 0, "NaN/Inf samples");
     state.mean_image()

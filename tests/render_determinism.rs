@@ -86,9 +86,9 @@ fn interrupted_and_resumed_render_is_bit_identical() {
     // Interrupt in the middle of a pass: some tiles are ahead of others.
     let mut state = RenderState::new(st).unwrap();
     let stop = AtomicBool::new(false);
-    state.run_pass(&rs, 2, &stop, &|_, _| {});
+    btfpt::render::driver::run_pass(&rs, &mut state, 2, &stop, &|_, _| {});
     let seen = AtomicU64::new(0);
-    state.run_pass(&rs, 3, &stop, &|n, _| {
+    btfpt::render::driver::run_pass(&rs, &mut state, 3, &stop, &|n, _| {
         if seen.fetch_add(n, Ordering::SeqCst) > 2000 {
             stop.store(true, Ordering::SeqCst);
         }
@@ -104,7 +104,7 @@ fn interrupted_and_resumed_render_is_bit_identical() {
     assert_eq!(resumed, state);
     let go = AtomicBool::new(false);
     while !resumed.is_complete() {
-        resumed.run_pass(&rs, 2, &go, &|_, _| {});
+        btfpt::render::driver::run_pass(&rs, &mut resumed, 2, &go, &|_, _| {});
     }
     let a = full.mean_image();
     let b = resumed.mean_image();
@@ -184,7 +184,7 @@ fn render_filtered(rs: &RenderScene, st: RenderSettings, f: Filter) -> RenderSta
     let mut state = RenderState::with_filter(st, f).unwrap();
     let stop = AtomicBool::new(false);
     while !state.is_complete() {
-        state.run_pass(rs, 1 << 20, &stop, &|_, _| {});
+        btfpt::render::driver::run_pass(rs, &mut state, 1 << 20, &stop, &|_, _| {});
     }
     state
 }
@@ -233,9 +233,9 @@ fn filtered_render_is_exact_across_threads_crops_and_resume() {
     let ck = dir.path().join("f.ckpt");
     let mut state = RenderState::with_filter(base, f).unwrap();
     let stop = AtomicBool::new(false);
-    state.run_pass(&rs, 1, &stop, &|_, _| {});
+    btfpt::render::driver::run_pass(&rs, &mut state, 1, &stop, &|_, _| {});
     let seen = AtomicU64::new(0);
-    state.run_pass(&rs, 2, &stop, &|n, _| {
+    btfpt::render::driver::run_pass(&rs, &mut state, 2, &stop, &|n, _| {
         if seen.fetch_add(n, Ordering::SeqCst) > 800 {
             stop.store(true, Ordering::SeqCst);
         }
@@ -249,7 +249,7 @@ fn filtered_render_is_exact_across_threads_crops_and_resume() {
     assert_eq!(resumed, state);
     let go = AtomicBool::new(false);
     while !resumed.is_complete() {
-        resumed.run_pass(&rs, 1, &go, &|_, _| {});
+        btfpt::render::driver::run_pass(&rs, &mut resumed, 1, &go, &|_, _| {});
     }
     assert_eq!(bits(&resumed.mean_image()), bits(&full));
     // Variance of a filtered pixel: finite and positive where the floor is lit.

@@ -234,7 +234,7 @@ fn packet_render_is_the_same_bytes_for_any_thread_count_and_after_resume() {
     let mut state = RenderState::new(st).unwrap();
     let stop = AtomicBool::new(false);
     let seen = AtomicU64::new(0);
-    state.run_pass(&rs, 11, &stop, &|n, _| {
+    btfpt::render::driver::run_pass(&rs, &mut state, 11, &stop, &|n, _| {
         if seen.fetch_add(n, Ordering::SeqCst) > 5000 {
             stop.store(true, Ordering::SeqCst);
         }
@@ -246,7 +246,7 @@ fn packet_render_is_the_same_bytes_for_any_thread_count_and_after_resume() {
     let mut resumed = checkpoint::load(&ck, &st, 7).unwrap();
     let go = AtomicBool::new(false);
     while !resumed.is_complete() {
-        resumed.run_pass(&rs, 3, &go, &|_, _| {});
+        btfpt::render::driver::run_pass(&rs, &mut resumed, 3, &go, &|_, _| {});
     }
     assert!(resumed == states[0]);
     // A different seed gives a different image (the comparisons above can fail).
@@ -308,5 +308,45 @@ fn packet_agrees_statistically_with_scalar_on_the_cornell_scenes() {
         // The same test sees a 2 % brightness error (so it can fail).
         let f = agreement(path, &r, 1.02).failures(&criteria(pixels));
         assert!(!f.is_empty(), "{path}: a 2 % brighter image passed");
+    }
+}
+
+#[test]
+fn packet_equals_scalar_with_every_reconstruction_filter() {
+    use btfpt::math::filter::Filter;
+    // Splatting samples across pixel and tile borders: a window whose border pixels reach into
+    // neighbouring tiles, for every filter Mitsuba's hdrfilm takes.
+    let filters = [
+        Filter::boxed(0.75).unwrap(),
+        Filter::tent(1.0).unwrap(),
+        Filter::gaussian(0.5).unwrap(),
+        Filter::mitchell(1.0 / 3.0, 1.0 / 3.0, 2.0).unwrap(),
+        Filter::mitchell(0.0, 0.5, 2.0).unwrap(),
+        Filter::lanczos(3).unwrap(),
+    ];
+    for (k, (path, filter)) in [ALL, BSDFS, CORNELL]
+        .iter()
+        .cycle()
+        .zip(filters)
+        .enumerate()
+    {
+        let scene = load(path, &[("width", "72"), ("height", "40")]);
+        let mut rs = RenderScene::new(scene).unwrap();
+        let st = window(&rs, [29, 3, 40, 34], (1, 4), 5 + k as u64);
+        let run = |rs: &mut RenderScene, kind| {
+            rs.kind = kind;
+            let mut state = RenderState::with_filter(st, filter).unwrap();
+            btfpt::render::driver::render_all(rs, &mut state);
+            state
+        };
+        let scalar = run(&mut rs, IntegratorKind::Scalar);
+        assert!(scalar.rays() > 0);
+        for kind in [packet(256, true), packet(16, false)] {
+            let p = run(&mut rs, kind);
+            assert!(
+                p == scalar,
+                "{path} with {filter:?} and {kind:?}: the packet render differs from the scalar one"
+            );
+        }
     }
 }

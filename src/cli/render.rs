@@ -3,6 +3,7 @@
 //! SIGHUP (a scheduler's time limit or preemption), and `--resume`.
 
 use anyhow::{Context, bail};
+use btfpt::render::driver::{self, Checkpointing, DriverOptions, Outcome};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
 use btfpt::render::partial::{PartialMeta, scene_fingerprint, write_partial_exr};
@@ -257,19 +258,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     let scene_spp = scene.spp;
     let btf_uses = scene.btf_uses.clone();
     let mut rs = RenderScene::new(scene)?;
-    if integrator == "packet" && rs.integrator.direct.is_some() {
-        // Said only when asked for: by default such scenes simply render with the scalar one.
-        if args.integrator.is_some() {
-            eprintln!(
-                "  --integrator packet: the scene uses Mitsuba's direct integrator, which only the scalar integrator implements; rendering with scalar"
-            );
-        }
-    } else if integrator == "packet" {
-        rs.kind = IntegratorKind::Packet(PacketOptions {
+    rs.kind = if integrator == "scalar" {
+        IntegratorKind::Scalar
+    } else {
+        IntegratorKind::Packet(PacketOptions {
             pool: args.packet_pool as usize,
             refill: args.packet_refill == "on",
-        });
-    }
+        })
+    };
     let load_secs = run_start.elapsed().as_secs_f64();
     eprintln!("{}", rs.summary());
     for b in &btf_uses {
@@ -314,14 +310,6 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
 
     let interrupt = super::interrupt::stop_flag();
-    let pool = {
-        let mut b = rayon::ThreadPoolBuilder::new();
-        if let Some(t) = args.threads {
-            b = b.num_threads(t);
-        }
-        b.build().context("cannot start the worker threads")?
-    };
-
     let pb = indicatif::ProgressBar::new(state.samples_total());
     pb.set_style(
         indicatif::ProgressStyle::with_template(
@@ -330,37 +318,26 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
     pb.set_position(state.samples_done());
+    // Rays of this run only (a resumed render's earlier rays are in the state, not its time).
     let rays = AtomicU64::new(0);
     let start = Instant::now();
     let cpu_start = process_cpu_seconds();
-    let mut last_ckpt = Instant::now();
-    let interval = Duration::from_secs_f64(args.checkpoint_interval);
-    // Passes are sized to take ~1/4 of the checkpoint interval (at most 15 s).
-    let target = (interval.as_secs_f64() / 4.0).min(15.0);
-    let mut k = 1u32;
-    while !state.is_complete() && !interrupt.load(Ordering::SeqCst) {
-        let t0 = Instant::now();
-        let before = state.samples_done();
-        pool.install(|| {
-            state.run_pass(&rs, k, &interrupt, &|n, r| {
-                pb.inc(n);
-                let total = rays.fetch_add(r, Ordering::Relaxed) + r;
-                let secs = start.elapsed().as_secs_f64().max(1e-3);
-                pb.set_message(format!("{:.1} Mrays/s", total as f64 / secs * 1e-6));
-            })
-        });
-        let dt = t0.elapsed().as_secs_f64().max(1e-3);
-        let frac = (state.samples_done() - before) as f64 / state.samples_total().max(1) as f64;
-        let per_spp = dt / (frac * settings.spp() as f64).max(1e-9);
-        k = ((target / per_spp) as u32).clamp(1, 1 << 16);
-        if last_ckpt.elapsed() >= interval && !state.is_complete() {
-            checkpoint::save(&ckpt, &state, fp)?;
-            last_ckpt = Instant::now();
-        }
-    }
+    let opts = DriverOptions {
+        threads: args.threads,
+        checkpoint: Some(Checkpointing {
+            path: ckpt.clone(),
+            interval: Duration::from_secs_f64(args.checkpoint_interval),
+            fingerprint: fp,
+        }),
+    };
+    let outcome = driver::render(&rs, &mut state, &opts, &interrupt, &|n, r| {
+        pb.inc(n);
+        let total = rays.fetch_add(r, Ordering::Relaxed) + r;
+        let secs = start.elapsed().as_secs_f64().max(1e-3);
+        pb.set_message(format!("{:.1} Mrays/s", total as f64 / secs * 1e-6));
+    })?;
     pb.finish_and_clear();
-    if !state.is_complete() {
-        checkpoint::save(&ckpt, &state, fp)?;
+    if outcome == Outcome::Interrupted {
         bail!(
             "interrupted at {:.1}%; checkpoint written to {} (continue with --resume)",
             100.0 * state.samples_done() as f64 / state.samples_total() as f64,
@@ -393,7 +370,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         let _ = std::fs::remove_file(&ckpt);
     }
     let invalid = state.invalid_samples();
-    if let IntegratorKind::Packet(o) = rs.kind {
+    if let IntegratorKind::Packet(o) = rs.integrator_kind() {
         let l = rs.lanes.snapshot();
         eprintln!(
             "packet integrator (pool {}, refill {}): lane utilisation {:.1}% in traversal ({} of {} lanes), {:.1}% in shading batches, {} rounds",
@@ -409,7 +386,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     eprintln!(
         "done in {total_secs:.2} s (loading {load_secs:.2} s, rendering {secs:.2} s{cpu}): {} spp, {:.2} Mrays/s, {} rays{}; wrote {} and {}",
         spp_end - spp_begin,
-        state.rays() as f64 / secs.max(1e-9) * 1e-6,
+        rays.load(Ordering::Relaxed) as f64 / secs.max(1e-9) * 1e-6,
         state.rays(),
         if invalid > 0 {
             format!(", {invalid} NaN/Inf samples discarded (counted as 0)")

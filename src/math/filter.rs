@@ -116,6 +116,19 @@ impl Filter {
         self.kind == FilterKind::Box && self.radius == 0.5
     }
 
+    /// Mitsuba's plugin name with the radius, for the render summary.
+    pub fn name(&self) -> String {
+        let kind = match self.kind {
+            FilterKind::Box => "box",
+            FilterKind::Tent => "tent",
+            FilterKind::Gaussian { .. } => "gaussian",
+            FilterKind::Mitchell { b, c } if b == 0.0 && c == 0.5 => "catmullrom",
+            FilterKind::Mitchell { .. } => "mitchell",
+            FilterKind::Lanczos => "lanczos",
+        };
+        format!("{kind} (radius {})", self.radius)
+    }
+
     /// Pixels a sample can reach beyond its own pixel, on each side (Mitsuba's border size).
     pub fn border(&self) -> u32 {
         if self.is_box() {

@@ -1,4 +1,5 @@
-//! Film accumulation in tiles: each tile renders whole sample indices for all its pixels and
+//! Film accumulation in tiles (the samples are traced by the integrators, in passes the
+//! driver schedules): each tile receives whole sample indices for all its pixels and
 //! keeps f64 per-pixel sums (and sums of squares) in sample order, so the result is a pure
 //! function of (scene, seed, sample range, window), whatever the threads, pass sizes or
 //! interruptions. Pixel (i, j) covers [i, i+1) × [j, j+1); each sample is uniformly jittered
@@ -8,14 +9,9 @@
 //! film, a window renders the samples of its border pixels too, and the window image adds the
 //! tiles' buffers in tile order — so a pixel's value does not depend on threads or windows.
 
-use super::RenderScene;
-use super::integrator::TraceStats;
 use crate::io::RgbImage;
-use crate::math::Pcg32;
 use crate::math::filter::{FOOTPRINT, Filter};
 use crate::{Error, Result};
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Side of the square render tiles in pixels.
 pub const TILE: u32 = 32;
@@ -124,6 +120,77 @@ impl Tile {
             acc2[c] += v * v;
         }
         true
+    }
+
+    /// Adds the sample of film pixel (`px`, `py`), taken at film position (`fx`, `fy`), with
+    /// radiance `l`: into that pixel with the box filter, else splatted with the filter's
+    /// weights into every buffer pixel of the film within its radius, in row-major order, so
+    /// the sums do not depend on who adds the samples. Returns false for a NaN or infinite `l`
+    /// (booked as invalid by the caller): the box filter then adds nothing, a wider filter a
+    /// zero-valued sample that keeps its weight, as Mitsuba's film does.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_sample(
+        &mut self,
+        s: &RenderSettings,
+        filter: &Filter,
+        px: u32,
+        py: u32,
+        fx: f32,
+        fy: f32,
+        l: crate::math::Spectrum,
+    ) -> bool {
+        if filter.is_box() {
+            let i = ((py - self.y0) * self.w + (px - self.x0)) as usize;
+            return self.add_box_sample(i, l);
+        }
+        let finite = l.is_finite();
+        let l = if finite {
+            l
+        } else {
+            crate::math::Spectrum::ZERO
+        };
+        let b = self.border as i64;
+        let (bx0, by0) = (self.x0 as i64 - b, self.y0 as i64 - b);
+        let bw = (self.w + 2 * self.border) as i64;
+        let bh = (self.h + 2 * self.border) as i64;
+        let (fw, fh) = (s.width as i64, s.height as i64);
+        let mut wx = [0f32; FOOTPRINT];
+        let mut wy = [0f32; FOOTPRINT];
+        let (lx, nx) = filter.weights_1d(fx, &mut wx);
+        let (ly, ny) = filter.weights_1d(fy, &mut wy);
+        for (j, &wyj) in wy.iter().enumerate().take(ny) {
+            let y = ly + j as i64;
+            if y < 0 || y >= fh || y < by0 || y >= by0 + bh {
+                continue;
+            }
+            for (i, &wxi) in wx.iter().enumerate().take(nx) {
+                let x = lx + i as i64;
+                if x < 0 || x >= fw || x < bx0 || x >= bx0 + bw {
+                    continue;
+                }
+                let w = (wxi * wyj) as f64;
+                let q = ((y - by0) * bw + (x - bx0)) as usize;
+                let w2 = w * w;
+                for c in 0..3 {
+                    let v = l[c] as f64;
+                    self.sum[q][c] += w * v;
+                    self.sum2[q][c] += w2 * v * v;
+                    self.sum_w2[q][c] += w2 * v;
+                }
+                self.weight[q] += w;
+                self.weight2[q] += w2;
+            }
+        }
+        finite
+    }
+
+    /// Books one more completed sample index of every pixel of the tile.
+    #[inline]
+    pub fn sample_done(&mut self, rays: u64, invalid: u64) {
+        self.done += 1;
+        self.rays += rays;
+        self.invalid += invalid;
     }
 }
 
@@ -241,57 +308,6 @@ impl RenderState {
         self.tiles.iter().map(|t| t.invalid).sum()
     }
 
-    /// Adds up to `k` more samples per pixel to every unfinished tile, in parallel over tiles
-    /// (on the current rayon pool). Stops early, at a sample boundary of each tile, once
-    /// `interrupt` is set. `progress` receives completed pixel-samples and rays as they finish.
-    pub fn run_pass(
-        &mut self,
-        rs: &RenderScene,
-        k: u32,
-        interrupt: &AtomicBool,
-        progress: &(dyn Fn(u64, u64) + Sync),
-    ) {
-        let s = self.settings;
-        let filter = self.filter;
-        self.tiles.par_iter_mut().for_each(|tile| {
-            if !filter.is_box() {
-                run_filtered(tile, &s, &filter, rs, k, interrupt, progress);
-                return;
-            }
-            let end = s.spp().min(tile.done.saturating_add(k));
-            if let super::IntegratorKind::Packet(opts) = rs.kind {
-                super::packet::render_tile(rs, opts, &s, tile, end, interrupt, progress);
-                return;
-            }
-            while tile.done < end {
-                if interrupt.load(Ordering::Relaxed) {
-                    return;
-                }
-                let mut stats = TraceStats::default();
-                let mut invalid = 0;
-                let sample = (s.spp_begin + tile.done) as u64;
-                for ty in 0..tile.h {
-                    for tx in 0..tile.w {
-                        let (px, py) = (tile.x0 + tx, tile.y0 + ty);
-                        let pixel = py as u64 * s.width as u64 + px as u64;
-                        let mut rng = Pcg32::for_sample(s.seed, pixel, sample);
-                        let fx = px as f32 + rng.next_f32();
-                        let fy = py as f32 + rng.next_f32();
-                        let (o, d, tmax) = rs.camera.ray(fx, fy);
-                        let l = rs.integrator.li(rs, o, d, tmax, &mut rng, &mut stats);
-                        if !tile.add_box_sample((ty * tile.w + tx) as usize, l) {
-                            invalid += 1;
-                        }
-                    }
-                }
-                tile.done += 1;
-                tile.rays += stats.rays;
-                tile.invalid += invalid;
-                progress((tile.w * tile.h) as u64, stats.rays);
-            }
-        });
-    }
-
     /// The per-pixel mean (the image) of the window, Σ w·L / Σ w; requires a complete render.
     pub fn mean_image(&self) -> RgbImage {
         if !self.filter.is_box() {
@@ -385,80 +401,5 @@ impl RenderState {
             }
         }
         img
-    }
-}
-
-/// Renders up to `k` more samples of one filtered tile, splatting each into its bordered buffer.
-fn run_filtered(
-    tile: &mut Tile,
-    s: &RenderSettings,
-    filter: &Filter,
-    rs: &RenderScene,
-    k: u32,
-    interrupt: &AtomicBool,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) {
-    let end = s.spp().min(tile.done.saturating_add(k));
-    let b = tile.border as i64;
-    let (bx0, by0) = (tile.x0 as i64 - b, tile.y0 as i64 - b);
-    let (bw, bh) = (
-        (tile.w + 2 * tile.border) as i64,
-        (tile.h + 2 * tile.border) as i64,
-    );
-    let (fw, fh) = (s.width as i64, s.height as i64);
-    let mut wx = [0f32; FOOTPRINT];
-    let mut wy = [0f32; FOOTPRINT];
-    while tile.done < end {
-        if interrupt.load(Ordering::Relaxed) {
-            return;
-        }
-        let mut stats = TraceStats::default();
-        let mut invalid = 0;
-        let sample = (s.spp_begin + tile.done) as u64;
-        for ty in 0..tile.h {
-            for tx in 0..tile.w {
-                let (px, py) = (tile.x0 + tx, tile.y0 + ty);
-                let pixel = py as u64 * s.width as u64 + px as u64;
-                let mut rng = Pcg32::for_sample(s.seed, pixel, sample);
-                let fx = px as f32 + rng.next_f32();
-                let fy = py as f32 + rng.next_f32();
-                let (o, d, tmax) = rs.camera.ray(fx, fy);
-                let mut l = rs.integrator.li(rs, o, d, tmax, &mut rng, &mut stats);
-                if !l.is_finite() {
-                    // A zero-valued sample that still carries its weight, as Mitsuba's film.
-                    invalid += 1;
-                    l = crate::math::Spectrum::ZERO;
-                }
-                let (lx, nx) = filter.weights_1d(fx, &mut wx);
-                let (ly, ny) = filter.weights_1d(fy, &mut wy);
-                for (j, &wyj) in wy.iter().enumerate().take(ny) {
-                    let y = ly + j as i64;
-                    if y < 0 || y >= fh || y < by0 || y >= by0 + bh {
-                        continue;
-                    }
-                    for (i, &wxi) in wx.iter().enumerate().take(nx) {
-                        let x = lx + i as i64;
-                        if x < 0 || x >= fw || x < bx0 || x >= bx0 + bw {
-                            continue;
-                        }
-                        let w = (wxi * wyj) as f64;
-                        let q = ((y - by0) * bw + (x - bx0)) as usize;
-                        let w2 = w * w;
-                        for c in 0..3 {
-                            let v = l[c] as f64;
-                            tile.sum[q][c] += w * v;
-                            tile.sum2[q][c] += w2 * v * v;
-                            tile.sum_w2[q][c] += w2 * v;
-                        }
-                        tile.weight[q] += w;
-                        tile.weight2[q] += w2;
-                    }
-                }
-            }
-        }
-        tile.done += 1;
-        tile.rays += stats.rays;
-        tile.invalid += invalid;
-        progress((tile.w * tile.h) as u64, stats.rays);
     }
 }

@@ -1,20 +1,19 @@
-//! Unidirectional path tracing with next-event estimation and MIS (power heuristic), following
-//! Mitsuba 3's `path` integrator: max_depth counts path vertices (1 = emitters seen directly,
-//! 2 = direct lighting, −1 = unbounded), Russian roulette from `rr_depth` with
-//! q = min(max(throughput)·η², 0.95), and `hide_emitters` hiding what the camera sees directly
-//! (area emitters are skipped by camera rays, the environment is black behind them).
+//! What the integrators share: their resolved settings ([`PathTracer`]), trace counters, the
+//! camera's first hit, shadow segments and the MIS power heuristic, each with the `_x` twin
+//! the packet kernel runs. The integrators themselves are peers that trace a tile's samples:
+//! the scalar path tracer ([`super::path`], the test oracle), Mitsuba's `direct`
+//! ([`super::direct`]) and the packet kernel ([`super::packet`]).
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::RenderScene;
-use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::surface_interaction;
 use crate::light::LightSampleX;
+use crate::math::Vec3;
 use crate::math::simd::wide::{Fx, Mx, V3x};
-use crate::math::{Pcg32, Spectrum, Vec3};
 use crate::scene::{DirectSettings, IntegratorSettings};
 use crate::{Error, Result};
 
@@ -64,120 +63,6 @@ impl PathTracer {
             nee: true,
             direct: s.direct,
         })
-    }
-
-    /// Radiance arriving at `o` from direction `d` (unit) within distance `tmax`.
-    pub fn li(
-        &self,
-        rs: &RenderScene,
-        o: Vec3,
-        d: Vec3,
-        tmax: f32,
-        rng: &mut Pcg32,
-        stats: &mut TraceStats,
-    ) -> Spectrum {
-        if let Some(ds) = &self.direct {
-            return super::direct::li(ds, self.hide_emitters, rs, o, d, tmax, rng, stats);
-        }
-        let mut result = Spectrum::ZERO;
-        if self.max_depth == 0 {
-            return result;
-        }
-        let meshes = &rs.scene.meshes;
-        let lights = &rs.lights;
-        let mut throughput = Spectrum::ONE;
-        let mut eta = 1.0f32;
-        let mut depth = 0u32;
-        let mut prev_p = o;
-        let mut prev_pdf = 1.0f32;
-        let mut prev_delta = true;
-        let mut ray_d = d;
-        let (mut hit, mut ray_o) = camera_hit(rs, o, d, tmax, self.hide_emitters, stats);
-        loop {
-            let Some(h) = hit else {
-                // Escaped: lights at infinity (hidden from the camera with hide_emitters).
-                if !(depth == 0 && self.hide_emitters) {
-                    for k in 0..lights.infinite_count() {
-                        let (le, pdf_e) = lights.eval_infinite(k, ray_d);
-                        let em_pdf = if prev_delta || !self.nee { 0.0 } else { pdf_e };
-                        result += throughput * le * mis_weight(prev_pdf, em_pdf);
-                    }
-                }
-                break;
-            };
-            let si = surface_interaction(meshes, ray_o, ray_d, &h);
-            if lights.is_emissive(h.mesh) {
-                let le = lights.area_radiance(meshes, &si);
-                if le != Spectrum::ZERO {
-                    let em_pdf = if prev_delta || !self.nee {
-                        0.0
-                    } else {
-                        lights.pdf_area_hit(prev_p, &si)
-                    };
-                    result += throughput * le * mis_weight(prev_pdf, em_pdf);
-                }
-            }
-            if depth.saturating_add(1) >= self.max_depth {
-                break;
-            }
-            let mesh = &meshes[h.mesh as usize];
-            let Some(bsdf) = rs.scene.bsdfs.get(mesh.bsdf as usize) else {
-                break;
-            };
-            // The BSDF at this hit: the calls below share its per-hit state (a BTF
-            // model's view lookup and texels).
-            let bsdf = bsdf.at(&si);
-            // ------------------------- emitter sampling -------------------------
-            if self.nee && bsdf.flags().has(BsdfFlags::SMOOTH) {
-                let u_sel = rng.next_f32();
-                let u = rng.next_2d();
-                if let Some(ls) = lights.sample(si.p, u_sel, u) {
-                    let wo = si.to_local(ls.wi);
-                    // One call for both: BSDFs with a per-hit lookup (BTF) share it.
-                    let (f, bsdf_pdf) = bsdf.eval_for_light(&si, wo, ls.delta);
-                    if f != Spectrum::ZERO
-                        && ls.weight != Spectrum::ZERO
-                        && !occluded(rs, &si, &ls, stats)
-                    {
-                        let mis = if ls.delta {
-                            1.0
-                        } else {
-                            mis_weight(ls.pdf, bsdf_pdf)
-                        };
-                        result += throughput * f * ls.weight * mis;
-                    }
-                }
-            }
-            // -------------------------- BSDF sampling ---------------------------
-            let u1 = rng.next_f32();
-            let u2 = rng.next_2d();
-            let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
-                break;
-            };
-            let wo_world = si.to_world(bs.wo);
-            throughput *= weight;
-            eta *= bs.eta;
-            prev_p = si.p;
-            prev_pdf = bs.pdf;
-            prev_delta = bs.sampled.has(BsdfFlags::DELTA);
-            depth += 1;
-            let t_max = throughput.max_element();
-            if depth >= self.rr_depth {
-                let q = (t_max * eta * eta).min(0.95);
-                if !(rng.next_f32() < q) {
-                    break;
-                }
-                throughput /= q;
-            }
-            if !(t_max > 0.0) {
-                break;
-            }
-            ray_o = offset_origin(si.p, si.n, wo_world);
-            ray_d = wo_world;
-            stats.rays += 1;
-            hit = rs.accel.intersect(ray_o, ray_d, f32::INFINITY);
-        }
-        result
     }
 }
 

@@ -1,13 +1,17 @@
-//! The renderer: scene preparation (BVH, lights, camera), tiled deterministic sample passes on
-//! rayon, film accumulation, checkpoints and partial-render EXRs that merge exactly.
+//! The renderer: scene preparation (BVH, lights, camera), the driver's tiled deterministic
+//! sample passes on rayon, the integrators that trace a tile's samples (packet, and the scalar
+//! path and direct ones), film accumulation, checkpoints and partial-render EXRs that merge
+//! exactly.
 
 pub mod camera;
 pub mod checkpoint;
 pub mod direct;
+pub mod driver;
 pub mod film;
 pub mod integrator;
 pub mod packet;
 pub mod partial;
+pub mod path;
 
 use crate::geometry::accel::Accel;
 use crate::light::LightSet;
@@ -18,15 +22,21 @@ use integrator::PathTracer;
 
 pub use film::{RenderSettings, RenderState};
 
-/// Which integrator traces the samples; both give the same estimator (the scalar one is the
+/// Which integrator traces the samples; both give the same image bits (the scalar one is the
 /// test oracle of the packet one).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IntegratorKind {
     /// One path per thread at a time ([`PathTracer::li`]).
-    #[default]
     Scalar,
-    /// A per-thread pool of paths run 16 lanes at a time with lane refill ([`packet`]).
+    /// A per-thread pool of paths run 16 lanes at a time with lane refill ([`packet`]): the
+    /// render core.
     Packet(packet::PacketOptions),
+}
+
+impl Default for IntegratorKind {
+    fn default() -> Self {
+        IntegratorKind::Packet(packet::PacketOptions::default())
+    }
 }
 
 /// A scene prepared for rendering.
@@ -36,7 +46,7 @@ pub struct RenderScene {
     pub lights: LightSet,
     pub camera: PerspectiveCamera,
     pub integrator: PathTracer,
-    /// The integrator that renders (scalar unless chosen otherwise).
+    /// The integrator asked for (packet unless chosen otherwise; see [`Self::integrator_kind`]).
     pub kind: IntegratorKind,
     /// Lane utilisation of the packet integrator, summed over the render.
     pub lanes: packet::LaneCounters,
@@ -80,9 +90,34 @@ impl RenderScene {
             lights,
             camera,
             integrator,
-            kind: IntegratorKind::Scalar,
+            kind: IntegratorKind::default(),
             lanes: packet::LaneCounters::default(),
         })
+    }
+
+    /// The integrator that renders: the one asked for, except that scenes with Mitsuba's
+    /// `direct` integrator, which only the scalar code implements, render with the scalar one.
+    pub fn integrator_kind(&self) -> IntegratorKind {
+        match self.kind {
+            IntegratorKind::Packet(_) if self.integrator.direct.is_some() => IntegratorKind::Scalar,
+            k => k,
+        }
+    }
+
+    /// One line naming the integrator that renders, and why when it is not the one asked for.
+    pub fn integrator_line(&self) -> String {
+        match (self.kind, self.integrator_kind()) {
+            (IntegratorKind::Packet(o), IntegratorKind::Packet(_)) => format!(
+                "integrator: packet (pool {}, refill {})",
+                o.pool,
+                if o.refill { "on" } else { "off" }
+            ),
+            (IntegratorKind::Packet(_), IntegratorKind::Scalar) => {
+                "integrator: scalar (the scene's `direct` integrator has no packet kernel)"
+                    .to_string()
+            }
+            _ => "integrator: scalar (asked for)".to_string(),
+        }
     }
 
     /// A few lines describing the scene, printed before rendering.
@@ -114,13 +149,14 @@ impl RenderScene {
             )
         };
         format!(
-            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  {}",
+            "scene {}\n  film {}×{}, fov_x {:.2}°, {} spp{}, filter {}\n  {} meshes, {} triangles, bounds [{:.3}, {:.3}, {:.3}]–[{:.3}, {:.3}, {:.3}]\n  {} BSDFs, {} emitters ({} at infinity)\n  {}\n  {}",
             s.source.display(),
             s.camera.width,
             s.camera.height,
             s.camera.fov_x_deg,
             s.spp,
             sampler,
+            s.camera.filter.name(),
             s.meshes.len(),
             self.accel.triangle_count(),
             lo.x,
@@ -133,6 +169,7 @@ impl RenderScene {
             self.lights.lights.len(),
             self.lights.infinite_count(),
             integrator,
+            self.integrator_line(),
         )
     }
 }

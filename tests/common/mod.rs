@@ -80,7 +80,7 @@ pub fn render(rs: &RenderScene, st: RenderSettings) -> RenderState {
     let mut state = RenderState::new(st).unwrap();
     let stop = AtomicBool::new(false);
     while !state.is_complete() {
-        state.run_pass(rs, 1 << 20, &stop, &|_, _| {});
+        btfpt::render::driver::run_pass(rs, &mut state, 1 << 20, &stop, &|_, _| {});
     }
     state
 }

@@ -58,7 +58,7 @@ pub fn render(scene: Scene, spp: u32, seed: u64) -> RgbImage {
     .unwrap();
     let stop = AtomicBool::new(false);
     while !state.is_complete() {
-        state.run_pass(&rs, 1 << 20, &stop, &|_, _| {});
+        btfpt::render::driver::run_pass(&rs, &mut state, 1 << 20, &stop, &|_, _| {});
     }
     assert_eq!(state.invalid_samples(), 0, "NaN/inf samples");
     state.mean_image()

@@ -12,13 +12,14 @@
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use super::chunk::{Chunk, FilmSample};
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
 use super::shade::{diffuse_sides, shade_hits};
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
-use crate::math::Spectrum;
+use crate::math::{Pcg32, Spectrum};
 use crate::render::RenderScene;
 use crate::render::integrator::{PathTracer, TraceStats, mis_weight};
 
@@ -41,21 +42,6 @@ impl Default for PacketOptions {
     }
 }
 
-/// The work of one call: `samples` consecutive sample indices from `sample0` for every pixel
-/// of the `w`×`h` rectangle at (`x0`, `y0`); work item j = sample-offset · w·h + pixel.
-#[derive(Clone, Copy, Debug)]
-pub struct Chunk {
-    pub x0: u32,
-    pub y0: u32,
-    pub w: u32,
-    pub h: u32,
-    pub sample0: u32,
-    pub samples: u32,
-    /// Full film width (pixel index = y · width + x) and the render's seed.
-    pub film_width: u32,
-    pub seed: u64,
-}
-
 /// Sort keys past the BSDF indices: escaped rays, then lanes that only move through a hidden
 /// emitter this round.
 const KEY_ESCAPED: usize = 0;
@@ -76,7 +62,8 @@ pub struct Scratch {
     fill: Vec<u32>,
 }
 
-/// Traces every work item of `chunk` and writes each path's radiance to `out[j]`.
+/// Traces every work item of `chunk` and writes each path's radiance and film position to
+/// `out[j]`.
 #[allow(clippy::too_many_arguments)]
 pub fn trace_chunk(
     rs: &RenderScene,
@@ -84,7 +71,7 @@ pub fn trace_chunk(
     chunk: &Chunk,
     pool: &mut PathPool,
     scratch: &mut Scratch,
-    out: &mut [Spectrum],
+    out: &mut [FilmSample],
     stats: &mut TraceStats,
     lanes: &mut LaneStats,
 ) {
@@ -124,18 +111,29 @@ pub fn trace_chunk(
                     let j = next;
                     next += 1;
                     if pt.max_depth == 0 {
-                        out[j as usize] = Spectrum::ZERO;
+                        // No path: the film position alone, drawn as the refill draws it.
+                        let (s, p) = (j / npix, j % npix);
+                        let (x, y) = (chunk.x0 + p % chunk.w, chunk.y0 + p / chunk.w);
+                        let pixel = y as u64 * chunk.film_width as u64 + x as u64;
+                        let mut rng =
+                            Pcg32::for_sample(chunk.seed, pixel, (chunk.sample0 + s) as u64);
+                        let fx = x as f32 + rng.next_f32();
+                        let fy = y as f32 + rng.next_f32();
+                        out[j as usize] = FilmSample {
+                            l: Spectrum::ZERO,
+                            pos: [fx, fy],
+                        };
                         continue;
                     }
                     // Claimed now, started 16 at a time.
                     pool.job[i] = j;
                     if fill.push(i, j) {
-                        start_paths(isa, rs, chunk, pool, &mut fill, stats);
+                        start_paths(isa, rs, chunk, pool, &mut fill, out, stats);
                     }
                 }
             }
         }
-        start_paths(isa, rs, chunk, pool, &mut fill, stats);
+        start_paths(isa, rs, chunk, pool, &mut fill, out, stats);
         // ------------- traversal, and each live slot's sort key (counted) -------------
         scratch.start.iter_mut().for_each(|c| *c = 0);
         let mut live = 0u64;
@@ -240,7 +238,7 @@ pub fn trace_chunk(
                 }
                 shadow[l] = Shadow::None;
                 if job[l] != FREE && ending[l] {
-                    out[job[l] as usize] = result.get(l);
+                    out[job[l] as usize].l = result.get(l);
                     job[l] = FREE;
                     ending[l] = false;
                 }

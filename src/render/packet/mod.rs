@@ -2,10 +2,11 @@
 //! megakernel loop with lane refill (`megakernel.rs`), fed from a tile's (sample, pixel) work
 //! items. Paths finish out of order; their radiance lands in a per-chunk buffer indexed by
 //! (sample, pixel) and is added to the tile's sums in sample order afterwards, so the image is
-//! the same bytes as with any thread count, pass size or interruption — and, because each lane
+//! the same bytes as with any thread count, pass size, interruption or reconstruction filter — and, because each lane
 //! replays the scalar integrator on the same random stream, the same samples as `--integrator
 //! scalar` up to floating-point association in the batched kernels.
 
+pub mod chunk;
 pub mod lanes;
 pub mod megakernel;
 pub mod pool;
@@ -18,22 +19,25 @@ pub use megakernel::PacketOptions;
 use super::RenderScene;
 use super::film::{RenderSettings, Tile};
 use super::integrator::TraceStats;
-use crate::math::Spectrum;
-use megakernel::{Chunk, Scratch, trace_chunk};
+use crate::math::filter::Filter;
+use chunk::{Chunk, FilmSample};
+use megakernel::{Scratch, trace_chunk};
 use pool::PathPool;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Most sample indices traced in one chunk: bounds the output buffer (8 × 32² × 12 B = 96 KB)
+/// Most sample indices traced in one chunk: bounds the output buffer (8 × 32² × 20 B = 160 KB)
 /// and is the granularity at which an interrupt is honoured.
 const CHUNK_SAMPLES: u32 = 8;
 
-/// Adds samples `tile.done..end` (relative to `s.spp_begin`) to `tile`, like the scalar tile
-/// loop of [`super::film::RenderState::run_pass`]: stops at a sample boundary once `interrupt`
-/// is set, and reports each completed sample to `progress`.
+/// Adds samples `tile.done..end` (relative to `s.spp_begin`) to `tile` through `filter`, as the
+/// scalar integrator's tile loop does ([`super::integrator::PathTracer::render_tile`]): stops at
+/// a sample boundary once `interrupt` is set, and reports each completed sample to `progress`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_tile(
     rs: &RenderScene,
     opts: PacketOptions,
     s: &RenderSettings,
+    filter: &Filter,
     tile: &mut Tile,
     end: u32,
     interrupt: &AtomicBool,
@@ -42,7 +46,7 @@ pub fn render_tile(
     let npix = (tile.w * tile.h) as usize;
     let mut pool = PathPool::new(opts.pool.max(LANES).next_multiple_of(LANES));
     let mut scratch = Scratch::default();
-    let mut out = vec![Spectrum::ZERO; CHUNK_SAMPLES as usize * npix];
+    let mut out = vec![FilmSample::default(); CHUNK_SAMPLES as usize * npix];
     let mut lane_stats = LaneStats::default();
     while tile.done < end {
         if interrupt.load(Ordering::Relaxed) {
@@ -74,16 +78,16 @@ pub fn render_tile(
         // Accumulate in sample order, pixel order: exactly the scalar loop's additions.
         for (k, sample) in out.chunks_exact(npix).enumerate() {
             let mut invalid = 0;
-            for (i, &l) in sample.iter().enumerate() {
-                if !tile.add_box_sample(i, l) {
+            for (i, fs) in sample.iter().enumerate() {
+                let (px, py) = (tile.x0 + i as u32 % tile.w, tile.y0 + i as u32 / tile.w);
+                let [fx, fy] = fs.pos;
+                if !tile.add_sample(s, filter, px, py, fx, fy, fs.l) {
                     invalid += 1;
                 }
             }
             // The chunk's rays are booked with its first sample.
             let rays = if k == 0 { stats.rays } else { 0 };
-            tile.done += 1;
-            tile.rays += rays;
-            tile.invalid += invalid;
+            tile.sample_done(rays, invalid);
             progress(npix as u64, rays);
         }
     }

@@ -1,13 +1,11 @@
 //! Starting camera paths in the pool 16 at a time: the free slots a round refills are
 //! collected with their work items, and their random streams (seeded from (seed, pixel,
-//! sample)), film positions and camera rays are computed in SoA by the twins of the scalar
+//! sample)), film positions (written to the chunk's output for the film's filter) and camera rays are computed in SoA by the twins of the scalar
 //! code ([`Pcg32x::for_samples`], [`PerspectiveCamera::ray_x`](crate::render::camera::PerspectiveCamera::ray_x)),
 //! so each lane starts with the bits [`crate::render::integrator::PathTracer::li`]'s path does.
-//! Per path this had been a chain of three SplitMix finalisers, two PCG steps and six
-//! divisions and square roots, latency-bound one slot at a time.
 
+use super::chunk::{Chunk, FilmSample};
 use super::lanes::LANES;
-use super::megakernel::Chunk;
 use super::pool::PathPool;
 use crate::math::Pcg32x;
 use crate::math::simd::wide::Fx;
@@ -42,6 +40,7 @@ crate::isa_dispatch! {
         chunk: &Chunk,
         pool: &mut PathPool,
         fill: &mut Refill,
+        out: &mut [FilmSample],
         stats: &mut TraceStats,
     ) -> () = start;
 }
@@ -52,6 +51,7 @@ fn start(
     chunk: &Chunk,
     pool: &mut PathPool,
     fill: &mut Refill,
+    out: &mut [FilmSample],
     stats: &mut TraceStats,
 ) {
     let n = fill.n;
@@ -78,6 +78,7 @@ fn start(
     let fy = Fx(py) + Fx(rng.next_f32(&all));
     let (o, d, tmax) = rs.camera.ray_x(fx, fy);
     for l in 0..n {
+        out[fill.job[l] as usize].pos = [fx.0[l], fy.0[l]];
         pool.start(
             fill.slot[l],
             fill.job[l],
