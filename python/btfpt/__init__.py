@@ -3,10 +3,12 @@ evaluation and comparison, with the same numbers as the `btfpt` command line.
 
 Conventions (docs/conventions.md): directions are unit vectors in the local shading frame (z the
 normal), ``wi`` towards the camera (view), ``wo`` towards the light; a BTF value is
-B = π · f · cos θ_l, linear RGB."""
+B = π · f · cos θ_l, linear RGB. Errors raise :class:`btfpt.Error` subclasses (``btfpt.errors``)
+with the message the command line prints."""
 
 from . import errors
-from ._btfpt import Btf, __version__
+from ._btfpt import Btf, Scene, __version__, eval_model, fit, read_image, render, synth
 from .errors import Error
 
-__all__ = ["Btf", "Error", "errors", "__version__"]
+__all__ = ["Btf", "Scene", "Error", "errors", "eval_model", "fit", "read_image", "render", "synth",
+           "__version__"]

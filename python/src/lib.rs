@@ -5,7 +5,10 @@
 mod arrays;
 mod btf;
 mod errors;
+mod interrupt;
 mod query;
+mod render;
+mod tools;
 
 use pyo3::prelude::*;
 
@@ -14,5 +17,11 @@ use pyo3::prelude::*;
 fn _btfpt(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<btf::Btf>()?;
+    m.add_class::<render::Scene>()?;
+    m.add_function(wrap_pyfunction!(render::render, m)?)?;
+    m.add_function(wrap_pyfunction!(render::read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::synth, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::eval_model, m)?)?;
     Ok(())
 }
