@@ -234,3 +234,72 @@ fn no_source_file_is_over_the_line_limit() {
         long.join("\n")
     );
 }
+
+/// Items of `crate::bsdf` that `code` names: the first segment after each `crate::bsdf::`
+/// (each top-level item of a `use crate::bsdf::{…}` group).
+fn bsdf_items(code: &str) -> BTreeSet<String> {
+    let mut out = BTreeSet::new();
+    let mut rest = code;
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect()
+    };
+    while let Some(i) = rest.find("crate::bsdf::") {
+        rest = &rest[i + "crate::bsdf::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let mut depth = 0;
+            let mut start = true;
+            for (k, ch) in group.char_indices() {
+                match ch {
+                    '{' => depth += 1,
+                    '}' if depth == 0 => break,
+                    '}' => depth -= 1,
+                    ',' if depth == 0 => start = true,
+                    c if start && (c.is_alphanumeric() || c == '_') => {
+                        out.insert(ident(&group[k..]));
+                        start = false;
+                    }
+                    _ => {}
+                }
+            }
+        } else {
+            out.insert(ident(rest));
+        }
+    }
+    out
+}
+
+#[test]
+fn render_names_no_bsdf_model() {
+    // The integrators see BSDFs only through the `Bsdf` interface (with its lobe flags) and the
+    // batched interface `bsdf::batch`: adding a BSDF or a batched kernel never touches render/.
+    let allowed: BTreeSet<&str> = ["Bsdf", "BsdfFlags", "batch"].into();
+    let mut files = Vec::new();
+    rust_files(&src().join("render"), &mut files);
+    let mut bad = Vec::new();
+    for f in files.iter().filter(|f| !is_test_file(f)) {
+        let text = std::fs::read_to_string(f).expect("source file");
+        for item in bsdf_items(&code(&text)) {
+            if !allowed.contains(item.as_str()) {
+                bad.push(format!("{}: bsdf::{item}", f.display()));
+            }
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "render/ names BSDF internals:\n{}",
+        bad.join("\n")
+    );
+    // The scanner itself finds paths and groups.
+    let found = bsdf_items(
+        "use crate::bsdf::{Bsdf, batch::{BsdfBatch, L}, plmc::PlmcBsdf};\nlet x = crate::bsdf::Texture::new();",
+    );
+    assert_eq!(
+        found,
+        ["Bsdf", "Texture", "batch", "plmc"]
+            .into_iter()
+            .map(String::from)
+            .collect()
+    );
+}

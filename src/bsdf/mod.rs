@@ -6,6 +6,7 @@
 //! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
 
 pub mod at;
+pub mod batch;
 pub mod blend;
 pub mod btf;
 pub mod btf_sampler;

@@ -27,14 +27,22 @@ pub trait Isa: Copy + std::fmt::Debug {
     fn fma(self, a: F4, b: F4, c: F4) -> F4;
 }
 
-/// The x86_64 baseline (or plain lanes elsewhere): multiply, then add.
+/// The x86_64 baseline (or plain lanes elsewhere). Its multiply-add is fused too, in software
+/// where the CPU has no FMA unit (`mul_add`, which rounds once by definition), so every build
+/// of the kernel returns the same bits: slow, but only CPUs from before FMA (2013) take it.
 #[derive(Clone, Copy, Debug)]
 pub struct Sse2;
 
 impl Isa for Sse2 {
     #[inline(always)]
     fn fma(self, a: F4, b: F4, c: F4) -> F4 {
-        a * b + c
+        let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
+        F4::from_array([
+            a[0].mul_add(b[0], c[0]),
+            a[1].mul_add(b[1], c[1]),
+            a[2].mul_add(b[2], c[2]),
+            a[3].mul_add(b[3], c[3]),
+        ])
     }
 }
 

@@ -16,7 +16,8 @@ use super::chunk::{Chunk, FilmSample};
 use super::lanes::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
-use super::shade::{diffuse_sides, shade_hits};
+use super::shade::shade_hits;
+use crate::bsdf::batch::BsdfBatch;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::{Pcg32, Spectrum};
@@ -88,17 +89,19 @@ pub fn trace_chunk(
     let mut fill = Refill::default();
     let isa = crate::math::simd::isa();
     let bsdfs = &rs.scene.bsdfs;
-    let first_diffuse = bsdfs.iter().position(|b| diffuse_sides(b).is_some());
+    let first_diffuse = bsdfs.iter().position(BsdfBatch::shares_diffuse_batch);
     scratch.batch_key.clear();
-    scratch.batch_key.extend(
-        bsdfs
-            .iter()
-            .enumerate()
-            .map(|(k, b)| match diffuse_sides(b) {
-                Some(_) => 1 + first_diffuse.unwrap_or(k) as u32,
-                None => 1 + k as u32,
-            }),
-    );
+    scratch
+        .batch_key
+        .extend(
+            bsdfs
+                .iter()
+                .enumerate()
+                .map(|(k, b)| match BsdfBatch::shares_diffuse_batch(b) {
+                    true => 1 + first_diffuse.unwrap_or(k) as u32,
+                    false => 1 + k as u32,
+                }),
+        );
     loop {
         // --------------------------------- refill ---------------------------------
         for g in 0..pool.len() / LANES {

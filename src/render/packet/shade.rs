@@ -5,14 +5,13 @@
 //! ray → BSDF sample → throughput and Russian roulette → continuation ray). The BSDF-independent
 //! stages are straight-line code on 16-lane values ([`crate::math::simd::wide`]), one AVX-512
 //! instruction (two AVX2 ones) per operation in the build [`crate::isa_dispatch`] picks. The
-//! BSDF's own stages run as its batched kernel where it has one — SoA for `diffuse`
-//! ([`eval_local_x`], [`sample_local_x`]), 16 evaluations per pass for a fitted BTF
-//! ([`PlmcBsdf::eval_pdf_batch`]) — and lane by lane through [`BsdfAt`] for the others.
+//! BSDF's own stages go through the batched BSDF interface ([`BsdfBatch`]), which runs each
+//! kind's batched kernel or its scalar code lane by lane; this kernel names no BSDF model.
 //!
 //! Every lane runs the scalar integrator's arithmetic through the `_x` twins of its helpers
 //! ([`triangle_surface_x`], [`FrameX`], [`sample_toward_x`], …), which round like them, on the
 //! same random stream, so a lane's path is the same bits as
-//! [`crate::render::integrator::PathTracer::li`]'s (`tests/render_packet.rs` compares them).
+//! [`crate::render::path`]'s (`tests/render_packet.rs` compares them).
 //! What is not arithmetic stays scalar per lane: the gathers (mesh vertices, the pool's slots),
 //! the random numbers, emitter selection, emission at emitter hits, and emitters other than
 //! triangle-mesh area lights (sampled through [`crate::light::LightSet::sample`]).
@@ -22,8 +21,8 @@
 
 use super::lanes::LANES;
 use super::pool::{PathPool, Shadow};
-use crate::bsdf::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
-use crate::bsdf::{Bsdf, BsdfAt, BsdfFlags, PlmcBsdf, Texture};
+use crate::bsdf::Bsdf;
+use crate::bsdf::batch::BsdfBatch;
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::triangle_surface_x;
@@ -36,8 +35,8 @@ use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
 
 const L: usize = LANES;
-// One batched view lookup serves a packet batch.
-const _: () = assert!(L == crate::bsdf::plmc::PREPARE_LANES);
+// A BSDF batch is a packet's lanes.
+const _: () = assert!(L == crate::bsdf::batch::L);
 
 crate::isa_dispatch! {
     /// Shades the lanes `slots` of the pool (at most [`LANES`], all hit a surface whose BSDF
@@ -52,19 +51,6 @@ crate::isa_dispatch! {
     ) -> () = shade;
 }
 
-/// The batched form a BSDF's own stages take.
-#[derive(Clone, Copy)]
-enum Kind<'a> {
-    /// SoA twins of the scalar diffuse code, with the batch BSDF's albedo texture (each lane
-    /// reads its own mesh's, see [`diffuse_sides`]); a `twosided` diffuse lane seen from below
-    /// runs them on z-mirrored directions with its back albedo, as [`crate::bsdf::TwoSided`].
-    Diffuse(&'a Texture),
-    /// A fitted BTF: emitter evaluations 16 per pass of its batched kernel.
-    Plmc(&'a PlmcBsdf),
-    /// Lane by lane through the scalar code.
-    Scalar,
-}
-
 #[inline(always)]
 fn shade(
     rs: &RenderScene,
@@ -73,11 +59,6 @@ fn shade(
     slots: &[u32],
     stats: &mut TraceStats,
 ) {
-    let kind = match (diffuse_sides(bsdf), bsdf) {
-        (Some((front, _)), _) => Kind::Diffuse(front),
-        (None, Bsdf::Plmc(b)) => Kind::Plmc(b),
-        (None, _) => Kind::Scalar,
-    };
     let n = slots.len();
     if n == 0 {
         return;
@@ -179,15 +160,10 @@ fn shade(
 
     // ------- emission with MIS, depth limit, random numbers, emitter choice (scalar) -------
     let mut live = [false; L];
-    // Each live lane's BSDF at its hit, with its per-hit state.
-    let mut at_l: [Option<BsdfAt>; L] = [None; L];
+    // The lanes' BSDF stages, batched where the BSDF has a batched kernel.
+    let mut batch = BsdfBatch::new(bsdf);
     // Lanes that sample an emitter (drawing u_sel and u first).
     let mut nee = [false; L];
-    let mut albedo = V3x::ZERO;
-    // Diffuse lanes of a `twosided` seen from below (directions z-mirrored), and those seen
-    // edge-on (wi.z neither > 0 nor < 0: black, no sample).
-    let mut flip = Mx::splat(false);
-    let mut edge_on = Mx::splat(false);
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
     let mut is_area = Mx::splat(false);
@@ -228,46 +204,12 @@ fn shade(
             continue;
         }
         live[l] = true;
-        let smooth = match kind {
-            // Diffuse is smooth, and its SoA stages need only the albedo.
-            Kind::Diffuse(batch) => {
-                let mesh_bsdf = &rs.scene.bsdfs[meshes[mesh_id[l] as usize].bsdf as usize];
-                // (The sort puts only diffuse meshes in a diffuse batch.)
-                let tex = match diffuse_sides(mesh_bsdf).unwrap_or((batch, None)) {
-                    (front, None) => front,
-                    (front, Some(back)) => {
-                        let z = wi.z.0[l];
-                        flip.0[l] = z < 0.0;
-                        edge_on.0[l] = !(z > 0.0) && !(z < 0.0);
-                        if z < 0.0 { back } else { front }
-                    }
-                };
-                albedo.set(l, tex.eval(uv.get(l)));
-                true
-            }
-            // (Its per-hit states follow, for all live lanes at once.)
-            Kind::Plmc(b) => b.flags().has(BsdfFlags::SMOOTH),
-            Kind::Scalar => {
-                let at = bsdf.at(&si_at(l));
-                let smooth = at.flags().has(BsdfFlags::SMOOTH);
-                at_l[l] = Some(at);
-                smooth
-            }
-        };
+        let own = &rs.scene.bsdfs[meshes[mesh_id[l] as usize].bsdf as usize];
+        let smooth = batch.start_lane(l, own, wi.get(l), uv.get(l), || si_at(l));
         nee[l] = pt.nee && smooth;
     }
-    if let Kind::Plmc(b) = kind {
-        // A fitted BTF's per-hit states of the live lanes, 16 view lookups at once: what
-        // `Bsdf::at` finds lane by lane.
-        let going = (0..n).filter(|&l| live[l]).fold(0u16, |m, l| m | 1 << l);
-        let hits = b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], going);
-        for l in (0..n).filter(|&l| live[l]) {
-            at_l[l] = Some(match hits[l] {
-                Some(h) => BsdfAt::Plmc(b, h),
-                None => BsdfAt::Stateless(bsdf),
-            });
-        }
-    }
+    let going = (0..n).filter(|&l| live[l]).fold(0u16, |m, l| m | 1 << l);
+    batch.prepare(going, &wi, &uv);
 
     // ------------- random numbers (SoA, each lane on its own stream, in scalar order) -------------
     // Per live lane: u_sel and u if it samples an emitter, then u_lobe and u_bsdf (evaluating
@@ -353,30 +295,7 @@ fn shade(
     // --------------------------- BSDF evaluation ---------------------------
     let wo = frame.to_local(ls.wi);
     let delta = ls.delta;
-    let (f, bsdf_pdf) = match kind {
-        Kind::Diffuse(_) => {
-            let (wi, wo) = (mirror_z(flip, wi), mirror_z(flip, wo));
-            (
-                V3x::select(edge_on, V3x::ZERO, eval_local_x(albedo, wi, wo)),
-                Fx::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
-            )
-        }
-        Kind::Plmc(_) | Kind::Scalar => {
-            let (mut f, mut pdf) = match kind {
-                Kind::Plmc(b) => eval_plmc(b, &at_l, has_light, wo, delta),
-                _ => (V3x::ZERO, zero),
-            };
-            for l in 0..n {
-                // (A fitted BTF's lanes with per-hit state were evaluated in the batch.)
-                if let (true, Some(at @ BsdfAt::Stateless(_))) = (has_light.0[l], &at_l[l]) {
-                    let (fl, pl) = at.eval_for_light(&si_at(l), wo.get(l), delta.0[l]);
-                    f.set(l, fl);
-                    pdf.0[l] = pl;
-                }
-            }
-            (f, pdf)
-        }
-    };
+    let (f, bsdf_pdf) = batch.eval_for_light(has_light, wi, wo, delta, si_at);
 
     // ---------------------- MIS and the shadow ray (SoA) ----------------------
     let mis = Fx::select(delta, Fx::splat(1.0), mis_weight_x(ls.pdf, bsdf_pdf));
@@ -385,41 +304,9 @@ fn shade(
     let (sh_o, sh_d, sh_t, sh_test) = shadow_segment_from_x(p, ng, &ls);
 
     // ------------------------------ BSDF sample ------------------------------
-    // (local direction, pdf, weight, η, delta lobe) per lane; `sampled` false where it failed.
-    let (wo_s, s_pdf, weight, s_eta, s_delta, sampled) = match kind {
-        Kind::Diffuse(_) => {
-            let (wo, pdf, ok) = sample_local_x(mirror_z(flip, wi), u_bsdf);
-            let (wo, ok) = (mirror_z(flip, wo), ok.and(edge_on.not()));
-            // The albedo is the weight; a diffuse sample keeps η (× 1) and is not a delta lobe.
-            (wo, pdf, albedo, Fx::splat(1.0), Mx::splat(false), ok)
-        }
-        Kind::Plmc(_) | Kind::Scalar => {
-            let (mut wo, mut pdf, mut w) =
-                (V3x::splat(crate::math::Vec3::Z), Fx::splat(1.0), V3x::ZERO);
-            let (mut e, mut dl, mut ok) = (Fx::splat(1.0), Mx::splat(false), Mx::splat(false));
-            let mut batched = [None; L];
-            if let Kind::Plmc(b) = kind {
-                batched = sample_plmc(b, &at_l, u_lobe, u_bsdf);
-            }
-            for l in 0..n {
-                let Some(at) = &at_l[l] else { continue };
-                let s = match at {
-                    // (Sampled in the batch.)
-                    BsdfAt::Plmc(..) if matches!(kind, Kind::Plmc(_)) => batched[l],
-                    _ => at.sample(&si_at(l), u_lobe.0[l], u_bsdf.get(l)),
-                };
-                if let Some((bs, wl)) = s {
-                    wo.set(l, bs.wo);
-                    pdf.0[l] = bs.pdf;
-                    w.set(l, wl);
-                    e.0[l] = bs.eta;
-                    dl.0[l] = bs.sampled.has(BsdfFlags::DELTA);
-                    ok.0[l] = true;
-                }
-            }
-            (wo, pdf, w, e, dl, ok)
-        }
-    };
+    let bs = batch.sample(wi, u_lobe, u_bsdf, si_at);
+    let (wo_s, s_pdf, weight, s_eta, s_delta, sampled) =
+        (bs.wo, bs.pdf, bs.weight, bs.eta, bs.delta, bs.ok);
 
     // ------------------------ throughput, continuation (SoA) ------------------------
     let wo_world = frame.to_world(wo_s);
@@ -485,92 +372,6 @@ fn shade(
         }
     }
     rng.scatter(&mut pool.rng, &slot, n);
-}
-
-/// The albedo textures of a BSDF the diffuse SoA stages run: (front, back) of a `twosided`
-/// over two `diffuse` models, (albedo, None) of a `diffuse` one, None for any other model.
-/// Every such BSDF shares one sort key, since each lane reads its own mesh's textures.
-pub fn diffuse_sides(b: &Bsdf) -> Option<(&Texture, Option<&Texture>)> {
-    match b {
-        Bsdf::Diffuse(d) => Some((&d.reflectance, None)),
-        Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
-            (Bsdf::Diffuse(f), Bsdf::Diffuse(k)) => Some((&f.reflectance, Some(&k.reflectance))),
-            _ => None,
-        },
-        _ => None,
-    }
-}
-
-/// `v` with z negated in the lanes of `m` (`twosided`'s mirror through the surface).
-#[inline(always)]
-fn mirror_z(m: Mx, v: V3x) -> V3x {
-    V3x::new(v.x, v.y, Fx::select(m, -v.z, v.z))
-}
-
-/// The emitter evaluations of a fitted-BTF batch: (f, pdf) per lane for the lanes in `want`
-/// whose BSDF kept its per-hit state (the rest through the scalar code), 16 per pass of the
-/// batched kernel; the pdf is 0 for delta lights.
-#[inline(always)]
-fn eval_plmc(b: &PlmcBsdf, at_l: &[Option<BsdfAt>; L], want: Mx, wo: V3x, delta: Mx) -> (V3x, Fx) {
-    let (mut f, mut pdf) = (V3x::ZERO, Fx::splat(0.0));
-    let mut hits = [None; L];
-    let mut at = [0usize; L];
-    let mut wq = [crate::math::Vec3::ZERO; L];
-    let mut want_pdf = [false; L];
-    let mut m = 0;
-    for l in 0..L {
-        if let (true, Some(BsdfAt::Plmc(_, h))) = (want.0[l], &at_l[l]) {
-            hits[m] = Some(*h);
-            at[m] = l;
-            wq[m] = wo.get(l);
-            want_pdf[m] = !delta.0[l];
-            m += 1;
-        }
-    }
-    if let Some(first) = hits[0] {
-        let hits = hits.map(|h| h.unwrap_or(first));
-        let mut out = [(Spectrum::ZERO, 0.0); L];
-        b.eval_pdf_batch(&hits[..m], &wq[..m], &want_pdf[..m], &mut out[..m]);
-        for j in 0..m {
-            f.set(at[j], out[j].0);
-            pdf.0[at[j]] = out[j].1;
-        }
-    }
-    (f, pdf)
-}
-
-/// The BSDF samples of a fitted-BTF batch's lanes that kept their per-hit state (`None`
-/// elsewhere and where sampling fails), their model evaluations 16 per pass of the batched
-/// kernel: [`PlmcBsdf::sample_batch`], the same samples as the scalar `sample_hit`.
-#[inline(always)]
-fn sample_plmc(
-    b: &PlmcBsdf,
-    at_l: &[Option<BsdfAt>; L],
-    u_lobe: Fx,
-    u_bsdf: V2x,
-) -> [Option<(crate::bsdf::BsdfSample, Spectrum)>; L] {
-    let mut out = [None; L];
-    let mut hits = [None; L];
-    let mut at = [0usize; L];
-    let (mut u1, mut u2) = ([0f32; L], [crate::math::Vec2::ZERO; L]);
-    let mut m = 0;
-    for l in 0..L {
-        if let Some(BsdfAt::Plmc(_, h)) = &at_l[l] {
-            hits[m] = Some(*h);
-            at[m] = l;
-            (u1[m], u2[m]) = (u_lobe.0[l], u_bsdf.get(l));
-            m += 1;
-        }
-    }
-    if let Some(first) = hits[0] {
-        let hits = hits.map(|h| h.unwrap_or(first));
-        let mut got = [None; L];
-        b.sample_batch(&hits[..m], &u1[..m], &u2[..m], &mut got[..m]);
-        for j in 0..m {
-            out[at[j]] = got[j];
-        }
-    }
-    out
 }
 
 #[cfg(test)]
