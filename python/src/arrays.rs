@@ -107,7 +107,10 @@ pub fn same_len(lens: &[(&str, usize)]) -> PyResult<usize> {
 }
 
 /// Rows as an (N, K) float32 numpy array.
-pub fn to_numpy<'py, const K: usize>(py: Python<'py>, v: Vec<[f32; K]>) -> Bound<'py, PyArray2<f32>> {
+pub fn to_numpy<'py, const K: usize>(
+    py: Python<'py>,
+    v: Vec<[f32; K]>,
+) -> Bound<'py, PyArray2<f32>> {
     let n = v.len();
     let flat: Vec<f32> = v.into_iter().flatten().collect();
     let a = Array2::from_shape_vec((n, K), flat).expect("n × K values");

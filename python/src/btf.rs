@@ -80,7 +80,8 @@ impl Btf {
 
     fn raw(material: BtfMaterial, path: PathBuf, uv_scale: f32) -> PyResult<Btf> {
         let b = material.btf();
-        let (views, lights, width, height) = (dirs(b.views()), dirs(b.lights()), b.width(), b.height());
+        let (views, lights, width, height) =
+            (dirs(b.views()), dirs(b.lights()), b.width(), b.height());
         Ok(Btf {
             model: Model::Raw(BtfBsdf::new(Arc::new(material), uv_scale).py_err()?),
             fitted: None,
@@ -101,7 +102,11 @@ impl Btf {
         wi: &Bound<'_, PyAny>,
         wo: &Bound<'_, PyAny>,
     ) -> PyResult<(Vec<[f32; 2]>, Vec<[f32; 3]>, Vec<[f32; 3]>)> {
-        let (uv, wi, wo) = (rows::<2>(uv, "uv")?, rows::<3>(wi, "wi")?, rows::<3>(wo, "wo")?);
+        let (uv, wi, wo) = (
+            rows::<2>(uv, "uv")?,
+            rows::<3>(wi, "wi")?,
+            rows::<3>(wo, "wo")?,
+        );
         same_len(&[("uv", uv.len()), ("wi", wi.len()), ("wo", wo.len())])?;
         check_rows(&uv, "uv", false)?;
         check_rows(&wi, "wi", true)?;
@@ -109,7 +114,14 @@ impl Btf {
         Ok((uv, wi, wo))
     }
 
-    fn eval_pdf_arrays(&self, py: Python<'_>, uv: &Bound<'_, PyAny>, wi: &Bound<'_, PyAny>, wo: &Bound<'_, PyAny>, want_pdf: bool) -> PyResult<(Vec<[f32; 3]>, Vec<f32>)> {
+    fn eval_pdf_arrays(
+        &self,
+        py: Python<'_>,
+        uv: &Bound<'_, PyAny>,
+        wi: &Bound<'_, PyAny>,
+        wo: &Bound<'_, PyAny>,
+        want_pdf: bool,
+    ) -> PyResult<(Vec<[f32; 3]>, Vec<f32>)> {
         let (uv, wi, wo) = Btf::queries(uv, wi, wo)?;
         let n = uv.len();
         Ok(py.detach(|| {
@@ -136,20 +148,38 @@ impl Btf {
     /// B = π · f · cos θ_l (linear RGB, cosine-baked) of N queries: `uv` (N, 2), `wi` (N, 3)
     /// view and `wo` (N, 3) light directions, unit, in the local shading frame. Returns (N, 3)
     /// float32; 0 where either direction is below the horizon.
-    fn eval<'py>(&self, py: Python<'py>, uv: &Bound<'py, PyAny>, wi: &Bound<'py, PyAny>, wo: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+    fn eval<'py>(
+        &self,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
         let (b, _) = self.eval_pdf_arrays(py, uv, wi, wo, false)?;
         Ok(to_numpy(py, b))
     }
 
     /// The solid-angle pdf with which [`Btf.sample`] draws `wo` (N,) float32.
-    fn pdf<'py>(&self, py: Python<'py>, uv: &Bound<'py, PyAny>, wi: &Bound<'py, PyAny>, wo: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+    fn pdf<'py>(
+        &self,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray1<f32>>> {
         let (_, pdf) = self.eval_pdf_arrays(py, uv, wi, wo, true)?;
         Ok(to_numpy1(py, pdf))
     }
 
     /// `(B, pdf)` in one pass (the light location shared): (N, 3) and (N,) float32.
     #[allow(clippy::type_complexity)]
-    fn eval_pdf<'py>(&self, py: Python<'py>, uv: &Bound<'py, PyAny>, wi: &Bound<'py, PyAny>, wo: &Bound<'py, PyAny>) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
+    fn eval_pdf<'py>(
+        &self,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+    ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
         let (b, pdf) = self.eval_pdf_arrays(py, uv, wi, wo, true)?;
         Ok((to_numpy(py, b), to_numpy1(py, pdf)))
     }
@@ -159,18 +189,44 @@ impl Btf {
     /// pdf)`: (N, 3) directions, (N, 3) weights f · cos θ_l / pdf = B / (π · pdf), (N,) pdfs;
     /// all 0 where no direction could be drawn (ω_i below the horizon).
     #[allow(clippy::type_complexity)]
-    fn sample<'py>(&self, py: Python<'py>, uv: &Bound<'py, PyAny>, wi: &Bound<'py, PyAny>, sample1: &Bound<'py, PyAny>, sample2: &Bound<'py, PyAny>) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
+    fn sample<'py>(
+        &self,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        sample1: &Bound<'py, PyAny>,
+        sample2: &Bound<'py, PyAny>,
+    ) -> PyResult<(
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray2<f32>>,
+        Bound<'py, PyArray1<f32>>,
+    )> {
         let (uv, wi) = (rows::<2>(uv, "uv")?, rows::<3>(wi, "wi")?);
         let (u1, u2) = (values(sample1, "sample1")?, rows::<2>(sample2, "sample2")?);
-        let n = same_len(&[("uv", uv.len()), ("wi", wi.len()), ("sample1", u1.len()), ("sample2", u2.len())])?;
+        let n = same_len(&[
+            ("uv", uv.len()),
+            ("wi", wi.len()),
+            ("sample1", u1.len()),
+            ("sample2", u2.len()),
+        ])?;
         check_rows(&uv, "uv", false)?;
         check_rows(&wi, "wi", true)?;
         let u1r: Vec<[f32; 1]> = u1.iter().map(|&x| [x]).collect();
         check_unit_interval(&u1r, "sample1")?;
         check_unit_interval(&u2, "sample2")?;
         let (wo, weight, pdf) = py.detach(|| {
-            let (mut wo, mut weight, mut pdf) = (vec![[0f32; 3]; n], vec![[0f32; 3]; n], vec![0f32; n]);
-            query::sample(&self.model, &uv, &wi, &u1, &u2, &mut wo, &mut weight, &mut pdf);
+            let (mut wo, mut weight, mut pdf) =
+                (vec![[0f32; 3]; n], vec![[0f32; 3]; n], vec![0f32; n]);
+            query::sample(
+                &self.model,
+                &uv,
+                &wi,
+                &u1,
+                &u2,
+                &mut wo,
+                &mut weight,
+                &mut pdf,
+            );
             (wo, weight, pdf)
         });
         Ok((to_numpy(py, wo), to_numpy(py, weight), to_numpy1(py, pdf)))
@@ -179,10 +235,22 @@ impl Btf {
     /// The scalar renderer's calls for each query one by one (test oracle of the batched path):
     /// `(B, f·cos, pdf, sample_wo, sample_weight, sample_pdf)`.
     #[allow(clippy::type_complexity)]
-    fn _reference<'py>(&self, py: Python<'py>, uv: &Bound<'py, PyAny>, wi: &Bound<'py, PyAny>, wo: &Bound<'py, PyAny>, sample1: &Bound<'py, PyAny>, sample2: &Bound<'py, PyAny>) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    fn _reference<'py>(
+        &self,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+        sample1: &Bound<'py, PyAny>,
+        sample2: &Bound<'py, PyAny>,
+    ) -> PyResult<Vec<Bound<'py, PyAny>>> {
         let (uv, wi, wo) = Btf::queries(uv, wi, wo)?;
         let (u1, u2) = (values(sample1, "sample1")?, rows::<2>(sample2, "sample2")?);
-        same_len(&[("uv", uv.len()), ("sample1", u1.len()), ("sample2", u2.len())])?;
+        same_len(&[
+            ("uv", uv.len()),
+            ("sample1", u1.len()),
+            ("sample2", u2.len()),
+        ])?;
         let r: Vec<_> = (0..uv.len())
             .map(|q| query::reference(&self.model, uv[q], wi[q], wo[q], u1[q], u2[q]))
             .collect();
@@ -235,12 +303,25 @@ impl Btf {
     /// The material's image at measured view `view` and light `light` (indices into `views`
     /// and `lights`): (height, width, 3) float32 linear B, row 0 the first row of the image
     /// file. For a fitted model, its reconstruction at those directions.
-    fn texel_image<'py>(&self, py: Python<'py>, view: usize, light: usize) -> PyResult<Bound<'py, PyArray3<f32>>> {
+    fn texel_image<'py>(
+        &self,
+        py: Python<'py>,
+        view: usize,
+        light: usize,
+    ) -> PyResult<Bound<'py, PyArray3<f32>>> {
         if view >= self.views.len() {
-            return Err(invalid(format!("view {view}: the material has {} views (0..{})", self.views.len(), self.views.len())));
+            return Err(invalid(format!(
+                "view {view}: the material has {} views (0..{})",
+                self.views.len(),
+                self.views.len()
+            )));
         }
         if light >= self.lights.len() {
-            return Err(invalid(format!("light {light}: the material has {} lights (0..{})", self.lights.len(), self.lights.len())));
+            return Err(invalid(format!(
+                "light {light}: the material has {} lights (0..{})",
+                self.lights.len(),
+                self.lights.len()
+            )));
         }
         let (w, h) = (self.width, self.height);
         let img = py.detach(|| match (&self.fitted, &self.model) {

@@ -33,8 +33,15 @@ impl Progress {
         if !self.show {
             return;
         }
-        let (d, t) = (self.done.load(Ordering::Relaxed), self.total.load(Ordering::Relaxed));
-        let pct = if t > 0 { 100.0 * d as f64 / t as f64 } else { 0.0 };
+        let (d, t) = (
+            self.done.load(Ordering::Relaxed),
+            self.total.load(Ordering::Relaxed),
+        );
+        let pct = if t > 0 {
+            100.0 * d as f64 / t as f64
+        } else {
+            0.0
+        };
         let mut e = std::io::stderr().lock();
         let _ = write!(
             e,

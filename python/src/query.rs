@@ -53,10 +53,15 @@ pub fn eval_b_pdf(
                 let r = o..o + b.len();
                 debug_assert!(r.end <= e);
                 match model {
-                    Model::Fitted(m) => fitted_group(m, &uv[r.clone()], &wi[r.clone()], &wo[r], b, pdf, want_pdf),
+                    Model::Fitted(m) => {
+                        fitted_group(m, &uv[r.clone()], &wi[r.clone()], &wo[r], b, pdf, want_pdf)
+                    }
                     Model::Raw(m) => {
                         for q in 0..b.len() {
-                            let si = SurfaceInteraction::for_tests(v3(&wi[o + q]), Vec2::from(uv[o + q]));
+                            let si = SurfaceInteraction::for_tests(
+                                v3(&wi[o + q]),
+                                Vec2::from(uv[o + q]),
+                            );
                             let w = v3(&wo[o + q]);
                             b[q] = if si.wi.z <= 0.0 || w.z <= 0.0 {
                                 [0.0; 3]
@@ -78,7 +83,11 @@ fn prepare_group(
     m: &PlmcBsdf,
     uv: &[[f32; 2]],
     wi: &[[f32; 3]],
-) -> ([Option<btfpt::bsdf::PlmcHit>; PREPARE_LANES], [usize; BATCH], usize) {
+) -> (
+    [Option<btfpt::bsdf::PlmcHit>; PREPARE_LANES],
+    [usize; BATCH],
+    usize,
+) {
     let n = uv.len();
     let mut lane = [[0f32; PREPARE_LANES]; 5];
     for q in 0..n {
@@ -163,11 +172,12 @@ pub fn sample(
                 wo.fill([0.0; 3]);
                 weight.fill([0.0; 3]);
                 pdf.fill(0.0);
-                let mut put = |q: usize, r: Option<(btfpt::bsdf::BsdfSample, btfpt::math::Spectrum)>| {
-                    if let Some((s, f)) = r {
-                        (wo[q], weight[q], pdf[q]) = (s.wo.to_array(), f.to_array(), s.pdf);
-                    }
-                };
+                let mut put =
+                    |q: usize, r: Option<(btfpt::bsdf::BsdfSample, btfpt::math::Spectrum)>| {
+                        if let Some((s, f)) = r {
+                            (wo[q], weight[q], pdf[q]) = (s.wo.to_array(), f.to_array(), s.pdf);
+                        }
+                    };
                 match model {
                     Model::Fitted(m) => {
                         let (hits, slot, k) = prepare_group(m, &uv[r.clone()], &wi[r.clone()]);
@@ -191,7 +201,10 @@ pub fn sample(
                     }
                     Model::Raw(m) => {
                         for q in 0..r.len() {
-                            let si = SurfaceInteraction::for_tests(v3(&wi[o + q]), Vec2::from(uv[o + q]));
+                            let si = SurfaceInteraction::for_tests(
+                                v3(&wi[o + q]),
+                                Vec2::from(uv[o + q]),
+                            );
                             put(q, m.sample(&si, u1[o + q], Vec2::from(u2[o + q])));
                         }
                     }

@@ -30,13 +30,21 @@ pub struct Scene {
 }
 
 impl Scene {
-    fn load_impl(path: PathBuf, defines: BTreeMap<String, String>, btf_model: Option<String>) -> PyResult<Scene> {
+    fn load_impl(
+        path: PathBuf,
+        defines: BTreeMap<String, String>,
+        btf_model: Option<String>,
+    ) -> PyResult<Scene> {
         if !path.is_file() {
             return Err(missing(format!("{}: scene file not found", path.display())));
         }
         let load_options = btfpt::scene::LoadOptions {
             defines: defines.into_iter().collect(),
-            btf_model: btf_model.as_deref().map(BtfModel::parse).transpose().py_err()?,
+            btf_model: btf_model
+                .as_deref()
+                .map(BtfModel::parse)
+                .transpose()
+                .py_err()?,
         };
         let scene = btfpt::scene::load(&path, &load_options).py_err()?;
         if scene.meshes.is_empty() && scene.emitters.is_empty() {
@@ -52,11 +60,26 @@ impl Scene {
         let btf_uses = scene
             .btf_uses
             .iter()
-            .map(|b| (b.file.display().to_string(), b.model.name().to_string(), b.texels, b.seconds))
+            .map(|b| {
+                (
+                    b.file.display().to_string(),
+                    b.model.name().to_string(),
+                    b.texels,
+                    b.seconds,
+                )
+            })
             .collect();
         let rs = RenderScene::new(scene).py_err()?;
         let summary = rs.summary();
-        Ok(Scene { rs: Mutex::new(rs), path, size, crop, spp, btf_uses, summary })
+        Ok(Scene {
+            rs: Mutex::new(rs),
+            path,
+            size,
+            crop,
+            spp,
+            btf_uses,
+            summary,
+        })
     }
 }
 
@@ -67,7 +90,12 @@ impl Scene {
     /// "plm", "plmc"; as `--btf-model`).
     #[staticmethod]
     #[pyo3(signature = (path, defines=None, btf_model=None))]
-    fn load(py: Python<'_>, path: PathBuf, defines: Option<BTreeMap<String, String>>, btf_model: Option<String>) -> PyResult<Scene> {
+    fn load(
+        py: Python<'_>,
+        path: PathBuf,
+        defines: Option<BTreeMap<String, String>>,
+        btf_model: Option<String>,
+    ) -> PyResult<Scene> {
         let defines = defines.unwrap_or_default();
         py.detach(|| Scene::load_impl(path, defines, btf_model))
     }
@@ -131,20 +159,31 @@ pub fn render<'py>(
     let loaded;
     let scene: &Scene = if let Ok(s) = scene.cast::<Scene>() {
         if defines.is_some() {
-            return Err(invalid("defines: give them to Scene.load, not to render() of a loaded Scene"));
+            return Err(invalid(
+                "defines: give them to Scene.load, not to render() of a loaded Scene",
+            ));
         }
         loaded = s.clone();
         loaded.get()
     } else {
-        let path: PathBuf = scene.extract().map_err(|_| invalid("scene: expected a path or a btfpt.Scene"))?;
+        let path: PathBuf = scene
+            .extract()
+            .map_err(|_| invalid("scene: expected a path or a btfpt.Scene"))?;
         let s = Py::new(py, Scene::load(py, path, defines, None)?)?;
         loaded = s.into_bound(py);
         loaded.get()
     };
     let kind = match integrator {
         "scalar" => IntegratorKind::Scalar,
-        "packet" => IntegratorKind::Packet(PacketOptions { pool: 256, refill: true }),
-        other => return Err(invalid(format!("integrator \"{other}\": expected \"packet\" or \"scalar\""))),
+        "packet" => IntegratorKind::Packet(PacketOptions {
+            pool: 256,
+            refill: true,
+        }),
+        other => {
+            return Err(invalid(format!(
+                "integrator \"{other}\": expected \"packet\" or \"scalar\""
+            )));
+        }
     };
     if spp == Some(0) {
         return Err(invalid("spp: the sample count must be at least 1"));
@@ -166,11 +205,17 @@ pub fn render<'py>(
     if variance && settings.spp() < 2 {
         return Err(invalid("variance: needs at least 2 samples per pixel"));
     }
-    let mut rs = scene.rs.lock().map_err(|_| invalid("the scene is unusable after a failed render"))?;
+    let mut rs = scene
+        .rs
+        .lock()
+        .map_err(|_| invalid("the scene is unusable after a failed render"))?;
     rs.kind = kind;
     let mut state = RenderState::with_filter(settings, rs.scene.camera.filter).py_err()?;
     let bar = Progress::new("render", "pixel-samples", state.samples_total(), progress);
-    let opts = DriverOptions { threads, checkpoint: None };
+    let opts = DriverOptions {
+        threads,
+        checkpoint: None,
+    };
     let rs_ref = &*rs;
     let (outcome, state) = interrupt::run(py, &bar, |stop| {
         let r = driver::render(rs_ref, &mut state, &opts, stop, &|n, _| {
@@ -180,7 +225,11 @@ pub fn render<'py>(
     })?;
     match outcome.py_err()? {
         Outcome::Complete => {}
-        Outcome::Interrupted => return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err("render interrupted")),
+        Outcome::Interrupted => {
+            return Err(pyo3::exceptions::PyKeyboardInterrupt::new_err(
+                "render interrupted",
+            ));
+        }
     }
     let image = to_image(py, state.mean_image());
     if variance {

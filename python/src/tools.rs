@@ -45,27 +45,41 @@ pub fn synth(
         None => (64, 64),
         Some(s) => match s.extract::<usize>() {
             Ok(n) => (n, n),
-            Err(_) => s.extract().map_err(|_| invalid("size: expected N or (W, H)"))?,
+            Err(_) => s
+                .extract()
+                .map_err(|_| invalid("size: expected N or (W, H)"))?,
         },
     };
     if !(1..=4096).contains(&w) || !(1..=4096).contains(&h) {
-        return Err(invalid(format!("size: {w}×{h} texels is out of range 1..=4096")));
+        return Err(invalid(format!(
+            "size: {w}×{h} texels is out of range 1..=4096"
+        )));
     }
     let dirs = match directions.to_ascii_lowercase().as_str() {
         "ubo2003" => DirectionSet::ubo2003(),
         "ubo2014" => DirectionSet::ubo2014(),
-        o => return Err(invalid(format!("directions: unknown set '{o}' (expected ubo2003 or ubo2014)"))),
+        o => {
+            return Err(invalid(format!(
+                "directions: unknown set '{o}' (expected ubo2003 or ubo2014)"
+            )));
+        }
     };
     let image = match format.to_ascii_lowercase().as_str() {
         "png8" => ImageKind::Png8,
         "png16" => ImageKind::Png16,
         "exr" => ImageKind::Exr,
-        o => return Err(invalid(format!("format: unknown '{o}' (expected png8, png16 or exr)"))),
+        o => {
+            return Err(invalid(format!(
+                "format: unknown '{o}' (expected png8, png16 or exr)"
+            )));
+        }
     };
     let Some(out) = out else {
         return Err(invalid("out: give an output (a folder, or NAME.btfc)"));
     };
-    let cache = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("btfc"));
+    let cache = out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("btfc"));
     if !cache && dirs.len() != 81 {
         return Err(invalid(format!(
             "{}: --directions ubo2014 has 151 directions but a UBO2003 folder holds the 81 UBO2003 directions; write the .btfc cache instead (out=NAME.btfc)",
@@ -73,7 +87,10 @@ pub fn synth(
         )));
     }
     if out.exists() {
-        return Err(invalid(format!("{}: already exists; remove it or choose another output", out.display())));
+        return Err(invalid(format!(
+            "{}: already exists; remove it or choose another output",
+            out.display()
+        )));
     }
     let bar = Progress::new(format!("synth {material}"), "steps", 1, progress);
     let r = interrupt::run(py, &bar, |_| -> btfpt::Result<()> {
@@ -123,23 +140,43 @@ pub fn fit<'py>(
         "lm" => ModelKind::Lm,
         "plm" => ModelKind::Plm,
         "plmc" => ModelKind::PlmC,
-        o => return Err(invalid(format!("model \"{o}\": expected \"lm\", \"plm\" or \"plmc\""))),
+        o => {
+            return Err(invalid(format!(
+                "model \"{o}\": expected \"lm\", \"plm\" or \"plmc\""
+            )));
+        }
     };
     exists(&data, "BTF data")?;
     if out.is_dir() {
-        return Err(invalid(format!("{}: is a folder; give a .plmc file name", out.display())));
+        return Err(invalid(format!(
+            "{}: is a folder; give a .plmc file name",
+            out.display()
+        )));
     }
     let spec = tile
         .as_deref()
         .map(|t| {
-            tiling::parse_size(t).map(|(width, height)| tiling::TileSpec { width, height, count: 1, overlap: None })
+            tiling::parse_size(t).map(|(width, height)| tiling::TileSpec {
+                width,
+                height,
+                count: 1,
+                overlap: None,
+            })
         })
         .transpose()
         .py_err()?;
-    let opts = FitOptions { kind, clusters, ..FitOptions::default() };
+    let opts = FitOptions {
+        kind,
+        clusters,
+        ..FitOptions::default()
+    };
     let source_data = py.detach(|| btf::open(&data)).py_err()?;
     let nviews = source_data.views().len();
-    let selection = views.as_deref().map(|s| ViewSelection::parse(s, nviews)).transpose().py_err()?;
+    let selection = views
+        .as_deref()
+        .map(|s| ViewSelection::parse(s, nviews))
+        .transpose()
+        .py_err()?;
     let bar = Progress::new(
         format!("fit {}", kind.name()),
         "views",
@@ -148,30 +185,45 @@ pub fn fit<'py>(
     );
     let parts = pipeline::parts_dir(&out);
     let start = std::time::Instant::now();
-    let result = interrupt::run(py, &bar, |stop| -> btfpt::Result<Option<(pipeline::FitOutcome, u64)>> {
-        let stitch = spec.as_ref().map(|s| tiling::find_stitch(&*source_data, s)).transpose()?;
-        let tiled = stitch.as_ref().map(|s| tiling::TiledSource::new(&*source_data, s)).transpose()?;
-        let source: &dyn btf::BtfSource = match &tiled {
-            Some(t) => t,
-            None => &*source_data,
-        };
-        let key = stitch.as_ref().map_or(0, |s| s.key());
-        let step = |_, stage| {
-            if stage == pipeline::Stage::Done {
-                bar.done.fetch_add(1, Ordering::Relaxed);
+    let result = interrupt::run(
+        py,
+        &bar,
+        |stop| -> btfpt::Result<Option<(pipeline::FitOutcome, u64)>> {
+            let stitch = spec
+                .as_ref()
+                .map(|s| tiling::find_stitch(&*source_data, s))
+                .transpose()?;
+            let tiled = stitch
+                .as_ref()
+                .map(|s| tiling::TiledSource::new(&*source_data, s))
+                .transpose()?;
+            let source: &dyn btf::BtfSource = match &tiled {
+                Some(t) => t,
+                None => &*source_data,
+            };
+            let key = stitch.as_ref().map_or(0, |s| s.key());
+            let step = |_, stage| {
+                if stage == pipeline::Stage::Done {
+                    bar.done.fetch_add(1, Ordering::Relaxed);
+                }
+            };
+            if let Some(sel) = &selection {
+                pipeline::fit_views_keyed(source, &opts, key, &parts, sel, stop, &step)?;
+                return Ok(None);
             }
-        };
-        if let Some(sel) = &selection {
-            pipeline::fit_views_keyed(source, &opts, key, &parts, sel, stop, &step)?;
-            return Ok(None);
-        }
-        let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), stop, &step)?;
-        let section = stitch.as_ref().map(codec::TileSection::from_stitch).transpose()?;
-        codec::write_tiled(&out, &outcome.model, section.as_ref())?;
-        std::fs::remove_dir_all(&parts).map_err(|e| btfpt::Error::io(&parts, e))?;
-        let bytes = std::fs::metadata(&out).map_err(|e| btfpt::Error::io(&out, e))?.len();
-        Ok(Some((outcome, bytes)))
-    })?
+            let outcome = pipeline::fit_model_keyed(source, &opts, key, Some(&parts), stop, &step)?;
+            let section = stitch
+                .as_ref()
+                .map(codec::TileSection::from_stitch)
+                .transpose()?;
+            codec::write_tiled(&out, &outcome.model, section.as_ref())?;
+            std::fs::remove_dir_all(&parts).map_err(|e| btfpt::Error::io(&parts, e))?;
+            let bytes = std::fs::metadata(&out)
+                .map_err(|e| btfpt::Error::io(&out, e))?
+                .len();
+            Ok(Some((outcome, bytes)))
+        },
+    )?
     .py_err()?;
     let seconds = start.elapsed().as_secs_f64();
     let d = PyDict::new(py);
@@ -184,8 +236,14 @@ pub fn fit<'py>(
     };
     let m = &o.model;
     d.set_item("bytes", bytes)?;
-    d.set_item("raw_bytes", raw_bytes(m.views.len(), m.lights.len(), m.width * m.height))?;
-    d.set_item("ratio", raw_bytes(m.views.len(), m.lights.len(), m.width * m.height) as f64 / bytes.max(1) as f64)?;
+    d.set_item(
+        "raw_bytes",
+        raw_bytes(m.views.len(), m.lights.len(), m.width * m.height),
+    )?;
+    d.set_item(
+        "ratio",
+        raw_bytes(m.views.len(), m.lights.len(), m.width * m.height) as f64 / bytes.max(1) as f64,
+    )?;
     d.set_item("size", (m.width, m.height))?;
     d.set_item("resumed_views", o.resumed_views)?;
     let ks: Vec<usize> = m
@@ -231,7 +289,12 @@ pub fn eval_model<'py>(
     exists(&model, "model file")?;
     exists(&against, "BTF data")?;
     let views = codec::read_header(&model).py_err()?.views.len();
-    let opts = FitOptions { clusters, features, seed, ..FitOptions::default() };
+    let opts = FitOptions {
+        clusters,
+        features,
+        seed,
+        ..FitOptions::default()
+    };
     let bar = Progress::new("eval", "views", views as u64, progress);
     let doc = interrupt::run(py, &bar, |_| {
         btfpt::fit::eval_file::evaluate_file(&model, &against, &opts, pca_k, &|_| {
