@@ -37,10 +37,7 @@ pub fn evaluate_file(
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<FileEvaluation> {
     let (model, section) = codec::read_tiled(model_path)?;
-    let stitch = section
-        .as_ref()
-        .map(|t| t.stitch(model_path))
-        .transpose()?;
+    let stitch = section.as_ref().map(|t| t.stitch(model_path)).transpose()?;
     let file_bytes = std::fs::metadata(model_path)
         .map_err(|e| Error::io(model_path, e))?
         .len() as usize;
@@ -95,7 +92,10 @@ impl FileEvaluation {
         let mut value = to_value(serde_json::to_value(&self.report))?;
         let seams = to_value(serde_json::to_value(&self.seams))?;
         if let Some(obj) = value.as_object_mut() {
-            obj.insert("seam_ratio".into(), serde_json::json!(self.seams.seam_ratio));
+            obj.insert(
+                "seam_ratio".into(),
+                serde_json::json!(self.seams.seam_ratio),
+            );
             obj.insert("seams".into(), seams);
             if let Some(s) = &self.stitch {
                 obj.insert(
