@@ -2,11 +2,11 @@
 //! committed Mitsuba references, or another btfpt render); exit code 0 on pass or when no bound
 //! was checked (then it says "no statistical test run", never PASS).
 
-use anyhow::{Context, bail};
-use btfpt::io::{RgbImage, read_image};
-use btfpt::metrics::{self, Comparison, Criteria};
+use anyhow::bail;
+use btfpt::metrics::compare_files::{CompareFiles, compare_files};
+use btfpt::metrics::{self};
 use clap::Args;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Arguments of `btfpt compare`.
 #[derive(Args, Debug)]
@@ -59,155 +59,27 @@ pub struct CompareArgs {
     pub json: Option<PathBuf>,
 }
 
-/// `dir/stem{suffix}.exr` for `dir/stem.exr`.
-fn beside(reference: &Path, suffix: &str) -> PathBuf {
-    let stem = reference
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    reference.with_file_name(format!("{stem}{suffix}.exr"))
-}
-
-fn load(path: &Path, what: &str) -> anyhow::Result<RgbImage> {
-    let img = read_image(path).with_context(|| format!("cannot read the {what}"))?;
-    if let Some((x, y, c)) = metrics::first_nonfinite(&img) {
-        bail!(
-            "{}: the {what} has a non-finite value at pixel ({x}, {y}) channel {c}",
-            path.display()
-        );
-    }
-    Ok(img)
-}
-
-fn same_size(a: &RgbImage, b: &RgbImage, pa: &Path, pb: &Path) -> anyhow::Result<()> {
-    if a.width != b.width || a.height != b.height {
-        bail!(
-            "image sizes differ: {} is {}×{}, {} is {}×{}",
-            pa.display(),
-            a.width,
-            a.height,
-            pb.display(),
-            b.width,
-            b.height
-        );
-    }
-    Ok(())
-}
-
 /// Runs `btfpt compare`.
 pub fn run(args: CompareArgs) -> anyhow::Result<()> {
     super::output::check_optional_file(args.diff.as_ref())?;
     super::output::check_optional_file(args.json.as_ref())?;
-    if !(args.alpha > 0.0 && args.alpha < 1.0) {
-        bail!("--alpha {}: must be in (0, 1)", args.alpha);
-    }
-    if args.block == 0 {
-        bail!("--block must be at least 1");
-    }
-    if args.spp == Some(0) {
-        bail!("--spp must be at least 1");
-    }
-    for (name, v) in [
-        ("--max-abs-mean-z", args.max_abs_mean_z),
-        ("--max-relmse", args.max_relmse),
-    ] {
-        if let Some(v) = v
-            && (v.is_nan() || v < 0.0)
-        {
-            bail!("{name} {v}: must be a non-negative number");
-        }
-    }
-    let test = load(&args.test, "test image")?;
-    let reference = load(&args.reference, "reference")?;
-    same_size(&test, &reference, &args.test, &args.reference)?;
-
-    // Variance inputs: explicit, or found beside the reference when --spp is given.
-    let sample_var_path = match (&args.sample_variance, args.spp) {
-        (Some(p), _) => Some(p.clone()),
-        (None, Some(_)) => {
-            let p = beside(&args.reference, "_sample_var");
-            if !p.is_file() {
-                bail!(
-                    "--spp given but no --sample-variance, and {} does not exist (only the \
-                     Mitsuba pipeline writes it; for a btfpt render give its own variance with \
-                     --test-variance TEST_VAR.EXR from `btfpt render --variance` instead of --spp)",
-                    p.display()
-                );
-            }
-            Some(p)
-        }
-        (None, None) => None,
-    };
-    let var_path = match &args.variance {
-        Some(p) => Some(p.clone()),
-        None if args.spp.is_some() => Some(beside(&args.reference, "_var")).filter(|p| p.is_file()),
-        None => None,
-    };
-    let mut inputs = Vec::new();
-    let sample_var = match &sample_var_path {
-        Some(p) => {
-            let v = load(p, "sample variance")?;
-            same_size(&v, &reference, p, &args.reference)?;
-            inputs.push(format!(
-                "sample variance {} / {} spp",
-                p.display(),
-                args.spp.unwrap_or(1)
-            ));
-            Some(v)
-        }
-        None => None,
-    };
-    let ref_var = match &var_path {
-        Some(p) => {
-            let v = load(p, "variance")?;
-            same_size(&v, &reference, p, &args.reference)?;
-            inputs.push(format!("variance of the reference mean {}", p.display()));
-            Some(v)
-        }
-        None => None,
-    };
-    let test_var = match &args.test_variance {
-        Some(p) => {
-            let v = load(p, "test variance")?;
-            same_size(&v, &test, p, &args.test)?;
-            inputs.push(format!("variance of the test mean {}", p.display()));
-            Some(v)
-        }
-        None => None,
-    };
-    let mut terms = Vec::new();
-    if sample_var.is_some() || ref_var.is_some() {
-        terms.push(metrics::predicted_variance(
-            sample_var.as_ref(),
-            args.spp.unwrap_or(1),
-            ref_var.as_ref(),
-        )?);
-    }
-    if let Some(t) = &test_var {
-        // Validated (finite, ≥ 0) like the other variance inputs.
-        terms.push(metrics::predicted_variance(None, 1, Some(t))?);
-    }
-    let variance = terms.into_iter().reduce(|mut a, b| {
-        a.data.iter_mut().zip(&b.data).for_each(|(x, y)| *x += y);
-        a
-    });
-    if args.block > test.width.min(test.height) {
-        bail!(
-            "--block {} is larger than the {}×{} image",
-            args.block,
-            test.width,
-            test.height
-        );
-    }
-    let cmp = Comparison::new(&test, &reference, variance.as_ref(), args.block, args.alpha)?;
-    let criteria = Criteria {
-        max_failing_pixels: args.max_failing_pixels.or(variance.as_ref().map(|_| 0)),
+    let files = CompareFiles {
+        test: args.test.clone(),
+        reference: args.reference.clone(),
+        variance: args.variance.clone(),
+        sample_variance: args.sample_variance.clone(),
+        spp: args.spp,
+        test_variance: args.test_variance.clone(),
+        alpha: args.alpha,
+        block: args.block,
+        max_failing_pixels: args.max_failing_pixels,
         max_failing_blocks: args.max_failing_blocks,
         max_abs_mean_z: args.max_abs_mean_z,
         max_relmse: args.max_relmse,
     };
-    let failures = cmp.failures(&criteria);
-
+    let o = compare_files(&files)?;
+    let (cmp, failures, inputs) = (&o.comparison, &o.failures, &o.inputs);
+    let (test, reference) = (&o.test, &o.reference);
     println!(
         "{} vs {}{}",
         args.test.display(),
@@ -231,7 +103,7 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
                 ),
             ),
             None => (
-                metrics::relative_diff_image(&test, &reference, 0.1)?,
+                metrics::relative_diff_image(test, reference, 0.1)?,
                 "10%".to_string(),
                 "relative luminance difference (Y_t − Y_r)/(Y_r + 0.01), full colour at ±10 %"
                     .to_string(),
@@ -244,35 +116,9 @@ pub fn run(args: CompareArgs) -> anyhow::Result<()> {
             p.display()
         );
     }
-    // A bound was checked at all (a z-test, or the relMSE bound)?
-    let tested = cmp.pixel_test.is_some()
-        || criteria.max_relmse.is_some()
-        || criteria.max_failing_blocks.is_some()
-        || criteria.max_abs_mean_z.is_some();
-    let verdict = if !failures.is_empty() {
-        "FAILED"
-    } else if cmp.pixel_test.is_some() {
-        "PASS"
-    } else if tested {
-        "PASS (relMSE bound only; no statistical test run)"
-    } else {
-        "no statistical test run (no variance given: nothing was tested, the figures above are \
-         for information; give --variance and --test-variance, or --spp with the reference's \
-         sample variance, for the z-test)"
-    };
+    let verdict = o.verdict();
     if let Some(p) = &args.json {
-        let doc = serde_json::json!({
-            "test": args.test,
-            "reference": args.reference,
-            "sample_variance": sample_var_path,
-            "variance": var_path,
-            "spp": args.spp,
-            "test_variance": args.test_variance,
-            "comparison": cmp,
-            "statistical_test": cmp.pixel_test.is_some(),
-            "passed": if tested { Some(failures.is_empty()) } else { None },
-            "failures": failures,
-        });
+        let doc = o.json(&files);
         let text = serde_json::to_string_pretty(&doc)?;
         btfpt::io::write_atomic(p, |w| {
             w.write_all(text.as_bytes())

@@ -7,6 +7,7 @@
 //! two-sided, Šidák-corrected at α over pixels · 3 tests. Channels whose variance is 0 (directly
 //! seen emitters, background) must agree to 1e-5 relative instead.
 
+pub mod compare_files;
 pub mod diff;
 pub mod normal;
 pub mod ztest;
