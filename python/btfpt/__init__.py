@@ -7,8 +7,8 @@ B = π · f · cos θ_l, linear RGB. Errors raise :class:`btfpt.Error` subclasse
 with the message the command line prints."""
 
 from . import errors
-from ._btfpt import Btf, Scene, __version__, eval_model, fit, read_image, render, synth
+from ._btfpt import Btf, Scene, __version__, compare, eval_model, fit, read_image, render, synth
 from .errors import Error
 
-__all__ = ["Btf", "Scene", "Error", "errors", "eval_model", "fit", "read_image", "render", "synth",
+__all__ = ["Btf", "Scene", "Error", "errors", "compare", "eval_model", "fit", "read_image", "render", "synth",
            "__version__"]

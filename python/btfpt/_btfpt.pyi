@@ -77,3 +77,8 @@ def fit(data: _Path, out: _Path, model: Literal["lm", "plm", "plmc"] = "plmc", c
         views: Optional[str] = None, tile: Optional[str] = None, progress: bool = True) -> dict[str, Any]: ...
 def eval_model(model: _Path, against: _Path, clusters: int = 256, features: int = 20, seed: int = 0,
                pca_k: Optional[int] = None, progress: bool = True) -> dict[str, Any]: ...
+def compare(test: _Path, reference: _Path, spp: Optional[int] = None, test_variance: Optional[_Path] = None,
+            variance: Optional[_Path] = None, sample_variance: Optional[_Path] = None, alpha: float = 0.01, block: int = 4,
+            max_failing_pixels: Optional[int] = None, max_failing_blocks: Optional[int] = None,
+            max_abs_mean_z: Optional[float] = None, max_relmse: Optional[float] = None) -> dict[str, Any]:
+    """The document `btfpt compare --json` writes, as a dict (`passed`, `failures`, `comparison`...)."""

@@ -27,5 +27,6 @@ fn _btfpt(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(tools::synth, m)?)?;
     m.add_function(wrap_pyfunction!(tools::fit, m)?)?;
     m.add_function(wrap_pyfunction!(tools::eval_model, m)?)?;
+    m.add_function(wrap_pyfunction!(tools::compare, m)?)?;
     Ok(())
 }

@@ -311,3 +311,59 @@ pub fn json_to_py<'py>(py: Python<'py>, v: &serde_json::Value) -> PyResult<Bound
     let text = serde_json::to_string(v).map_err(|e| invalid(format!("cannot serialise: {e}")))?;
     py.import("json")?.call_method1("loads", (text,))
 }
+
+/// Compares a render with a reference, as `btfpt compare TEST REF [--spp N | --test-variance
+/// TV] [--variance V]`: returns the document `compare --json` writes (MAE, RMSE, relMSE,
+/// luminance ratio, per-pixel and block z-tests, `passed`, `failures`) as a dict. A failed
+/// comparison is a result (`passed` False), not an exception.
+#[pyfunction]
+#[pyo3(signature = (test, reference, spp=None, test_variance=None, variance=None, sample_variance=None, alpha=0.01, block=4, max_failing_pixels=None, max_failing_blocks=None, max_abs_mean_z=None, max_relmse=None))]
+pub fn compare<'py>(
+    py: Python<'py>,
+    test: PathBuf,
+    reference: PathBuf,
+    spp: Option<u32>,
+    test_variance: Option<PathBuf>,
+    variance: Option<PathBuf>,
+    sample_variance: Option<PathBuf>,
+    alpha: f64,
+    block: usize,
+    max_failing_pixels: Option<usize>,
+    max_failing_blocks: Option<usize>,
+    max_abs_mean_z: Option<f64>,
+    max_relmse: Option<f64>,
+) -> PyResult<Bound<'py, PyAny>> {
+    use btfpt::metrics::compare_files::{CompareFiles, compare_files};
+    if test_variance.is_some() && (spp.is_some() || sample_variance.is_some()) {
+        return Err(invalid("test_variance: give either the test's own variance or spp (with the reference's sample variance), not both"));
+    }
+    if sample_variance.is_some() && spp.is_none() {
+        return Err(invalid("sample_variance: needs spp (the test render's samples per pixel)"));
+    }
+    for (p, what) in [(Some(&test), "test image"), (Some(&reference), "reference")]
+        .into_iter()
+        .chain([(test_variance.as_ref(), "test variance"), (variance.as_ref(), "variance"), (sample_variance.as_ref(), "sample variance")])
+    {
+        if let Some(p) = p
+            && !p.exists()
+        {
+            return Err(missing(format!("cannot read the {what}: {}: file not found", p.display())));
+        }
+    }
+    let files = CompareFiles {
+        test,
+        reference,
+        variance,
+        sample_variance,
+        spp,
+        test_variance,
+        alpha,
+        block,
+        max_failing_pixels,
+        max_failing_blocks,
+        max_abs_mean_z,
+        max_relmse,
+    };
+    let doc = py.detach(|| compare_files(&files).map(|o| o.json(&files))).py_err()?;
+    json_to_py(py, &doc)
+}

@@ -2,7 +2,7 @@
 figures as its JSON, and errors with its messages."""
 
 import json
-import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -98,3 +98,23 @@ def test_fit_errors(material, tmp_path):
         btfpt.fit(material["data"], tmp_path / "x.plmc", model="pca")
     with pytest.raises(btfpt.errors.MissingFileError, match="none.plmc: model file not found"):
         btfpt.eval_model(tmp_path / "none.plmc", material["data"])
+
+
+def test_compare_equals_cli_json(cli, tmp_path):
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    for out, seed in [(a, 1), (b, 2)]:
+        run_cli(cli, "render", CORNELL, "--spp", "4", "--seed", seed, "-o", out, "--variance",
+                str(out).replace(".exr", "_var.exr"))
+    av, bv = tmp_path / "a_var.exr", tmp_path / "b_var.exr"
+    doc = btfpt.compare(a, b, test_variance=av, variance=bv)
+    r = subprocess.run([str(cli), "compare", a, b, "--test-variance", av, "--variance", bv,
+                        "--json", tmp_path / "cli.json"], capture_output=True, text=True)
+    assert doc == json.loads((tmp_path / "cli.json").read_text())
+    assert doc["statistical_test"] and doc["passed"] == (r.returncode == 0)
+    # Without a variance nothing is tested.
+    doc = btfpt.compare(a, b)
+    assert doc["passed"] is None and doc["comparison"]["mae"] > 0
+    with pytest.raises(btfpt.errors.MissingFileError, match="cannot read the reference: .*nope.exr"):
+        btfpt.compare(a, tmp_path / "nope.exr")
+    with pytest.raises(btfpt.errors.InvalidArgumentError, match=r"--alpha 2: must be in \(0, 1\)"):
+        btfpt.compare(a, b, alpha=2)
