@@ -335,19 +335,30 @@ pub fn compare<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     use btfpt::metrics::compare_files::{CompareFiles, compare_files};
     if test_variance.is_some() && (spp.is_some() || sample_variance.is_some()) {
-        return Err(invalid("test_variance: give either the test's own variance or spp (with the reference's sample variance), not both"));
+        return Err(invalid(
+            "test_variance: give either the test's own variance or spp (with the reference's sample variance), not both",
+        ));
     }
     if sample_variance.is_some() && spp.is_none() {
-        return Err(invalid("sample_variance: needs spp (the test render's samples per pixel)"));
+        return Err(invalid(
+            "sample_variance: needs spp (the test render's samples per pixel)",
+        ));
     }
     for (p, what) in [(Some(&test), "test image"), (Some(&reference), "reference")]
         .into_iter()
-        .chain([(test_variance.as_ref(), "test variance"), (variance.as_ref(), "variance"), (sample_variance.as_ref(), "sample variance")])
+        .chain([
+            (test_variance.as_ref(), "test variance"),
+            (variance.as_ref(), "variance"),
+            (sample_variance.as_ref(), "sample variance"),
+        ])
     {
         if let Some(p) = p
             && !p.exists()
         {
-            return Err(missing(format!("cannot read the {what}: {}: file not found", p.display())));
+            return Err(missing(format!(
+                "cannot read the {what}: {}: file not found",
+                p.display()
+            )));
         }
     }
     let files = CompareFiles {
@@ -364,6 +375,8 @@ pub fn compare<'py>(
         max_abs_mean_z,
         max_relmse,
     };
-    let doc = py.detach(|| compare_files(&files).map(|o| o.json(&files))).py_err()?;
+    let doc = py
+        .detach(|| compare_files(&files).map(|o| o.json(&files)))
+        .py_err()?;
     json_to_py(py, &doc)
 }
