@@ -26,6 +26,13 @@ pub fn rows<const K: usize>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<
     }
     let out: Vec<[f32; K]> = if let Ok(a) = arr.cast::<PyArrayDyn<f32>>() {
         let a = a.readonly();
+        // C-contiguous float32 (the common case): whole rows copied, no per-element iteration.
+        if let Ok(flat) = a.as_slice() {
+            return Ok(flat
+                .chunks_exact(K)
+                .map(|r| std::array::from_fn(|k| r[k]))
+                .collect());
+        }
         let v = a.as_array();
         v.rows()
             .into_iter()
