@@ -17,6 +17,8 @@ Rows (medians of alternated runs; the machine may be shared, so compare ratios):
   matpreview-btf, btf-sphere,   btfpt render-only CPU of the scene with a fitted PLM-C material
   btf-plane                     (scenes/showcase/materials/corduroy.plmc) over the same scene with
                                 a diffuse material in its place.
+Known problem: one run of Mitsuba's command line on matpreview (-t 2) never finished (0 s of CPU
+after 13 minutes); the cause is not found yet.
 Mitsuba rows need reference-images/.venv (reference-images/setup.sh); --skip-mitsuba leaves them out.
 Prints a markdown table and one JSON line.
 """
@@ -150,11 +152,15 @@ def main() -> None:
         sys.exit("reference-images/.venv missing: run reference-images/setup.sh or pass --skip-mitsuba")
     rows = []
     for t in a.threads:
+        new = []
         if mitsuba:
-            rows += cornell_rows(a, t)
+            new += cornell_rows(a, t)
             if a.matpreview:
-                rows.append(matpreview_row(a, t))
-        rows += plmc_rows(a, t)
+                new.append(matpreview_row(a, t))
+        new += plmc_rows(a, t)
+        for r in new:
+            print(json.dumps(r), file=sys.stderr, flush=True)
+        rows += new
     print("| scene | threads | measure | median | must reach | met |")
     print("|---|---|---|---|---|---|")
     for r in rows:
