@@ -107,6 +107,7 @@ def diffuse_variant(scene: Path, tmp: Path) -> Path:
         sys.exit(f"{scene}: no <bsdf type=\"btf\"> to replace")
     # Includes and relative paths resolve against the original folder.
     new = re.sub(r'<include filename="([^"/][^"]*)"', lambda m: f'<include filename="{scene.parent / m.group(1)}"', new)
+    new = re.sub(r'(<scene[^>]*>)', lambda m: f'{m.group(1)}\n    <path value="{scene.parent}"/>', new, count=1)
     out = tmp / f"{scene.parent.name}-diffuse.xml"
     out.write_text(new)
     return out
