@@ -8,8 +8,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Installs the handler and returns the flag it sets. A SIGHUP that the process inherited as
 /// ignored (`nohup`) stays ignored. If the handler cannot be installed the flag never fires and a
-/// warning says so: the command still runs, without a checkpoint on a signal.
+/// warning says so: the command still runs, without a checkpoint on a signal. Installed once per
+/// process: later calls (one per case of `btfpt check`) return the same flag.
 pub fn stop_flag() -> Arc<AtomicBool> {
+    static FLAG: std::sync::OnceLock<Arc<AtomicBool>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(install).clone()
+}
+
+fn install() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let hup_ignored = sighup_ignored();
     let f = flag.clone();
