@@ -235,9 +235,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     };
     settings.validate()?;
     if let Some(t) = args.threads
-        && (t == 0 || t > 4096)
+        && (t == 0 || t > driver::MAX_THREADS)
     {
-        bail!("--threads {t}: must be in 1..=4096");
+        bail!("--threads {t}: must be in 1..={}", driver::MAX_THREADS);
     }
     if args.checkpoint_interval.is_nan() || args.checkpoint_interval <= 0.0 {
         bail!("--checkpoint-interval must be positive");

@@ -44,6 +44,9 @@ pub enum Outcome {
     Interrupted,
 }
 
+/// Most worker threads a render takes.
+pub const MAX_THREADS: usize = 4096;
+
 /// Longest pass in seconds when no checkpoint interval sizes it.
 const MAX_PASS_SECONDS: f64 = 15.0;
 
@@ -59,8 +62,10 @@ pub fn render(
 ) -> Result<Outcome> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(t) = opts.threads {
-        if t == 0 || t > 4096 {
-            return Err(Error::Invalid(format!("{t} threads: must be in 1..=4096")));
+        if t == 0 || t > MAX_THREADS {
+            return Err(Error::Invalid(format!(
+                "{t} threads: must be in 1..={MAX_THREADS}"
+            )));
         }
         builder = builder.num_threads(t);
     }

@@ -12,8 +12,8 @@ use crate::geometry::accel::offset_origin;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::surface_interaction;
 use crate::light::LightSampleX;
-use crate::math::Vec3;
 use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::{Pcg32, Vec3};
 use crate::scene::{DirectSettings, IntegratorSettings};
 use crate::{Error, Result};
 
@@ -64,6 +64,24 @@ impl PathTracer {
             direct: s.direct,
         })
     }
+}
+
+/// The random stream of sample `sample` of film pixel (`x`, `y`) and the film position it
+/// draws first, jittered uniformly inside the pixel: where every integrator starts a camera path
+/// (the packet refill's SoA twin is `Pcg32x::for_samples` plus two draws).
+#[inline]
+pub fn film_sample_start(
+    seed: u64,
+    film_width: u32,
+    x: u32,
+    y: u32,
+    sample: u64,
+) -> (Pcg32, f32, f32) {
+    let pixel = y as u64 * film_width as u64 + x as u64;
+    let mut rng = Pcg32::for_sample(seed, pixel, sample);
+    let fx = x as f32 + rng.next_f32();
+    let fy = y as f32 + rng.next_f32();
+    (rng, fx, fy)
 }
 
 /// The first hit of a camera ray from `o` along `d` within `tmax`; with `hide_emitters` area

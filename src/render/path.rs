@@ -10,7 +10,9 @@
 
 use super::RenderScene;
 use super::film::{RenderSettings, Tile};
-use super::integrator::{PathTracer, TraceStats, camera_hit, mis_weight, occluded};
+use super::integrator::{
+    PathTracer, TraceStats, camera_hit, film_sample_start, mis_weight, occluded,
+};
 use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
@@ -43,10 +45,7 @@ impl PathTracer {
             for ty in 0..tile.h {
                 for tx in 0..tile.w {
                     let (px, py) = (tile.x0 + tx, tile.y0 + ty);
-                    let pixel = py as u64 * s.width as u64 + px as u64;
-                    let mut rng = Pcg32::for_sample(s.seed, pixel, sample);
-                    let fx = px as f32 + rng.next_f32();
-                    let fy = py as f32 + rng.next_f32();
+                    let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
                     let (o, d, tmax) = rs.camera.ray(fx, fy);
                     let l = self.li(rs, o, d, tmax, &mut rng, &mut stats);
                     if !tile.add_sample(s, filter, px, py, fx, fy, l) {

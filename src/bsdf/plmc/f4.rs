@@ -27,6 +27,19 @@ pub trait Isa: Copy + std::fmt::Debug {
     fn fma(self, a: F4, b: F4, c: F4) -> F4;
 }
 
+/// `a · b + c` rounded once per lane (`f32::mul_add`, llvm.fma): one `vfmadd` where the caller
+/// is compiled with FMA, libm's `fmaf` elsewhere. Every [`Isa`] uses it, so the builds agree.
+#[inline(always)]
+fn fused_lanes(a: F4, b: F4, c: F4) -> F4 {
+    let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
+    F4::from_array([
+        a[0].mul_add(b[0], c[0]),
+        a[1].mul_add(b[1], c[1]),
+        a[2].mul_add(b[2], c[2]),
+        a[3].mul_add(b[3], c[3]),
+    ])
+}
+
 /// The x86_64 baseline (or plain lanes elsewhere). Its multiply-add is fused too, in software
 /// where the CPU has no FMA unit (`mul_add`, which rounds once by definition), so every build
 /// of the kernel returns the same bits: slow, but only CPUs from before FMA (2013) take it.
@@ -36,13 +49,7 @@ pub struct Sse2;
 impl Isa for Sse2 {
     #[inline(always)]
     fn fma(self, a: F4, b: F4, c: F4) -> F4 {
-        let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
-        F4::from_array([
-            a[0].mul_add(b[0], c[0]),
-            a[1].mul_add(b[1], c[1]),
-            a[2].mul_add(b[2], c[2]),
-            a[3].mul_add(b[3], c[3]),
-        ])
+        fused_lanes(a, b, c)
     }
 }
 
@@ -66,13 +73,7 @@ impl Isa for Avx2Fma {
         // Lane-wise `mul_add` (llvm.fma), which the `fma`-enabled caller compiles to one
         // `vfmadd…ps`. Not `_mm_fmadd_ps`: a `#[target_feature]` intrinsic is never inlined
         // into this feature-less method, so it stays a function call per multiply-add.
-        let (a, b, c) = (a.to_array(), b.to_array(), c.to_array());
-        F4::from_array([
-            a[0].mul_add(b[0], c[0]),
-            a[1].mul_add(b[1], c[1]),
-            a[2].mul_add(b[2], c[2]),
-            a[3].mul_add(b[3], c[3]),
-        ])
+        fused_lanes(a, b, c)
     }
 }
 

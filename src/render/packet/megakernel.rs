@@ -21,9 +21,9 @@ use super::shade::shade_hits;
 use crate::bsdf::batch::BsdfBatch;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
-use crate::math::{Pcg32, Spectrum};
+use crate::math::Spectrum;
 use crate::render::RenderScene;
-use crate::render::integrator::TraceStats;
+use crate::render::integrator::{TraceStats, film_sample_start};
 
 /// How the pool is run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -118,11 +118,13 @@ pub fn trace_chunk(
                         // No path: the film position alone, drawn as the refill draws it.
                         let (s, p) = (j / npix, j % npix);
                         let (x, y) = (chunk.x0 + p % chunk.w, chunk.y0 + p / chunk.w);
-                        let pixel = y as u64 * chunk.film_width as u64 + x as u64;
-                        let mut rng =
-                            Pcg32::for_sample(chunk.seed, pixel, (chunk.sample0 + s) as u64);
-                        let fx = x as f32 + rng.next_f32();
-                        let fy = y as f32 + rng.next_f32();
+                        let (_, fx, fy) = film_sample_start(
+                            chunk.seed,
+                            chunk.film_width,
+                            x,
+                            y,
+                            (chunk.sample0 + s) as u64,
+                        );
                         out[j as usize] = FilmSample {
                             l: Spectrum::ZERO,
                             pos: [fx, fy],
