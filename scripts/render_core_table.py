@@ -2,6 +2,7 @@
 """The render core's speed table: btfpt against Mitsuba 3 (llvm_ad_rgb) and PLM-C against diffuse.
 
 usage: scripts/render_core_table.py [--threads 1 2] [--runs 3] [--matpreview PATH/matpreview.xml]
+                                    [--rows cornell matpreview plmc]
                                     [--btfpt target/release/btfpt] [--skip-mitsuba]
 
 Rows (medians of alternated runs; the machine may be shared, so compare ratios):
@@ -17,8 +18,8 @@ Rows (medians of alternated runs; the machine may be shared, so compare ratios):
   matpreview-btf, btf-sphere,   btfpt render-only CPU of the scene with a fitted PLM-C material
   btf-plane                     (scenes/showcase/materials/corduroy.plmc) over the same scene with
                                 a diffuse material in its place.
-Known problem: one run of Mitsuba's command line on matpreview (-t 2) never finished (0 s of CPU
-after 13 minutes); the cause is not found yet.
+Mitsuba runs Python-hosted (import, load, render, write in one child process): its `mitsuba`
+executable once never finished on matpreview with -t 2 (0 s of CPU after 13 minutes).
 Mitsuba rows need reference-images/.venv (reference-images/setup.sh); --skip-mitsuba leaves them out.
 Prints a markdown table and one JSON line.
 """
@@ -37,7 +38,6 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 VENV_PY = ROOT / "reference-images" / ".venv" / "bin" / "python"
-MITSUBA = ROOT / "reference-images" / ".venv" / "bin" / "mitsuba"
 PLMC = ROOT / "scenes" / "showcase" / "materials" / "corduroy.plmc"
 RENDER_LINE = re.compile(r"rendering ([0-9.]+) s \(cpu ([0-9.]+) s\)")
 
@@ -78,14 +78,31 @@ def cornell_rows(a, threads: int) -> list[dict]:
     return rows
 
 
+# Mitsuba's whole render as one process: import, load, JIT, render, write (what its `mitsuba`
+# command does). Python-hosted because the `mitsuba` executable hung on this scene (see above).
+MITSUBA_RENDER = """
+import sys
+sys.path.insert(0, %r)
+import drjit as dr, mitsuba as mi
+from mitsuba_common import io_threads
+mi.set_variant("llvm_ad_rgb")
+xml, threads, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+with io_threads():
+    scene = mi.load_file(xml, spp=64, width=342, height=256)
+dr.set_thread_count(threads)
+img = mi.render(scene)
+with io_threads():
+    mi.Bitmap(img).write(out)
+""" % str(ROOT / "reference-images")
+
+
 def matpreview_row(a, threads: int) -> dict:
     xml = Path(a.matpreview).resolve()
     common = ["-D", "spp=64", "-D", "width=342", "-D", "height=256"]
     with tempfile.TemporaryDirectory() as tmp:
         b_cmd = [str(a.btfpt), "render", str(xml), *common, "--threads", str(threads),
                  "-o", f"{tmp}/b.exr"]
-        m_cmd = [str(MITSUBA), "-m", "llvm_ad_rgb", "-t", str(threads), *common,
-                 "-o", f"{tmp}/m.exr", str(xml)]
+        m_cmd = [str(VENV_PY), "-c", MITSUBA_RENDER, str(xml), str(threads), f"{tmp}/m.exr"]
         child_cpu(b_cmd)  # warm-up (page cache, JIT cache)
         child_cpu(m_cmd)
         b, m = [], []
@@ -145,6 +162,8 @@ def main() -> None:
     ap.add_argument("--matpreview", type=Path)
     ap.add_argument("--btfpt", type=Path, default=ROOT / "target" / "release" / "btfpt")
     ap.add_argument("--skip-mitsuba", action="store_true")
+    ap.add_argument("--rows", nargs="+", choices=["cornell", "matpreview", "plmc"],
+                    default=["cornell", "matpreview", "plmc"], help="which row groups to measure")
     a = ap.parse_args()
     if not a.btfpt.is_file():
         sys.exit(f"{a.btfpt}: not found (cargo build --release)")
@@ -154,11 +173,12 @@ def main() -> None:
     rows = []
     for t in a.threads:
         new = []
-        if mitsuba:
+        if mitsuba and "cornell" in a.rows:
             new += cornell_rows(a, t)
-            if a.matpreview:
-                new.append(matpreview_row(a, t))
-        new += plmc_rows(a, t)
+        if mitsuba and a.matpreview and "matpreview" in a.rows:
+            new.append(matpreview_row(a, t))
+        if "plmc" in a.rows:
+            new += plmc_rows(a, t)
         for r in new:
             print(json.dumps(r), file=sys.stderr, flush=True)
         rows += new
