@@ -159,17 +159,18 @@ impl Tile {
         let mut wy = [0f32; FOOTPRINT];
         let (lx, nx) = filter.weights_1d(fx, &mut wx);
         let (ly, ny) = filter.weights_1d(fy, &mut wy);
-        for (j, &wyj) in wy.iter().enumerate().take(ny) {
-            let y = ly + j as i64;
-            if y < 0 || y >= fh || y < by0 || y >= by0 + bh {
-                continue;
-            }
-            for (i, &wxi) in wx.iter().enumerate().take(nx) {
+        // The footprint clipped to the film and to the tile with its border, once per axis.
+        let span = |l: i64, n: usize, full: i64, b0: i64, bn: i64| {
+            let first = 0.max(-l).max(b0 - l);
+            let end = (n as i64).min(full - l).min(b0 + bn - l);
+            first.max(0) as usize..end.max(first).max(0) as usize
+        };
+        let (xs, ys) = (span(lx, nx, fw, bx0, bw), span(ly, ny, fh, by0, bh));
+        for j in ys {
+            let (y, wyj) = (ly + j as i64, wy[j]);
+            for i in xs.clone() {
                 let x = lx + i as i64;
-                if x < 0 || x >= fw || x < bx0 || x >= bx0 + bw {
-                    continue;
-                }
-                let w = (wxi * wyj) as f64;
+                let w = (wx[i] * wyj) as f64;
                 let q = ((y - by0) * bw + (x - bx0)) as usize;
                 let w2 = w * w;
                 for c in 0..3 {

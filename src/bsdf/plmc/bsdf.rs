@@ -239,7 +239,10 @@ impl PlmcBsdf {
             (qx[q], qy[q]) = (w.x, w.y);
         }
         let all = lights.locate16(&qx, &qy);
-        let located: [_; BATCH] = std::array::from_fn(|q| all.lane(q));
+        let mut located = [(0usize, [0f32; 3]); BATCH];
+        for (q, l) in located[..n].iter_mut().enumerate() {
+            *l = all.lane(q);
+        }
         self.eval_pdf_located_batch(hits, wo, &located[..n], want_pdf, out);
     }
 
@@ -367,6 +370,10 @@ impl PlmcBsdf {
         let lights = m.sampler.light_interp();
         let mut wo = [Vec3::Z; BATCH];
         let mut located = [(0usize, [0f32; 3]); BATCH];
+        // Directions drawn outside the triangle table (the defensive part, the grazing band)
+        // are searched for all at once, as `eval_pdf_batch` does.
+        let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
+        let mut search = 0u32;
         for q in 0..n {
             let (w, tri) = m
                 .sampler
@@ -375,10 +382,21 @@ impl PlmcBsdf {
             wo[q] = w;
             if w.z > 0.0 {
                 // As in `sample_hit`: the triangle it was drawn in, else the search.
-                located[q] = match tri {
-                    Some(t) => (t, lights.triangle_weights(t, [w.x, w.y])),
-                    None => lights.locate([w.x, w.y]),
-                };
+                match tri {
+                    Some(t) => located[q] = (t, lights.triangle_weights(t, [w.x, w.y])),
+                    None => {
+                        (qx[q], qy[q]) = (w.x, w.y);
+                        search |= 1 << q;
+                    }
+                }
+            }
+        }
+        if search != 0 {
+            let all = lights.locate16(&qx, &qy);
+            while search != 0 {
+                let q = search.trailing_zeros() as usize;
+                search &= search - 1;
+                located[q] = all.lane(q);
             }
         }
         let mut fp = [(Spectrum::ZERO, 0.0); BATCH];

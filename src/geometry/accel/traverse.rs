@@ -149,6 +149,24 @@ fn traverse<const ANY: bool, V: F8>(
                 }
             }
         }
+        // Any hit: no order to keep (tmax stays put until the first hit ends the search), so
+        // the entered children are stacked as found, as Embree's occlusion traversal does.
+        if ANY {
+            if k > 0 {
+                for e in &inner[..k - 1] {
+                    stack.push(*e);
+                }
+                node = inner[k - 1].node;
+                continue;
+            }
+            match stack.pop() {
+                Some(e) => {
+                    node = e.node;
+                    continue;
+                }
+                None => return best,
+            }
+        }
         // Sort the entered inner children farthest first (insertion sort, at most eight),
         // dropping those entered beyond a hit found in a sibling leaf.
         let mut m = 0;
