@@ -109,18 +109,18 @@ pub struct ScaleTest {
 }
 
 /// The global bias test: a one-sample t-test over pixels of u = mean over channels of
-/// w·(test − reference), with weights w fixed before the test image is seen (1/σ of the
-/// predicted noise, or uniform when the test's noise is its own estimate: weights taken from a
-/// noisy reference correlate with its noise), so
+/// w·(test − reference), with weights w fixed before the test image is seen and independent of
+/// the pixel's own reference error (1/σ of the predicted noise of its 8 neighbours, see
+/// `neighbour_weights`, or uniform when the test's noise is its own estimate), so
 /// E[u] = 0 for a correct render whatever the noise's shape, and the standard error is measured
 /// from the spread of u over the image (channels of one path are correlated).
 #[derive(Clone, Debug, Serialize)]
 pub struct BiasTest {
-    /// "1/sigma" or "uniform" (the plain mean difference).
+    /// "1/sigma of the 8 neighbours" or "uniform" (the plain mean difference).
     pub weights: &'static str,
     /// Pixels averaged.
     pub pixels: usize,
-    /// Mean of u (in units of σ for "1/sigma", relative for "relative").
+    /// Mean of u (in units of σ for the 1/σ weights, radiance for "uniform").
     pub mean: f64,
     /// Standard error of the mean of u, from the sample standard deviation of u.
     pub stderr: f64,
