@@ -11,6 +11,7 @@ false alarm) and of each fault (every pass is a miss) are compared with the refe
 A fault whose power is below 95 % at SPP is run again at 4x the spp, up to MAX_SPP.
 
 usage: scripts/compare_calibration.py [--seeds 20] [--spp 64] [--max-spp 1024] [--json out.json]
+       [--scenes a,b] [--no-faults | --faults WORD,...]
 Needs target/release/btfpt (cargo build --release), or the binary named by $BTFPT. Only the
 standard library.
 """
@@ -119,7 +120,8 @@ def main():
     ap.add_argument("--max-spp", type=int, default=1024)
     ap.add_argument("--json")
     ap.add_argument("--no-faults", action="store_true", help="only the correct renders (false alarms)")
-    ap.add_argument("--scenes", default="cornell-box,cornell-box-all,btf-sphere")
+    ap.add_argument("--scenes", default="cornell-box,cornell-box-all,btf-sphere,mitsuba-bsdfs")
+    ap.add_argument("--faults", help="only the faults whose names contain one of these comma-separated words")
     a = ap.parse_args()
     if not os.path.isfile(BIN):
         sys.exit(f"{BIN} not found: run cargo build --release first")
@@ -136,6 +138,7 @@ def main():
                              "light moved 1 % of the box": light_moved}),
         "cornell-box-all": ([], {"1 % brighter": brighter, "gold roughness +10 %": rougher}),
         "btf-sphere": (["-D", f"btf={btf}"], {"1 % brighter": brighter, "BTF rotated 90° in uv": btf_rotated(tmp)}),
+        "mitsuba-bsdfs": ([], {"1 % brighter": brighter}),
     }
     results = []
     written = []
@@ -146,7 +149,10 @@ def main():
             ref = os.path.join(ROOT, "reference-images", name, f"{name}.exr")
             with open(xml) as f:
                 base = f.read()
-            variants = [("none (correct render)", None)] + ([] if a.no_faults else list(faults.items()))
+            if a.faults:
+                faults = {k: v for k, v in faults.items() if any(w in k for w in a.faults.split(","))}
+            variants = ([] if a.faults else [("none (correct render)", None)]) + \
+                ([] if a.no_faults else list(faults.items()))
             for fault, edit in variants:
                 spp = a.spp
                 while True:

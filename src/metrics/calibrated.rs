@@ -109,18 +109,18 @@ pub struct ScaleTest {
 }
 
 /// The global bias test: a one-sample t-test over pixels of u = mean over channels of
-/// w·(test − reference), with weights w fixed before the test image is seen (1/σ of the
-/// predicted noise, or uniform when the test's noise is its own estimate: weights taken from a
-/// noisy reference correlate with its noise), so
+/// w·(test − reference), with weights w fixed before the test image is seen and independent of
+/// the pixel's own reference error (1/σ of the predicted noise of its 8 neighbours, see
+/// `neighbour_weights`, or uniform when the test's noise is its own estimate), so
 /// E[u] = 0 for a correct render whatever the noise's shape, and the standard error is measured
 /// from the spread of u over the image (channels of one path are correlated).
 #[derive(Clone, Debug, Serialize)]
 pub struct BiasTest {
-    /// "1/sigma" or "uniform" (the plain mean difference).
+    /// "1/sigma of the 8 neighbours" or "uniform" (the plain mean difference).
     pub weights: &'static str,
     /// Pixels averaged.
     pub pixels: usize,
-    /// Mean of u (in units of σ for "1/sigma", relative for "relative").
+    /// Mean of u (in units of σ for the 1/σ weights, radiance for "uniform").
     pub mean: f64,
     /// Standard error of the mean of u, from the sample standard deviation of u.
     pub stderr: f64,
@@ -252,9 +252,51 @@ fn failing_cells(t: &ZTest, tails: Tails) -> usize {
     by_z + t.exact_mismatches + t.nonfinite
 }
 
+/// Per pixel and channel, the weight of the bias test's mean: 1/σ of the mean of `var` (plus the
+/// reference's f32 rounding) over the pixel's 8 neighbours inside the image, 0 where that mean
+/// variance is 0. The pixel's own variance is left out on purpose: a reference's variance is
+/// estimated from the same samples as its mean, and for right-skewed samples (every path-traced
+/// pixel) the two rise and fall together, so 1/σ̂ of the pixel itself weighs the pixels whose
+/// reference came out low more than those whose reference came out high, and the weighted mean
+/// difference of a correct render is biased upward (docs/model.md). A neighbour's samples are not
+/// the pixel's when each sample lands in one pixel (the box filter, as the per-sample variance
+/// assumes), so these weights are independent of the pixel's own reference error.
+fn neighbour_weights(var: &RgbImage, reference: &RgbImage) -> Vec<f64> {
+    let (w, h) = (var.width, var.height);
+    let mut out = vec![0.0; 3 * w * h];
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                let (mut sum, mut rounding, mut n) = (0.0, 0.0, 0usize);
+                for ny in y.saturating_sub(1)..(y + 2).min(h) {
+                    for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                        if (nx, ny) == (x, y) {
+                            continue;
+                        }
+                        let i = 3 * (ny * w + nx) + c;
+                        let r = reference.data[i] as f64;
+                        sum += var.data[i] as f64;
+                        rounding += super::ztest::rounding_variance(r, r);
+                        n += 1;
+                    }
+                }
+                if n > 0 && sum > 0.0 {
+                    out[3 * (y * w + x) + c] = (n as f64 / (sum + rounding)).sqrt();
+                }
+            }
+        }
+    }
+    out
+}
+
 /// The bias test's statistic (threshold and verdict are set by the caller).
 fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bool) -> BiasTest {
     let n = (test.width * test.height).max(1);
+    let weights = if relative {
+        vec![1.0; 3 * n]
+    } else {
+        neighbour_weights(var, reference)
+    };
     let mut u = Vec::with_capacity(n);
     // The mean of u that float rounding alone can make (a floor under its standard error).
     let mut rounding = 0.0;
@@ -262,21 +304,11 @@ fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bo
         let mut acc = 0.0;
         for c in 0..3 {
             let i = 3 * p + c;
-            let (t, r, v) = (
-                test.data[i] as f64,
-                reference.data[i] as f64,
-                var.data[i] as f64,
-            );
+            let (t, r) = (test.data[i] as f64, reference.data[i] as f64);
             if !t.is_finite() {
                 continue;
             }
-            let w = if relative {
-                1.0
-            } else if v > 0.0 {
-                1.0 / (v + super::ztest::rounding_variance(t, r)).sqrt()
-            } else {
-                0.0
-            };
+            let w = weights[i];
             acc += w * (t - r);
             rounding += w * super::ztest::rounding_variance(t, r).sqrt() / 3.0;
         }
@@ -295,7 +327,11 @@ fn bias_test(test: &RgbImage, reference: &RgbImage, var: &RgbImage, relative: bo
         f64::INFINITY.copysign(mean)
     };
     BiasTest {
-        weights: if relative { "uniform" } else { "1/sigma" },
+        weights: if relative {
+            "uniform"
+        } else {
+            "1/sigma of the 8 neighbours"
+        },
         pixels: u.len(),
         mean,
         stderr,
@@ -607,6 +643,50 @@ mod tests {
             };
             assert!(!verdict(&t, &reference, &noise, &cal).unwrap().passed);
         }
+    }
+
+    #[test]
+    fn a_reference_whose_variance_comes_from_its_own_skewed_samples_passes_correct_renders() {
+        // 1 sample in 50 is 40× brighter (skewness 6.9). The reference averages 256 samples and
+        // estimates its per-sample variance from the same samples: where it caught more bright
+        // samples than expected, both its mean and its variance are high. Weights of 1/σ taken from
+        // the pixel's own variance then favour the pixels whose reference is low, and correct
+        // 64-spp renders fail the bias test (mean z ≈ +6 here).
+        let s = Samples::Rare {
+            base: 0.1,
+            v: 4.0,
+            p: 0.02,
+        };
+        let (w, h, n, spp, trials) = (32, 32, 256, 64, 40);
+        let mut rng = Pcg32::new(23, 7);
+        let (reference, var_of_mean) = render(w, h, s, n, 1.0, &mut rng);
+        let mut sample_var = var_of_mean.clone();
+        for v in &mut sample_var.data {
+            *v *= n as f32;
+        }
+        let noise = NoiseModel {
+            test: Some(TestNoise::Predicted {
+                sample_var: &sample_var,
+                spp,
+            }),
+            reference: Some(&var_of_mean),
+        };
+        let cal = Calibration::default();
+        let (mut failed, mut z_sum) = (0, 0.0);
+        for _ in 0..trials {
+            let (t, _) = render(w, h, s, spp, 1.0, &mut rng);
+            let v = verdict(&t, &reference, &noise, &cal).unwrap();
+            failed += !v.passed as usize;
+            z_sum += v.bias.z;
+        }
+        let mean_z = z_sum / trials as f64;
+        // α = 0.01: 2 of 40 is already unlikely (6 %); the reference's own error moves every
+        // trial's z together by about one standard error.
+        assert!(
+            failed <= 2,
+            "{failed} of {trials} correct renders failed, mean bias z {mean_z:+.2}"
+        );
+        assert!(mean_z.abs() < 2.0, "mean bias z {mean_z:+.2}");
     }
 
     #[test]
