@@ -6,8 +6,11 @@ usage: scripts/bench_python_eval.py MODEL.plmc [--queries 1000000] [--runs 15]
 
 Prints the median, min and max wall time of Btf.eval over the runs and the queries per second
 of the median, with the rayon thread count (RAYON_NUM_THREADS, default all cores). The first
-call is a warm-up and not counted. How the 256² model of docs is made:
-    btfpt synth wool --size 256 --seed 1 -o wool256 && btfpt fit wool256 -o w256.plmc
+call is a warm-up and not counted. The 256² PLM-C model of the benches (random clusters and
+indices: a real model's cache behaviour at its worst):
+    cargo run --release --example bench_plmc_model -- 256 /tmp/bench256.plmc
+Also prints the process CPU time of the median run (all threads), the figure a loaded machine
+does not distort much.
 """
 import argparse
 import os
@@ -37,17 +40,19 @@ def main():
     uv = rng.random((n, 2)).astype(np.float32)
     wi, wo = hemisphere(rng, n), hemisphere(rng, n)
     btf.eval(uv, wi, wo)
-    times = []
+    times, cpus = [], []
     for _ in range(args.runs):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         btf.eval(uv, wi, wo)
         times.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
     med = statistics.median(times)
     threads = os.environ.get("RAYON_NUM_THREADS", f"all {os.cpu_count()} cores")
     print(f"{btf!r}")
     print(f"Btf.eval, {n} queries, {args.runs} runs, threads: {threads}")
     print(f"median {med * 1e3:.1f} ms (min {min(times) * 1e3:.1f}, max {max(times) * 1e3:.1f}): "
-          f"{n / med / 1e6:.2f} M queries/s")
+          f"{n / med / 1e6:.2f} M queries/s; CPU {statistics.median(cpus) * 1e9 / n:.1f} ns per query "
+          f"(median over runs, all threads)")
 
 
 if __name__ == "__main__":

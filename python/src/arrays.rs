@@ -6,9 +6,31 @@ use crate::errors::invalid;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{PyArray1, PyArray2, PyArrayDyn, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
+use rayon::prelude::*;
 
-/// An (N, K) argument as rows of f32 (float64 input is rounded to float32, as the kernels are).
-pub fn rows<const K: usize>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f32; K]>> {
+/// An (N, K) argument's rows: numpy's own buffer when it is C-contiguous float32 (no copy), else
+/// a float32 copy (float64 rounded to float32, as the kernels are).
+pub enum Rows<'py, const K: usize> {
+    Borrowed(numpy::PyReadonlyArrayDyn<'py, f32>),
+    Owned(Vec<[f32; K]>),
+}
+
+impl<const K: usize> std::ops::Deref for Rows<'_, K> {
+    type Target = [[f32; K]];
+    fn deref(&self) -> &[[f32; K]] {
+        match self {
+            Rows::Borrowed(a) => match a.as_slice() {
+                // `rows` checked the shape (N, K) and the contiguity.
+                Ok(flat) => flat.as_chunks::<K>().0,
+                Err(_) => &[],
+            },
+            Rows::Owned(v) => v,
+        }
+    }
+}
+
+/// An (N, K) argument as rows of f32 (see [`Rows`]).
+pub fn rows<'py, const K: usize>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows<'py, K>> {
     let py = obj.py();
     let arr = if obj.is_instance_of::<numpy::PyUntypedArray>() {
         obj.clone()
@@ -26,12 +48,9 @@ pub fn rows<const K: usize>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<
     }
     let out: Vec<[f32; K]> = if let Ok(a) = arr.cast::<PyArrayDyn<f32>>() {
         let a = a.readonly();
-        // C-contiguous float32 (the common case): whole rows copied, no per-element iteration.
-        if let Ok(flat) = a.as_slice() {
-            return Ok(flat
-                .chunks_exact(K)
-                .map(|r| std::array::from_fn(|k| r[k]))
-                .collect());
+        // C-contiguous float32 (the common case): the kernels read numpy's buffer.
+        if a.as_slice().is_ok() {
+            return Ok(Rows::Borrowed(a));
         }
         let v = a.as_array();
         v.rows()
@@ -51,7 +70,7 @@ pub fn rows<const K: usize>(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<
             u.dtype()
         )));
     };
-    Ok(out)
+    Ok(Rows::Owned(out))
 }
 
 /// An (N,) argument as f32 (float64 rounded to float32).
@@ -67,26 +86,35 @@ pub fn values(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<f32>> {
             u.shape()
         )));
     }
-    let out: Vec<[f32; 1]> = rows::<1>(&arr.call_method1("reshape", ((-1, 1),))?, name)?;
-    Ok(out.into_iter().map(|[x]| x).collect())
+    let out = rows::<1>(&arr.call_method1("reshape", ((-1, 1),))?, name)?;
+    Ok(out.iter().map(|&[x]| x).collect())
 }
 
 /// Checks that every row is finite; directions (`unit`) must also have length 1 within 1e-3.
+/// Runs on the rayon pool (call it with the GIL released); the error names the first bad row.
 pub fn check_rows<const K: usize>(v: &[[f32; K]], name: &str, unit: bool) -> PyResult<()> {
-    for (i, r) in v.iter().enumerate() {
-        if r.iter().any(|x| !x.is_finite()) {
-            return Err(invalid(format!("{name}[{i}] = {r:?} is not finite")));
-        }
-        if unit {
-            let len = r.iter().map(|x| x * x).sum::<f32>().sqrt();
-            if (len - 1.0).abs() > 1e-3 {
-                return Err(invalid(format!(
-                    "{name}[{i}] = {r:?} is not a unit direction (length {len})"
-                )));
-            }
-        }
-    }
-    Ok(())
+    let length = |r: &[f32; K]| r.iter().map(|x| x * x).sum::<f32>().sqrt();
+    let bad =
+        |r: &[f32; K]| r.iter().any(|x| !x.is_finite()) || (unit && (length(r) - 1.0).abs() > 1e-3);
+    // Whole chunks per rayon task: a per-row parallel search costs more than the test itself.
+    const CHUNK: usize = 4096;
+    let first = v
+        .par_chunks(CHUNK)
+        .enumerate()
+        .filter_map(|(c, rows)| rows.iter().position(bad).map(|i| c * CHUNK + i))
+        .min();
+    let Some(i) = first else {
+        return Ok(());
+    };
+    let r = &v[i];
+    Err(invalid(if r.iter().any(|x| !x.is_finite()) {
+        format!("{name}[{i}] = {r:?} is not finite")
+    } else {
+        format!(
+            "{name}[{i}] = {r:?} is not a unit direction (length {})",
+            length(r)
+        )
+    }))
 }
 
 /// Checks that every value lies in [0, 1] (uniform random numbers).

@@ -1,7 +1,9 @@
 //! `btfpt.Btf`: a measured material (raw data or a fitted model) evaluated, sampled and looked at
 //! on numpy arrays.
 
-use crate::arrays::{check_rows, check_unit_interval, rows, same_len, to_numpy, to_numpy1, values};
+use crate::arrays::{
+    Rows, check_rows, check_unit_interval, rows, same_len, to_numpy, to_numpy1, values,
+};
 use crate::errors::{IntoPy, invalid, missing};
 use crate::query::{self, Model};
 use btfpt::bsdf::plmc::PlmcMaterial;
@@ -10,7 +12,7 @@ use btfpt::btf::BtfSource;
 use btfpt::model::{BtfModel, PlmcModel, codec, resolve_model_file};
 use btfpt::scene::btf_bsdf::SynthSpec;
 use numpy::ndarray::Array3;
-use numpy::{PyArray1, PyArray2, PyArray3};
+use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -95,40 +97,56 @@ impl Btf {
         })
     }
 
-    /// The three query arrays, checked.
+    /// The three query arrays (numpy's buffers where they are C-contiguous float32).
     #[allow(clippy::type_complexity)]
-    fn queries(
-        uv: &Bound<'_, PyAny>,
-        wi: &Bound<'_, PyAny>,
-        wo: &Bound<'_, PyAny>,
-    ) -> PyResult<(Vec<[f32; 2]>, Vec<[f32; 3]>, Vec<[f32; 3]>)> {
+    fn queries<'py>(
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
+    ) -> PyResult<(Rows<'py, 2>, Rows<'py, 3>, Rows<'py, 3>)> {
         let (uv, wi, wo) = (
             rows::<2>(uv, "uv")?,
             rows::<3>(wi, "wi")?,
             rows::<3>(wo, "wo")?,
         );
         same_len(&[("uv", uv.len()), ("wi", wi.len()), ("wo", wo.len())])?;
-        check_rows(&uv, "uv", false)?;
-        check_rows(&wi, "wi", true)?;
-        check_rows(&wo, "wo", true)?;
         Ok((uv, wi, wo))
     }
 
-    fn eval_pdf_arrays(
+    /// B (N, 3) and, with `want_pdf`, the pdf (N,) written straight into new numpy arrays; the
+    /// checks and the kernel run on rayon with the GIL released.
+    #[allow(clippy::type_complexity)]
+    fn eval_pdf_arrays<'py>(
         &self,
-        py: Python<'_>,
-        uv: &Bound<'_, PyAny>,
-        wi: &Bound<'_, PyAny>,
-        wo: &Bound<'_, PyAny>,
+        py: Python<'py>,
+        uv: &Bound<'py, PyAny>,
+        wi: &Bound<'py, PyAny>,
+        wo: &Bound<'py, PyAny>,
         want_pdf: bool,
-    ) -> PyResult<(Vec<[f32; 3]>, Vec<f32>)> {
+    ) -> PyResult<(Bound<'py, PyArray2<f32>>, Option<Bound<'py, PyArray1<f32>>>)> {
         let (uv, wi, wo) = Btf::queries(uv, wi, wo)?;
         let n = uv.len();
-        Ok(py.detach(|| {
-            let (mut b, mut pdf) = (vec![[0f32; 3]; n], vec![0f32; n]);
-            query::eval_b_pdf(&self.model, &uv, &wi, &wo, &mut b, &mut pdf, want_pdf);
-            (b, pdf)
-        }))
+        let b_arr = PyArray2::<f32>::zeros(py, [n, 3], false);
+        let pdf_arr = want_pdf.then(|| PyArray1::<f32>::zeros(py, n, false));
+        {
+            let mut b_rw = b_arr.readwrite();
+            let mut pdf_rw = pdf_arr.as_ref().map(|a| a.readwrite());
+            let b = b_rw.as_slice_mut().map_err(|e| invalid(e.to_string()))?;
+            let b = b.as_chunks_mut::<3>().0;
+            let pdf = match pdf_rw.as_mut() {
+                Some(p) => Some(p.as_slice_mut().map_err(|e| invalid(e.to_string()))?),
+                None => None,
+            };
+            let (uv, wi, wo) = (&*uv, &*wi, &*wo);
+            py.detach(|| -> PyResult<()> {
+                check_rows(uv, "uv", false)?;
+                check_rows(wi, "wi", true)?;
+                check_rows(wo, "wo", true)?;
+                query::eval_b_pdf(&self.model, uv, wi, wo, b, pdf);
+                Ok(())
+            })?;
+        }
+        Ok((b_arr, pdf_arr))
     }
 }
 
@@ -155,8 +173,7 @@ impl Btf {
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        let (b, _) = self.eval_pdf_arrays(py, uv, wi, wo, false)?;
-        Ok(to_numpy(py, b))
+        Ok(self.eval_pdf_arrays(py, uv, wi, wo, false)?.0)
     }
 
     /// The solid-angle pdf with which [`Btf.sample`] draws `wo` (N,) float32.
@@ -167,8 +184,10 @@ impl Btf {
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        let (_, pdf) = self.eval_pdf_arrays(py, uv, wi, wo, true)?;
-        Ok(to_numpy1(py, pdf))
+        match self.eval_pdf_arrays(py, uv, wi, wo, true)? {
+            (_, Some(pdf)) => Ok(pdf),
+            (_, None) => unreachable!("a pdf was asked for"),
+        }
     }
 
     /// `(B, pdf)` in one pass (the light location shared): (N, 3) and (N,) float32.
@@ -180,8 +199,10 @@ impl Btf {
         wi: &Bound<'py, PyAny>,
         wo: &Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyArray2<f32>>, Bound<'py, PyArray1<f32>>)> {
-        let (b, pdf) = self.eval_pdf_arrays(py, uv, wi, wo, true)?;
-        Ok((to_numpy(py, b), to_numpy1(py, pdf)))
+        match self.eval_pdf_arrays(py, uv, wi, wo, true)? {
+            (b, Some(pdf)) => Ok((b, pdf)),
+            (_, None) => unreachable!("a pdf was asked for"),
+        }
     }
 
     /// Draws one light direction per query from the material's tabulated light sampler with
@@ -214,19 +235,11 @@ impl Btf {
         let u1r: Vec<[f32; 1]> = u1.iter().map(|&x| [x]).collect();
         check_unit_interval(&u1r, "sample1")?;
         check_unit_interval(&u2, "sample2")?;
+        let (uv, wi, u2) = (&*uv, &*wi, &*u2);
         let (wo, weight, pdf) = py.detach(|| {
             let (mut wo, mut weight, mut pdf) =
                 (vec![[0f32; 3]; n], vec![[0f32; 3]; n], vec![0f32; n]);
-            query::sample(
-                &self.model,
-                &uv,
-                &wi,
-                &u1,
-                &u2,
-                &mut wo,
-                &mut weight,
-                &mut pdf,
-            );
+            query::sample(&self.model, uv, wi, &u1, u2, &mut wo, &mut weight, &mut pdf);
             (wo, weight, pdf)
         });
         Ok((to_numpy(py, wo), to_numpy(py, weight), to_numpy1(py, pdf)))
@@ -245,6 +258,9 @@ impl Btf {
         sample2: &Bound<'py, PyAny>,
     ) -> PyResult<Vec<Bound<'py, PyAny>>> {
         let (uv, wi, wo) = Btf::queries(uv, wi, wo)?;
+        check_rows(&uv, "uv", false)?;
+        check_rows(&wi, "wi", true)?;
+        check_rows(&wo, "wo", true)?;
         let (u1, u2) = (values(sample1, "sample1")?, rows::<2>(sample2, "sample2")?);
         same_len(&[
             ("uv", uv.len()),

@@ -37,44 +37,61 @@ pub fn eval_b_pdf(
     wi: &[[f32; 3]],
     wo: &[[f32; 3]],
     b: &mut [[f32; 3]],
-    pdf: &mut [f32],
-    want_pdf: bool,
+    pdf: Option<&mut [f32]>,
 ) {
     let n = uv.len();
-    assert!(wi.len() == n && wo.len() == n && b.len() == n && pdf.len() == n);
-    b.par_chunks_mut(TASK)
-        .zip(pdf.par_chunks_mut(TASK))
-        .enumerate()
-        .for_each(|(t, (b, pdf))| {
-            let s = t * TASK;
-            let e = s + b.len();
-            for (g, (b, pdf)) in b.chunks_mut(BATCH).zip(pdf.chunks_mut(BATCH)).enumerate() {
-                let o = s + g * BATCH;
-                let r = o..o + b.len();
-                debug_assert!(r.end <= e);
-                match model {
-                    Model::Fitted(m) => {
-                        fitted_group(m, &uv[r.clone()], &wi[r.clone()], &wo[r], b, pdf, want_pdf)
-                    }
-                    Model::Raw(m) => {
-                        for q in 0..b.len() {
-                            let si = SurfaceInteraction::for_tests(
-                                v3(&wi[o + q]),
-                                Vec2::from(uv[o + q]),
-                            );
-                            let w = v3(&wo[o + q]);
-                            b[q] = if si.wi.z <= 0.0 || w.z <= 0.0 {
-                                [0.0; 3]
-                            } else {
-                                let (x, y) = m.texel(si.uv);
-                                m.material().eval_b(si.wi, w, x, y).to_array()
-                            };
-                            pdf[q] = if want_pdf { m.pdf(&si, w) } else { 0.0 };
-                        }
-                    }
-                }
+    assert!(wi.len() == n && wo.len() == n && b.len() == n);
+    let task = |t: usize, b: &mut [[f32; 3]], mut pdf: Option<&mut [f32]>| {
+        let s = t * TASK;
+        for (g, b) in b.chunks_mut(BATCH).enumerate() {
+            let o = s + g * BATCH;
+            let r = o..o + b.len();
+            let pdf = pdf
+                .as_deref_mut()
+                .map(|p| &mut p[g * BATCH..g * BATCH + b.len()]);
+            match model {
+                Model::Fitted(m) => fitted_group(m, &uv[r.clone()], &wi[r.clone()], &wo[r], b, pdf),
+                Model::Raw(m) => raw_group(m, &uv[r.clone()], &wi[r.clone()], &wo[r], b, pdf),
             }
-        });
+        }
+    };
+    match pdf {
+        Some(pdf) => {
+            assert_eq!(pdf.len(), n);
+            b.par_chunks_mut(TASK)
+                .zip(pdf.par_chunks_mut(TASK))
+                .enumerate()
+                .for_each(|(t, (b, pdf))| task(t, b, Some(pdf)));
+        }
+        None => b
+            .par_chunks_mut(TASK)
+            .enumerate()
+            .for_each(|(t, b)| task(t, b, None)),
+    }
+}
+
+/// Raw data, query by query through the raw BTF's scalar BSDF (as both integrators).
+fn raw_group(
+    m: &BtfBsdf,
+    uv: &[[f32; 2]],
+    wi: &[[f32; 3]],
+    wo: &[[f32; 3]],
+    b: &mut [[f32; 3]],
+    mut pdf: Option<&mut [f32]>,
+) {
+    for q in 0..b.len() {
+        let si = SurfaceInteraction::for_tests(v3(&wi[q]), Vec2::from(uv[q]));
+        let w = v3(&wo[q]);
+        b[q] = if si.wi.z <= 0.0 || w.z <= 0.0 {
+            [0.0; 3]
+        } else {
+            let (x, y) = m.texel(si.uv);
+            m.material().eval_b(si.wi, w, x, y).to_array()
+        };
+        if let Some(p) = pdf.as_deref_mut() {
+            p[q] = m.pdf(&si, w);
+        }
+    }
 }
 
 /// The per-hit states of up to [`BATCH`] queries by one [`PlmcBsdf::prepare16`]: the hits of
@@ -113,11 +130,12 @@ fn fitted_group(
     wi: &[[f32; 3]],
     wo: &[[f32; 3]],
     b: &mut [[f32; 3]],
-    pdf: &mut [f32],
-    want_pdf: bool,
+    mut pdf: Option<&mut [f32]>,
 ) {
     b.fill([0.0; 3]);
-    pdf.fill(0.0);
+    if let Some(p) = pdf.as_deref_mut() {
+        p.fill(0.0);
+    }
     let (hits, slot, k) = prepare_group(m, uv, wi);
     if k == 0 {
         return;
@@ -132,11 +150,14 @@ fn fitted_group(
         }
         w[j] = v3(&wo[slot[j]]);
     }
-    let want = [want_pdf; BATCH];
+    let want = [pdf.is_some(); BATCH];
     let mut out = [([0f32; 3], 0f32); BATCH];
     m.eval_b_pdf_batch(&packed[..k], &w[..k], &want[..k], &mut out[..k]);
     for j in 0..k {
-        (b[slot[j]], pdf[slot[j]]) = out[j];
+        b[slot[j]] = out[j].0;
+        if let Some(p) = pdf.as_deref_mut() {
+            p[slot[j]] = out[j].1;
+        }
     }
 }
 
