@@ -6,7 +6,7 @@ CPU seconds (user + sys, from the kernel's accounting of the finished child), it
 memory, the wall time of loading and of rendering, and the medians and the raw/plmc ratios.
 
 usage: scripts/bench_mitsuba_plugin.py SCENE.xml --raw DATA --plmc MODEL.plmc --spp N
-           [-D name=value ...] [--runs 3] [--variant llvm_ad_rgb] [--out DIR]
+           [-D name=value ...] [--runs 3] [--pass-spp K] [--variant llvm_ad_rgb] [--out DIR]
 
 Run it with a Python that has mitsuba==3.9.1 and the btfpt module (python/ci.sh makes one in
 target/ci-pyvenv; or reference-images/.venv/bin/python with PYTHONPATH=python after
@@ -56,7 +56,15 @@ def child(args) -> None:
     t1 = time.perf_counter()
     scene = mi.load_file(str(args.scene), **defines)
     t2 = time.perf_counter()
-    img = mi.render(scene, spp=args.spp, seed=args.seed)
+    # In passes of --pass-spp (the estimator of one render at --spp, as Mitsuba's
+    # samples_per_pass): the plugin's wavefront, and so its memory, scales with the pass.
+    passes = max(1, args.spp // args.pass_spp) if args.pass_spp else 1
+    img = None
+    for p in range(passes):
+        part = mi.render(scene, spp=args.spp // passes, seed=args.seed + p * 7919)
+        img = part if img is None else img + part
+        dr.eval(img)
+    img = img / passes
     dr.eval(img)
     dr.sync_thread()
     t3 = time.perf_counter()
@@ -90,6 +98,8 @@ def main() -> int:
     ap.add_argument("--spp", type=int, required=True)
     ap.add_argument("-D", dest="defines", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--pass-spp", type=int, default=0,
+                    help="render in passes of this many spp (a divisor of --spp; 0: one pass)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("--out", help="folder for the last image of each way (raw.exr, plmc.exr)")
@@ -102,7 +112,7 @@ def main() -> int:
         if not p.exists():
             sys.exit(f"{p}: {what} not found")
     argv = [str(args.scene), "--raw", args.raw, "--plmc", args.plmc, "--spp", str(args.spp),
-            "--seed", str(args.seed), "--variant", args.variant]
+            "--seed", str(args.seed), "--variant", args.variant, "--pass-spp", str(args.pass_spp)]
     argv += [a for d in args.defines for a in ("-D", d)]
     if args.out:
         argv += ["--out", args.out]
@@ -115,7 +125,8 @@ def main() -> int:
             print(f"run {i} {way:4}: cpu {r['cpu']:.2f} s, peak {r['peak_mib']:.0f} MiB, "
                   f"load {r['load']:.2f} s, render {r['render']:.2f} s", flush=True)
     med = {w: {k: statistics.median(x[k] for x in rows[w]) for k in ("cpu", "peak_mib", "load", "render")} for w in rows}
-    print(f"{args.scene} at {args.spp} spp, {args.variant}, {args.runs} runs each (medians):")
+    per = f", passes of {args.spp // max(1, args.spp // args.pass_spp)} spp" if args.pass_spp else ""
+    print(f"{args.scene} at {args.spp} spp{per}, {args.variant}, {args.runs} runs each (medians):")
     for w in rows:
         m = med[w]
         print(f"  {w:4}: cpu {m['cpu']:.2f} s, peak {m['peak_mib']:.0f} MiB, load {m['load']:.2f} s, render {m['render']:.2f} s")
