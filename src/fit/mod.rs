@@ -4,6 +4,7 @@
 //! The numeric kernels index several arrays with one loop variable; iterator rewrites obscure them.
 #![allow(clippy::needless_range_loop)]
 
+pub mod eval_file;
 pub mod evaluate;
 pub mod kmeans;
 pub mod lafortune;

@@ -8,6 +8,7 @@
 //! seen emitters, background) must agree to 1e-5 relative instead.
 
 pub mod calibrated;
+pub mod compare_files;
 pub mod diff;
 pub mod normal;
 pub mod ztest;

@@ -230,25 +230,45 @@ impl PlmcBsdf {
         out: &mut [(Spectrum, f32)],
     ) {
         let n = hits.len();
-        assert!(n <= BATCH && wo.len() == n && want_pdf.len() == n && out.len() == n);
+        let located = self.locate_batch(wo);
+        self.eval_pdf_located_batch(hits, wo, &located[..n], want_pdf, out);
+    }
+
+    /// [`PlmcBsdf::eval_pdf_batch`] with the model's value B = π · f · cos θ_l (cosine-baked,
+    /// linear RGB; docs/conventions.md) in place of f · cos θ_l: the kernel's output itself,
+    /// before the division by π (for callers that want the BTF value, e.g. array evaluation).
+    pub fn eval_b_pdf_batch(
+        &self,
+        hits: &[PlmcHit],
+        wo: &[Vec3],
+        want_pdf: &[bool],
+        out: &mut [([f32; 3], f32)],
+    ) {
+        let n = hits.len();
+        let located = self.locate_batch(wo);
+        self.b_pdf_located_batch(hits, wo, &located[..n], want_pdf, out);
+    }
+
+    /// The light triangles and weights of up to [`BATCH`] directions, located at once (lanes
+    /// past `wo.len()` and below the horizon locate (0, 0) or their own direction and are not
+    /// used).
+    fn locate_batch(&self, wo: &[Vec3]) -> [(usize, [f32; 3]); BATCH] {
+        assert!(wo.len() <= BATCH);
         let lights = self.material.sampler.light_interp();
-        // All light directions located at once (lanes past n and below the horizon locate
-        // (0, 0) or their own direction and are not used).
         let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
         for (q, w) in wo.iter().enumerate() {
             (qx[q], qy[q]) = (w.x, w.y);
         }
         let all = lights.locate16(&qx, &qy);
-        let mut located = [(0usize, [0f32; 3]); BATCH];
-        for (q, l) in located[..n].iter_mut().enumerate() {
+let mut located = [(0usize, [0f32; 3]); BATCH];
+        for (q, l) in located[..wo.len()].iter_mut().enumerate() {
             *l = all.lane(q);
         }
-        self.eval_pdf_located_batch(hits, wo, &located[..n], want_pdf, out);
+        located
     }
 
     /// [`PlmcBsdf::eval_pdf_located`] of up to [`BATCH`] (hit, ω_l, light triangle) triples at
-    /// once (the pdf only where `want_pdf[q]`; ω_l below the horizon gives (0, 0)): the model
-    /// evaluations of nearest-texel hits as one pass of the 16-lane kernel, the rest one by one.
+    /// once (the pdf only where `want_pdf[q]`; ω_l below the horizon gives (0, 0)).
     fn eval_pdf_located_batch(
         &self,
         hits: &[PlmcHit],
@@ -256,6 +276,26 @@ impl PlmcBsdf {
         located: &[(usize, [f32; 3])],
         want_pdf: &[bool],
         out: &mut [(Spectrum, f32)],
+    ) {
+        let n = hits.len();
+        assert!(out.len() == n);
+        let mut b = [([0f32; 3], 0f32); BATCH];
+        self.b_pdf_located_batch(hits, wo, located, want_pdf, &mut b[..n]);
+        for (o, (b, pdf)) in out.iter_mut().zip(&b[..n]) {
+            *o = (Spectrum::from(*b) * INV_PI, *pdf);
+        }
+    }
+
+    /// B and pdf of up to [`BATCH`] (hit, ω_l, light triangle) triples (the pdf only where
+    /// `want_pdf[q]`; ω_l below the horizon gives (0, 0)): the model evaluations of
+    /// nearest-texel hits as one pass of the 16-lane kernel, the rest one by one.
+    fn b_pdf_located_batch(
+        &self,
+        hits: &[PlmcHit],
+        wo: &[Vec3],
+        located: &[(usize, [f32; 3])],
+        want_pdf: &[bool],
+        out: &mut [([f32; 3], f32)],
     ) {
         let n = hits.len();
         assert!(n <= BATCH && wo.len() == n && located.len() == n && want_pdf.len() == n);
@@ -271,7 +311,7 @@ impl PlmcBsdf {
         for q in 0..n {
             let (h, w) = (&hits[q], wo[q]);
             if w.z <= 0.0 {
-                out[q] = (Spectrum::ZERO, 0.0);
+                out[q] = ([0.0; 3], 0.0);
                 continue;
             }
             let located = located[q];
@@ -292,11 +332,10 @@ impl PlmcBsdf {
                 });
                 slot[nq] = q;
                 nq += 1;
-                out[q] = (Spectrum::ZERO, pdf);
+                out[q] = ([0.0; 3], pdf);
             } else {
                 let t = &h.texels[..h.n as usize];
-                let f = Spectrum::from(m.eval_b_with(h.vi, h.vw, li, lw, w, t)) * INV_PI;
-                out[q] = (f, pdf);
+                out[q] = (m.eval_b_with(h.vi, h.vw, li, lw, w, t), pdf);
             }
         }
         if nq > 0 {
@@ -306,7 +345,7 @@ impl PlmcBsdf {
             let mut b = [[0f32; 3]; BATCH];
             m.eval_b_batch(queries, &mut b[..nq]);
             for j in 0..nq {
-                out[slot[j]].0 = Spectrum::from(b[j]) * INV_PI;
+                out[slot[j]].0 = b[j];
             }
         }
     }
