@@ -153,9 +153,10 @@ impl<'a> BsdfBatch<'a> {
     }
 
     /// Starts lane `l`, a shading point of a surface whose BSDF is `own` (the batch's, or for a
-    /// diffuse batch the lane's own diffuse BSDF), with local incident direction `wi` and
-    /// surface coordinates `_uv` (its textures are looked up in [`Self::prepare`]); `si` builds the lane's full surface interaction where the
-    /// scalar code needs it. Returns whether the BSDF has a smooth lobe (emitter sampling).
+    /// diffuse batch the lane's own diffuse BSDF), with local incident direction `wi` (the
+    /// textures at its surface coordinates `_uv` are looked up in [`Self::prepare`]); `si`
+    /// builds the lane's full surface interaction where the scalar code needs it. Returns
+    /// whether the BSDF has a smooth lobe (emitter sampling).
     #[inline(always)]
     pub fn start_lane(
         &mut self,

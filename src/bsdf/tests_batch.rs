@@ -34,7 +34,7 @@ fn texture(rng: &mut Pcg32, k: usize, lo: f32, hi: f32) -> Texture {
         0 => Texture::Bitmap(Arc::new(image(rng, lo, hi))),
         1 => Texture::Mapped(Arc::new(BitmapTexture::new(
             image(rng, lo, hi),
-            if k % 2 == 0 {
+            if k.is_multiple_of(2) {
                 TexFilter::Bilinear
             } else {
                 TexFilter::Nearest
@@ -69,7 +69,7 @@ fn bsdfs(rng: &mut Pcg32) -> Vec<Bsdf> {
     .into_iter()
     .enumerate()
     {
-        let anisotropic = k % 2 == 0;
+        let anisotropic = k.is_multiple_of(2);
         out.push(Bsdf::RoughConductor(RoughConductor {
             distribution: kind,
             alpha_u: if anisotropic {
@@ -139,7 +139,7 @@ fn query(rng: &mut Pcg32, round: usize, l: usize) -> (Vec3, Vec3, Vec2, f32, Vec
         5 => a = Vec3::new(a.x, a.y, 1e-4).normalize(),
         _ => {}
     }
-    if (round + l) % 3 == 0 {
+    if (round + l).is_multiple_of(3) {
         b.z = b.z.abs();
     }
     if (round + l) % 4 == 1 {
@@ -176,7 +176,7 @@ fn check(batch_bsdf: &Bsdf, own: &[&Bsdf; L], rng: &mut Pcg32, rounds: usize, na
             uv.set(l, t);
             u1.0[l] = s1;
             u2.set(l, s2);
-            delta.0[l] = (round + l) % 5 == 0;
+            delta.0[l] = (round + l).is_multiple_of(5);
             let s = SurfaceInteraction::for_tests(a, t);
             smooth[l] = batch.start_lane(l, own[l], a, t, || s);
             si.push(s);

@@ -344,6 +344,9 @@ pub struct V3<T> {
     pub z: T,
 }
 
+// Named methods, not operator traits, as `wide::V3x`: the twins read left to right in the order
+// glam evaluates.
+#[allow(clippy::should_implement_trait)]
 impl<T: Real> V3<T> {
     #[inline(always)]
     pub fn new(x: T, y: T, z: T) -> V3<T> {
