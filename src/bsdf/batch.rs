@@ -1,17 +1,25 @@
 //! The batched BSDF interface: up to [`L`] shading points that share one BSDF kind, evaluated
 //! and sampled in structure-of-arrays, as the packet integrator shades them (pbrt-v4's
 //! wavefront kernels are generic over the material in the same way). A kind with a batched
-//! kernel runs it — SoA twins of the scalar code for `diffuse` (and `twosided` over two
-//! diffuse sides) and `plastic`, 16 evaluations per pass for a fitted BTF — and every other BSDF falls back
-//! to the scalar code lane by lane through [`BsdfAt`], so a lane's result is always the same
-//! bits as [`Bsdf::at`] followed by its scalar calls.
+//! kernel runs it — the scalar code's SoA twins (mostly the same helpers, generic over
+//! [`crate::math::simd::real::Real`]) for `diffuse` (and `twosided` over two diffuse sides),
+//! `plastic`, `roughplastic`, `conductor`, `roughconductor`, `dielectric` and
+//! `roughdielectric`, with their textures looked up 16 lanes per call; 16 evaluations per pass
+//! for a fitted BTF — and every other BSDF falls back to the scalar code lane by lane through
+//! [`BsdfAt`], so a lane's result is always the same bits as [`Bsdf::at`] followed by its
+//! scalar calls.
 //!
 //! Methods are `#[inline(always)]`: they are compiled into each instruction-set build of the
 //! integrator's kernel that calls them.
 
 use super::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
 use super::plmc::{PREPARE_LANES, PlmcBsdf};
-use super::{Bsdf, BsdfAt, BsdfFlags, BsdfSample, Plastic, Texture};
+use super::roughconductor::RoughConductorAt;
+use super::roughdielectric::RoughDielectricAt;
+use super::{
+    Bsdf, BsdfAt, BsdfFlags, BsdfSample, Conductor, Dielectric, Plastic, RoughConductor,
+    RoughDielectric, RoughPlastic, Texture,
+};
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -28,8 +36,18 @@ enum Kind<'a> {
     /// (see [`BsdfBatch::shares_diffuse_batch`]); a `twosided` diffuse lane seen from below runs
     /// them on z-mirrored directions with its back albedo, as [`crate::bsdf::TwoSided`].
     Diffuse,
-    /// Smooth plastic: SoA twins of its scalar code, each lane's textures read at its start.
+    /// Smooth plastic: SoA twins of its scalar code.
     Plastic(&'a Plastic),
+    /// Rough plastic: SoA twins of its scalar code.
+    RoughPlastic(&'a RoughPlastic),
+    /// Smooth conductor (sampling only: a delta lobe).
+    Conductor(&'a Conductor),
+    /// Rough conductor, with its textures at the lanes' hits.
+    RoughConductor(&'a RoughConductor, RoughConductorAt<Fx>),
+    /// Smooth dielectric (sampling only: delta lobes).
+    Dielectric(&'a Dielectric),
+    /// Rough dielectric, with its textures at the lanes' hits.
+    RoughDielectric(&'a RoughDielectric, RoughDielectricAt<Fx>),
     /// A fitted BTF: per-hit states 16 view lookups at once, emitter evaluations and BSDF
     /// samples 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
@@ -44,6 +62,10 @@ pub struct BsdfBatch<'a> {
     /// Per lane: the BSDF at its hit, for the lanes that go through the scalar code or the
     /// fitted-BTF kernel.
     at: [Option<BsdfAt<'a>>; L],
+    /// Diffuse lanes: the albedo texture of each started lane (looked up in [`Self::prepare`]).
+    tex: [Option<&'a Texture>; L],
+    /// The lanes' surface coordinates (set by [`Self::prepare`]).
+    uv: V2x,
     /// Diffuse lanes: albedo, lanes seen from below a `twosided` (directions z-mirrored), and
     /// lanes seen edge-on (wi.z neither > 0 nor < 0: black, no sample).
     albedo: V3x,
@@ -52,6 +74,10 @@ pub struct BsdfBatch<'a> {
     /// Plastic lanes: the specular reflectance (the base's albedo is in `albedo`).
     specular: V3x,
 }
+
+/// A diffuse batch's lanes whose albedo texture is one of at most this many evaluate it lane
+/// by lane; more share one 16-lane lookup.
+const FEW_LANES: u32 = 4;
 
 /// BSDF samples of a batch, per lane.
 #[derive(Clone, Copy, Debug)]
@@ -106,12 +132,19 @@ impl<'a> BsdfBatch<'a> {
             b if diffuse_sides(b).is_some() => Kind::Diffuse,
             Bsdf::Plmc(b) => Kind::Plmc(b),
             Bsdf::Plastic(p) => Kind::Plastic(p),
+            Bsdf::RoughPlastic(p) => Kind::RoughPlastic(p),
+            Bsdf::Conductor(c) => Kind::Conductor(c),
+            Bsdf::RoughConductor(c) => Kind::RoughConductor(c, c.at(V2x::ZERO.into())),
+            Bsdf::Dielectric(d) => Kind::Dielectric(d),
+            Bsdf::RoughDielectric(d) => Kind::RoughDielectric(d, d.at(V2x::ZERO.into())),
             _ => Kind::Scalar,
         };
         BsdfBatch {
             kind,
             bsdf,
             at: [None; L],
+            tex: [None; L],
+            uv: V2x::ZERO,
             albedo: V3x::ZERO,
             flip: Mx::splat(false),
             edge_on: Mx::splat(false),
@@ -120,16 +153,17 @@ impl<'a> BsdfBatch<'a> {
     }
 
     /// Starts lane `l`, a shading point of a surface whose BSDF is `own` (the batch's, or for a
-    /// diffuse batch the lane's own diffuse BSDF), with local incident direction `wi` and
-    /// surface coordinates `uv`; `si` builds the lane's full surface interaction where the
-    /// scalar code needs it. Returns whether the BSDF has a smooth lobe (emitter sampling).
+    /// diffuse batch the lane's own diffuse BSDF), with local incident direction `wi` (the
+    /// textures at its surface coordinates `_uv` are looked up in [`Self::prepare`]); `si`
+    /// builds the lane's full surface interaction where the scalar code needs it. Returns
+    /// whether the BSDF has a smooth lobe (emitter sampling).
     #[inline(always)]
     pub fn start_lane(
         &mut self,
         l: usize,
         own: &'a Bsdf,
         wi: Vec3,
-        uv: Vec2,
+        _uv: Vec2,
         si: impl FnOnce() -> SurfaceInteraction,
     ) -> bool {
         match self.kind {
@@ -147,14 +181,16 @@ impl<'a> BsdfBatch<'a> {
                     }
                     None => return false,
                 };
-                self.albedo.set(l, tex.eval(uv));
+                self.tex[l] = Some(tex);
                 true
             }
-            Kind::Plastic(p) => {
-                self.albedo.set(l, p.base(uv));
-                self.specular.set(l, p.specular_reflectance.eval(uv));
-                p.flags().has(BsdfFlags::SMOOTH)
-            }
+            // (Their textures are looked up in `prepare`, for all lanes at once.)
+            Kind::Plastic(_)
+            | Kind::RoughPlastic(_)
+            | Kind::Conductor(_)
+            | Kind::RoughConductor(..)
+            | Kind::Dielectric(_)
+            | Kind::RoughDielectric(..) => self.bsdf.flags().has(BsdfFlags::SMOOTH),
             // (Its per-hit states follow in `prepare`, for all lanes at once.)
             Kind::Plmc(b) => b.flags().has(BsdfFlags::SMOOTH),
             Kind::Scalar => {
@@ -166,10 +202,14 @@ impl<'a> BsdfBatch<'a> {
     }
 
     /// Finishes the per-hit states of the lanes in `live` (bit l = lane l) after
-    /// [`Self::start_lane`]: a fitted BTF's 16 view lookups at once, what [`Bsdf::at`] finds
-    /// lane by lane.
+    /// [`Self::start_lane`]: the textures at the lanes' `uv`, 16 lanes per lookup; a fitted
+    /// BTF's 16 view lookups at once, what [`Bsdf::at`] finds lane by lane.
     #[inline(always)]
     pub fn prepare(&mut self, live: u16, wi: &V3x, uv: &V2x) {
+        self.uv = *uv;
+        if !matches!(self.kind, Kind::Plmc(_) | Kind::Scalar) {
+            self.look_up_textures(live);
+        }
         if let Kind::Plmc(b) = self.kind {
             let hits = b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], live);
             for l in (0..L).filter(|&l| live & (1 << l) != 0) {
@@ -177,6 +217,63 @@ impl<'a> BsdfBatch<'a> {
                     Some(h) => BsdfAt::Plmc(b, h),
                     None => BsdfAt::Stateless(self.bsdf),
                 });
+            }
+        }
+    }
+
+    /// The textures at the lanes' hits, 16 lanes per lookup. (Like the other SoA stages of
+    /// the BSDFs below, compiled once rather than into each instruction-set build of the
+    /// integrator's kernel: their code is large, and the baseline build still runs 4 lanes per
+    /// instruction.)
+    #[inline(never)]
+    fn look_up_textures(&mut self, live: u16) {
+        let (uv, uvt) = (self.uv, self.uv.into());
+        match &mut self.kind {
+            Kind::Diffuse => self.diffuse_albedo(live),
+            Kind::Plastic(p) => {
+                self.albedo = p.base_t(uvt).into();
+                self.specular = p.specular_reflectance.eval_x(uv);
+            }
+            Kind::RoughPlastic(p) => {
+                let (spec, base) = p.at(uvt);
+                (self.specular, self.albedo) = (spec.into(), base.into());
+            }
+            Kind::RoughConductor(c, at) => *at = c.at(uvt),
+            Kind::RoughDielectric(d, at) => *at = d.at(uvt),
+            _ => {}
+        }
+    }
+
+    /// The diffuse lanes' albedos: each texture that several lanes of `live` share looked up
+    /// for all 16 lanes in one call, the others lane by lane.
+    #[inline(always)]
+    fn diffuse_albedo(&mut self, live: u16) {
+        let mut todo = live;
+        while todo != 0 {
+            let first = todo.trailing_zeros() as usize;
+            let Some(tex) = self.tex[first] else {
+                todo &= !(1 << first);
+                continue;
+            };
+            let mut same = Mx::splat(false);
+            let mut bits = 0u16;
+            for l in 0..L {
+                if todo & (1 << l) != 0 && self.tex[l].is_some_and(|t| std::ptr::eq(t, tex)) {
+                    same.0[l] = true;
+                    bits |= 1 << l;
+                }
+            }
+            todo &= !bits;
+            match tex {
+                Texture::Constant(c) => {
+                    self.albedo = V3x::select(same, V3x::splat(*c), self.albedo)
+                }
+                _ if bits.count_ones() <= FEW_LANES => {
+                    for l in (0..L).filter(|&l| bits & (1 << l) != 0) {
+                        self.albedo.set(l, tex.eval(self.uv.get(l)));
+                    }
+                }
+                _ => self.albedo = V3x::select(same, tex.eval_x(self.uv), self.albedo),
             }
         }
     }
@@ -202,8 +299,12 @@ impl<'a> BsdfBatch<'a> {
                 Fx::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
             );
         }
-        if let Kind::Plastic(p) = self.kind {
-            let (f, pdf) = p.eval_pdf_x(self.albedo, wi, wo);
+        let batched = match &self.kind {
+            Kind::Plastic(p) => Some(p.eval_pdf_x(self.albedo, wi, wo)),
+            Kind::Plmc(_) | Kind::Scalar | Kind::Diffuse => None,
+            _ => self.eval_batched(wi, wo),
+        };
+        if let Some((f, pdf)) = batched {
             return (f, Fx::select(delta, zero, pdf));
         }
         let (mut f, mut pdf) = match self.kind {
@@ -245,17 +346,25 @@ impl<'a> BsdfBatch<'a> {
                 ok,
             };
         }
-        if let Kind::Plastic(p) = self.kind {
-            let (wo, pdf, weight, delta, ok) =
-                p.sample_x(self.albedo, self.specular, wi, u_lobe, u_bsdf);
-            return BatchSample {
-                wo,
-                pdf,
-                weight,
-                eta: Fx::splat(1.0),
-                delta,
-                ok,
-            };
+        match self.kind {
+            Kind::Plastic(p) => {
+                let (wo, pdf, weight, delta, ok) =
+                    p.sample_x(self.albedo, self.specular, wi, u_lobe, u_bsdf);
+                return BatchSample {
+                    wo,
+                    pdf,
+                    weight,
+                    eta: Fx::splat(1.0),
+                    delta,
+                    ok,
+                };
+            }
+            Kind::Plmc(_) | Kind::Scalar => {}
+            _ => {
+                if let Some(s) = self.sample_batched(wi, u_lobe, u_bsdf) {
+                    return s;
+                }
+            }
         }
         let mut out = BatchSample {
             wo: V3x::splat(Vec3::Z),
@@ -286,6 +395,78 @@ impl<'a> BsdfBatch<'a> {
             }
         }
         out
+    }
+
+    /// (f, pdf) of the kinds with SoA twins but plastic's (None for the others).
+    #[inline(never)]
+    fn eval_batched(&self, wi: V3x, wo: V3x) -> Option<(V3x, Fx)> {
+        let (wit, wot) = (wi.into(), wo.into());
+        match &self.kind {
+            Kind::RoughPlastic(p) => Some((
+                p.eval_t(self.specular.into(), self.albedo.into(), wit, wot)
+                    .into(),
+                p.pdf_t(wit, wot),
+            )),
+            Kind::RoughConductor(c, at) => {
+                let (f, pdf) = c.eval_pdf_t(at, wit, wot);
+                Some((f.into(), pdf))
+            }
+            Kind::RoughDielectric(d, at) => {
+                let (f, pdf) = d.eval_pdf_t(at, wit, wot);
+                Some((f.into(), pdf))
+            }
+            // Delta lobes only: nothing for an emitter sample to see.
+            Kind::Conductor(_) | Kind::Dielectric(_) => Some((V3x::ZERO, Fx::splat(0.0))),
+            _ => None,
+        }
+    }
+
+    /// BSDF samples of the kinds with SoA twins but plastic's (None for the others).
+    #[inline(never)]
+    fn sample_batched(&self, wi: V3x, u_lobe: Fx, u_bsdf: V2x) -> Option<BatchSample> {
+        let (one, no) = (Fx::splat(1.0), Mx::splat(false));
+        let (wit, ut) = (wi.into(), u_bsdf.into());
+        let (wo, pdf, weight, eta, delta, ok) = match &self.kind {
+            Kind::RoughPlastic(p) => {
+                let (spec, base) = (self.specular.into(), self.albedo.into());
+                let (wo, pdf, weight, _, ok) = p.sample_t(spec, base, wit, u_lobe, ut);
+                (wo.into(), pdf, weight.into(), one, no, ok)
+            }
+            Kind::Conductor(c) => {
+                let ok = wi.z.gt(Fx::splat(0.0));
+                let wo = V3x::new(-wi.x, -wi.y, wi.z);
+                let weight = c.weight_t(wi.z, self.uv.into()).into();
+                (wo, one, weight, one, Mx::splat(true), ok)
+            }
+            Kind::RoughConductor(c, at) => {
+                let (wo, pdf, weight, ok) = c.sample_t(at, wit, ut);
+                (wo.into(), pdf, weight.into(), one, no, ok)
+            }
+            Kind::Dielectric(d) => {
+                let (wo, pdf, weight, eta, _) = d.sample_t(wit, self.uv.into(), u_lobe);
+                (
+                    wo.into(),
+                    pdf,
+                    weight.into(),
+                    eta,
+                    Mx::splat(true),
+                    Mx::splat(true),
+                )
+            }
+            Kind::RoughDielectric(d, at) => {
+                let s = d.sample_t(at, wit, u_lobe, ut);
+                (s.wo.into(), s.pdf, s.weight.into(), s.eta, no, s.ok)
+            }
+            _ => return None,
+        };
+        Some(BatchSample {
+            wo,
+            pdf,
+            weight,
+            eta,
+            delta,
+            ok,
+        })
     }
 
     /// The emitter evaluations of a fitted-BTF batch: (f, pdf) per lane for the lanes in `want`

@@ -1,8 +1,9 @@
 //! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
 
-use super::fresnel::{fresnel_conductor_rgb, reflect};
+use super::fresnel::{fresnel_conductor_rgb_t, reflect};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Smooth conductor (Mitsuba `conductor`): Fresnel of complex IOR eta + i·k per RGB channel.
@@ -48,8 +49,7 @@ impl Conductor {
         _sample1: f32,
         _sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let cos_theta_i = si.wi.z;
-        if cos_theta_i <= 0.0 {
+        if si.wi.z <= 0.0 {
             return None;
         }
         let bs = BsdfSample {
@@ -58,7 +58,14 @@ impl Conductor {
             eta: 1.0,
             sampled: BsdfFlags::DELTA_REFLECTION,
         };
-        let f = fresnel_conductor_rgb(cos_theta_i, self.eta.eval(si.uv), self.k.eval(si.uv));
-        Some((bs, self.specular_reflectance.eval(si.uv) * f))
+        Some((bs, self.weight_t(si.wi.z, si.uv.into()).into()))
+    }
+
+    /// The weight of [`Self::sample`], F(cos θ_i) · specular_reflectance at `uv`, for one lane
+    /// or sixteen.
+    #[inline(always)]
+    pub fn weight_t<T: Real>(&self, cos_theta_i: T, uv: V2<T>) -> V3<T> {
+        let f = fresnel_conductor_rgb_t(cos_theta_i, self.eta.eval_t(uv), self.k.eval_t(uv));
+        self.specular_reflectance.eval_t(uv).mul(f)
     }
 }

@@ -1,9 +1,10 @@
 //! Smooth dielectric interface (Mitsuba `dielectric`): delta reflection and refraction on both
 //! sides, lobe chosen with probability F, radiance transport (η² scaling on refraction).
 
-use super::fresnel::{fresnel_dielectric, reflect, refract};
+use super::fresnel::fresnel_dielectric_t;
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Smooth dielectric interface (Mitsuba `dielectric`), eta = int_ior / ext_ior.
@@ -49,26 +50,46 @@ impl Dielectric {
         sample1: f32,
         _sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let fr = fresnel_dielectric(si.wi.z, self.eta);
-        let r_i = fr.r;
-        if sample1 <= r_i {
-            let bs = BsdfSample {
-                wo: reflect(si.wi),
-                pdf: r_i,
-                eta: 1.0,
-                sampled: BsdfFlags::DELTA_REFLECTION,
-            };
-            Some((bs, self.specular_reflectance.eval(si.uv)))
+        let (wo, pdf, weight, eta, reflected) = self.sample_t(si.wi.into(), si.uv.into(), sample1);
+        let sampled = if reflected {
+            BsdfFlags::DELTA_REFLECTION
         } else {
-            let bs = BsdfSample {
-                wo: refract(si.wi, fr.cos_theta_t, fr.eta_ti),
-                pdf: 1.0 - r_i,
-                eta: fr.eta_it,
-                sampled: BsdfFlags::DELTA_TRANSMISSION,
-            };
-            // Radiance is compressed into a smaller solid angle when crossing the interface.
-            let w = self.specular_transmittance.eval(si.uv) * (fr.eta_ti * fr.eta_ti);
-            Some((bs, w))
-        }
+            BsdfFlags::DELTA_TRANSMISSION
+        };
+        let bs = BsdfSample {
+            wo: wo.into(),
+            pdf,
+            eta,
+            sampled,
+        };
+        Some((bs, weight.into()))
+    }
+
+    /// [`Self::sample`] for one lane or sixteen: (wo, pdf, weight, eta, reflected).
+    #[inline(always)]
+    pub fn sample_t<T: Real>(
+        &self,
+        wi: V3<T>,
+        uv: V2<T>,
+        sample1: T,
+    ) -> (V3<T>, T, V3<T>, T, T::Mask) {
+        let fr = fresnel_dielectric_t(wi.z, self.eta);
+        let r_i = fr.r;
+        let reflected = sample1.le(r_i);
+        let wr = V3::new(-wi.x, -wi.y, wi.z);
+        let wt = V3::new(-fr.eta_ti * wi.x, -fr.eta_ti * wi.y, fr.cos_theta_t);
+        // Radiance is compressed into a smaller solid angle when crossing the interface.
+        let w_t = self
+            .specular_transmittance
+            .eval_t(uv)
+            .scale(fr.eta_ti * fr.eta_ti);
+        let w_r = self.specular_reflectance.eval_t(uv);
+        (
+            V3::select(reflected, wr, wt),
+            T::select(reflected, r_i, T::splat(1.0) - r_i),
+            V3::select(reflected, w_r, w_t),
+            T::select(reflected, T::splat(1.0), fr.eta_it),
+            reflected,
+        )
     }
 }

@@ -1,19 +1,19 @@
 //! Fresnel equations and mirror/refraction helpers in the local frame (Mitsuba 3 `fresnel.h`).
 
-use crate::math::simd::wide::Fx;
+use crate::math::simd::real::{Real, V3};
 use crate::math::{Spectrum, Vec3};
 
-/// Result of the dielectric Fresnel equations for one incident cosine.
+/// Result of the dielectric Fresnel equations for one incident cosine (per lane for [`Fx`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FresnelDielectric {
+pub struct FresnelDielectric<T = f32> {
     /// Unpolarised reflectance in [0, 1] (1 under total internal reflection).
-    pub r: f32,
+    pub r: T,
     /// Signed cosine of the transmitted direction (opposite side of `cos_theta_i`; 0 under TIR).
-    pub cos_theta_t: f32,
+    pub cos_theta_t: T,
     /// Relative IOR along the direction of travel (η if arriving from outside, 1/η from inside).
-    pub eta_it: f32,
+    pub eta_it: T,
     /// 1 / `eta_it`: the scale applied to the tangential components when refracting.
-    pub eta_ti: f32,
+    pub eta_ti: T,
 }
 
 /// Unpolarised Fresnel reflectance at a dielectric interface of relative IOR `eta` = η_int/η_ext;
@@ -21,32 +21,35 @@ pub struct FresnelDielectric {
 /// index matched → r = 0, grazing (cos = 0) → r = 1.
 #[inline]
 pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> FresnelDielectric {
-    let outside = cos_theta_i >= 0.0;
+    fresnel_dielectric_t(cos_theta_i, eta)
+}
+
+/// [`fresnel_dielectric`] for one lane or sixteen, one relative IOR `eta` for all.
+#[inline(always)]
+pub fn fresnel_dielectric_t<T: Real>(cos_theta_i: T, eta: f32) -> FresnelDielectric<T> {
+    let one = T::splat(1.0);
+    let outside = cos_theta_i.ge(T::splat(0.0));
     let rcp_eta = 1.0 / eta;
-    let (eta_it, eta_ti) = if outside {
-        (eta, rcp_eta)
-    } else {
-        (rcp_eta, eta)
-    };
+    let eta_it = T::select(outside, T::splat(eta), T::splat(rcp_eta));
+    let eta_ti = T::select(outside, T::splat(rcp_eta), T::splat(eta));
 
     // Snell: cos²θ_t = 1 − sin²θ_i · (η_i/η_t)².
-    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
+    let cos_theta_t_sqr = one - (one - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
     let cos_i = cos_theta_i.abs();
-    let cos_t = cos_theta_t_sqr.max(0.0).sqrt();
+    let cos_t = cos_theta_t_sqr.max(T::splat(0.0)).sqrt();
 
-    let index_matched = eta == 1.0;
-    let r = if index_matched {
-        0.0
-    } else if cos_i == 0.0 {
-        1.0
+    let r = if eta == 1.0 {
+        // Index matched.
+        T::splat(0.0)
     } else {
         let a_s = (cos_i - eta_it * cos_t) / (cos_i + eta_it * cos_t);
         let a_p = (cos_t - eta_it * cos_i) / (cos_t + eta_it * cos_i);
-        0.5 * (a_s * a_s + a_p * a_p)
+        let r = (a_s * a_s + a_p * a_p) * 0.5;
+        T::select(cos_i.eq(T::splat(0.0)), one, r)
     };
 
     // The transmitted direction lies on the other side of the interface.
-    let cos_theta_t = if cos_theta_i >= 0.0 { -cos_t } else { cos_t };
+    let cos_theta_t = T::select(outside, -cos_t, cos_t);
     FresnelDielectric {
         r,
         cos_theta_t,
@@ -55,58 +58,53 @@ pub fn fresnel_dielectric(cos_theta_i: f32, eta: f32) -> FresnelDielectric {
     }
 }
 
-/// [`fresnel_dielectric`]'s reflectance `r` per lane, for one relative IOR `eta`: the same
-/// operations in the same order, branches turned into selects.
-#[inline(always)]
-pub fn fresnel_dielectric_r_x(cos_theta_i: Fx, eta: f32) -> Fx {
-    let outside = cos_theta_i.ge(Fx::splat(0.0));
-    let rcp_eta = 1.0 / eta;
-    let eta_it = Fx::select(outside, Fx::splat(eta), Fx::splat(rcp_eta));
-    let eta_ti = Fx::select(outside, Fx::splat(rcp_eta), Fx::splat(eta));
-    let cos_theta_t_sqr = 1.0 - (1.0 - cos_theta_i * cos_theta_i) * (eta_ti * eta_ti);
-    let cos_i = cos_theta_i.abs();
-    let cos_t = cos_theta_t_sqr.max(Fx::splat(0.0)).sqrt();
-    if eta == 1.0 {
-        return Fx::splat(0.0);
-    }
-    let a_s = (cos_i - eta_it * cos_t) / (cos_i + eta_it * cos_t);
-    let a_p = (cos_t - eta_it * cos_i) / (cos_t + eta_it * cos_i);
-    let r = 0.5 * (a_s * a_s + a_p * a_p);
-    Fx::select(cos_i.eq(Fx::splat(0.0)), Fx::splat(1.0), r)
-}
-
 /// Unpolarised Fresnel reflectance of a conductor with complex IOR `eta + i k`, light arriving
 /// from outside (`cos_theta_i` ≥ 0). `eta = 0, k = 1` gives a perfect mirror (Mitsuba `none`).
 #[inline]
 pub fn fresnel_conductor(cos_theta_i: f32, eta: f32, k: f32) -> f32 {
+    fresnel_conductor_t(cos_theta_i, eta, k)
+}
+
+/// [`fresnel_conductor`] for one lane or sixteen.
+#[inline(always)]
+pub fn fresnel_conductor_t<T: Real>(cos_theta_i: T, eta: T, k: T) -> T {
     // After K. D. Moeller, "Optics" (1988), as used by Mitsuba 3.
+    let zero = T::splat(0.0);
     let c2 = cos_theta_i * cos_theta_i;
-    let s2 = 1.0 - c2;
+    let s2 = T::splat(1.0) - c2;
     let s4 = s2 * s2;
 
     let temp_1 = eta * eta - k * k - s2;
-    let a2_pb2 = (temp_1 * temp_1 + 4.0 * k * k * eta * eta).max(0.0).sqrt();
-    let a = (0.5 * (a2_pb2 + temp_1)).max(0.0).sqrt();
+    let a2_pb2 = (temp_1 * temp_1 + T::splat(4.0) * k * k * eta * eta)
+        .max(zero)
+        .sqrt();
+    let a = ((a2_pb2 + temp_1) * 0.5).max(zero).sqrt();
 
     let term_1 = a2_pb2 + c2;
-    let term_2 = 2.0 * cos_theta_i * a;
+    let term_2 = T::splat(2.0) * cos_theta_i * a;
     let r_s = (term_1 - term_2) / (term_1 + term_2);
 
     let term_3 = a2_pb2 * c2 + s4;
     let term_4 = term_2 * s2;
     let r_p = r_s * (term_3 - term_4) / (term_3 + term_4);
 
-    0.5 * (r_s + r_p)
+    (r_s + r_p) * 0.5
+}
+
+/// Per-channel [`fresnel_conductor_t`] for RGB `eta` and `k`, one lane or sixteen.
+#[inline(always)]
+pub fn fresnel_conductor_rgb_t<T: Real>(cos_theta_i: T, eta: V3<T>, k: V3<T>) -> V3<T> {
+    V3::new(
+        fresnel_conductor_t(cos_theta_i, eta.x, k.x),
+        fresnel_conductor_t(cos_theta_i, eta.y, k.y),
+        fresnel_conductor_t(cos_theta_i, eta.z, k.z),
+    )
 }
 
 /// Per-channel [`fresnel_conductor`] for RGB `eta` and `k`.
 #[inline]
 pub fn fresnel_conductor_rgb(cos_theta_i: f32, eta: Spectrum, k: Spectrum) -> Spectrum {
-    Spectrum::new(
-        fresnel_conductor(cos_theta_i, eta.x, k.x),
-        fresnel_conductor(cos_theta_i, eta.y, k.y),
-        fresnel_conductor(cos_theta_i, eta.z, k.z),
-    )
+    fresnel_conductor_rgb_t(cos_theta_i, eta.into(), k.into()).into()
 }
 
 /// Hemispherically averaged (diffuse) Fresnel reflectance of an interface with relative IOR

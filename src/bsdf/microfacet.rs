@@ -2,9 +2,10 @@
 //! GGX (Trowbridge–Reitz), anisotropic roughness (alpha_u along s = local x, alpha_v along t =
 //! local y), Smith's separable shadowing-masking (Beckmann through Mitsuba's rational fit), and
 //! either visible-normal sampling (Jakob's numerical inversion for Beckmann, Heitz 2018 for GGX)
-//! or sampling D(m) cos θ_m.
+//! or sampling D(m) cos θ_m. Written once for one lane or sixteen ([`Real`]); [`Fx`] is the
+//! 16-lane type.
 
-use crate::math::simd::lane::sin_cos;
+use crate::math::simd::real::{Real, V2, V3};
 use crate::math::special::{erf, erfinv};
 use crate::math::{PI, Vec2, Vec3, warp};
 
@@ -34,15 +35,16 @@ impl MicrofacetType {
     }
 }
 
-/// A microfacet distribution with its sampling strategy.
+/// A microfacet distribution with its sampling strategy; `T` is `f32`, or [`Fx`] for 16 lanes
+/// of one kind with per-lane roughness (the SoA twins run the scalar code's operations).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Microfacet {
+pub struct Microfacet<T = f32> {
     /// Beckmann or GGX.
     pub kind: MicrofacetType,
     /// Roughness along the tangent s (local x).
-    pub alpha_u: f32,
+    pub alpha_u: T,
     /// Roughness along the bitangent t (local y).
-    pub alpha_v: f32,
+    pub alpha_v: T,
     /// Sample the distribution of normals visible from `wi` (else D(m) cos θ_m).
     pub sample_visible: bool,
 }
@@ -50,12 +52,7 @@ pub struct Microfacet {
 impl Microfacet {
     /// A distribution with roughness clamped to [`MIN_ALPHA`] as Mitsuba does.
     pub fn new(kind: MicrofacetType, alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Self {
-        Microfacet {
-            kind,
-            alpha_u: alpha_u.max(MIN_ALPHA),
-            alpha_v: alpha_v.max(MIN_ALPHA),
-            sample_visible,
-        }
+        Microfacet::new_t(kind, alpha_u, alpha_v, sample_visible)
     }
 
     /// True when both roughnesses are equal.
@@ -67,102 +64,146 @@ impl Microfacet {
     /// D(m) in 1/sr (per unit projected microsurface area); 0 below the horizon.
     #[inline]
     pub fn eval(&self, m: Vec3) -> f32 {
-        let (au, av) = (self.alpha_u, self.alpha_v);
-        let result = match self.kind {
-            MicrofacetType::Beckmann => {
-                let cos_theta_2 = m.z * m.z;
-                (-((m.x / au).powi(2) + (m.y / av).powi(2)) / cos_theta_2).exp()
-                    / (PI * au * av * cos_theta_2 * cos_theta_2)
-            }
-            MicrofacetType::Ggx => {
-                let t = (m.x / au).powi(2) + (m.y / av).powi(2) + m.z * m.z;
-                1.0 / (PI * au * av * t * t)
-            }
-        };
-        // Same guard as Mitsuba against numerical trouble further down the model.
-        if result * m.z > 1e-20 { result } else { 0.0 }
+        self.eval_t(m.into())
     }
 
     /// Smith's masking for one direction `v` and microfacet normal `m`.
     #[inline]
     pub fn smith_g1(&self, v: Vec3, m: Vec3) -> f32 {
-        let xy_alpha_2 = (self.alpha_u * v.x).powi(2) + (self.alpha_v * v.y).powi(2);
-        // A microfacet is never seen from its back side.
-        if v.dot(m) * v.z <= 0.0 {
-            return 0.0;
-        }
-        if xy_alpha_2 == 0.0 {
-            return 1.0;
-        }
-        let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
-        match self.kind {
-            MicrofacetType::Beckmann => {
-                // Mitsuba's rational fit of the Beckmann G1 (< 0.35 % relative error).
-                let a = 1.0 / tan_theta_alpha_2.sqrt();
-                if a >= 1.6 {
-                    1.0
-                } else {
-                    let a_sqr = a * a;
-                    (3.535 * a + 2.181 * a_sqr) / (1.0 + 2.276 * a + 2.577 * a_sqr)
-                }
-            }
-            MicrofacetType::Ggx => 2.0 / (1.0 + (1.0 + tan_theta_alpha_2).sqrt()),
-        }
+        self.smith_g1_t(v.into(), m.into())
     }
 
     /// Separable shadowing-masking G(wi, wo, m) = G1(wi, m) G1(wo, m).
     #[inline]
     pub fn g(&self, wi: Vec3, wo: Vec3, m: Vec3) -> f32 {
-        self.smith_g1(wi, m) * self.smith_g1(wo, m)
+        self.g_t(wi.into(), wo.into(), m.into())
     }
 
     /// Solid-angle density of [`Microfacet::sample`] producing the normal `m`.
     #[inline]
     pub fn pdf(&self, wi: Vec3, m: Vec3) -> f32 {
-        let d = self.eval(m);
-        if self.sample_visible {
-            d * self.smith_g1(wi, m) * wi.dot(m).abs() / wi.z
-        } else {
-            d * m.z
-        }
+        self.pdf_t(wi.into(), m.into())
     }
 
     /// Samples a microfacet normal for the incident direction `wi` (upper hemisphere) and returns
     /// it with its solid-angle density.
     pub fn sample(&self, wi: Vec3, u: Vec2) -> (Vec3, f32) {
+        let (m, pdf) = self.sample_t(wi.into(), u.into());
+        (m.into(), pdf)
+    }
+}
+
+/// x².
+#[inline(always)]
+fn sq<T: Real>(x: T) -> T {
+    x * x
+}
+
+impl<T: Real> Microfacet<T> {
+    /// [`Microfacet::new`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn new_t(kind: MicrofacetType, alpha_u: T, alpha_v: T, sample_visible: bool) -> Self {
+        Microfacet {
+            kind,
+            alpha_u: alpha_u.max(T::splat(MIN_ALPHA)),
+            alpha_v: alpha_v.max(T::splat(MIN_ALPHA)),
+            sample_visible,
+        }
+    }
+
+    /// [`Microfacet::eval`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn eval_t(&self, m: V3<T>) -> T {
         let (au, av) = (self.alpha_u, self.alpha_v);
+        let result = match self.kind {
+            MicrofacetType::Beckmann => {
+                let cos_theta_2 = m.z * m.z;
+                (-(sq(m.x / au) + sq(m.y / av)) / cos_theta_2).exp()
+                    / (au * PI * av * cos_theta_2 * cos_theta_2)
+            }
+            MicrofacetType::Ggx => {
+                let t = sq(m.x / au) + sq(m.y / av) + m.z * m.z;
+                T::splat(1.0) / (au * PI * av * t * t)
+            }
+        };
+        // Same guard as Mitsuba against numerical trouble further down the model.
+        T::select((result * m.z).gt(T::splat(1e-20)), result, T::splat(0.0))
+    }
+
+    /// [`Microfacet::smith_g1`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn smith_g1_t(&self, v: V3<T>, m: V3<T>) -> T {
+        let one = T::splat(1.0);
+        let xy_alpha_2 = sq(self.alpha_u * v.x) + sq(self.alpha_v * v.y);
+        let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
+        let g = match self.kind {
+            MicrofacetType::Beckmann => {
+                // Mitsuba's rational fit of the Beckmann G1 (< 0.35 % relative error).
+                let a = one / tan_theta_alpha_2.sqrt();
+                let a_sqr = a * a;
+                let fit = (a * 3.535 + a_sqr * 2.181) / (one + a * 2.276 + a_sqr * 2.577);
+                T::select(a.ge(T::splat(1.6)), one, fit)
+            }
+            MicrofacetType::Ggx => T::splat(2.0) / (one + (one + tan_theta_alpha_2).sqrt()),
+        };
+        let g = T::select(xy_alpha_2.eq(T::splat(0.0)), one, g);
+        // A microfacet is never seen from its back side.
+        T::select((v.dot(m) * v.z).le(T::splat(0.0)), T::splat(0.0), g)
+    }
+
+    /// [`Microfacet::g`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn g_t(&self, wi: V3<T>, wo: V3<T>, m: V3<T>) -> T {
+        self.smith_g1_t(wi, m) * self.smith_g1_t(wo, m)
+    }
+
+    /// [`Microfacet::pdf`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn pdf_t(&self, wi: V3<T>, m: V3<T>) -> T {
+        let d = self.eval_t(m);
+        if self.sample_visible {
+            d * self.smith_g1_t(wi, m) * wi.dot(m).abs() / wi.z
+        } else {
+            d * m.z
+        }
+    }
+
+    /// [`Microfacet::sample`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn sample_t(&self, wi: V3<T>, u: V2<T>) -> (V3<T>, T) {
+        let (au, av) = (self.alpha_u, self.alpha_v);
+        let one = T::splat(1.0);
         if !self.sample_visible {
             // Azimuth: identical for Beckmann and GGX.
-            let (sin_phi, cos_phi, alpha_2) = if self.is_isotropic() {
-                let (s, c) = sin_cos(2.0 * PI * u.y);
-                (s, c, au * au)
-            } else {
-                let tmp = (av / au) * (2.0 * PI * u.y).tan();
-                let cos_phi = (1.0 / (tmp * tmp + 1.0).sqrt()).copysign((u.y - 0.5).abs() - 0.25);
-                let sin_phi = cos_phi * tmp;
-                let alpha_2 = 1.0 / ((cos_phi / au).powi(2) + (sin_phi / av).powi(2));
-                (sin_phi, cos_phi, alpha_2)
-            };
+            let (s, c) = (u.y * (2.0 * PI)).sin_cos();
+            let tmp = (av / au) * (u.y * (2.0 * PI)).tan();
+            let cos_a = (one / (tmp * tmp + one).sqrt()).copysign((u.y - 0.5).abs() - 0.25);
+            let sin_a = cos_a * tmp;
+            let alpha_2_a = one / (sq(cos_a / au) + sq(sin_a / av));
+            let iso = au.eq(av);
+            let sin_phi = T::select(iso, s, sin_a);
+            let cos_phi = T::select(iso, c, cos_a);
+            let alpha_2 = T::select(iso, au * au, alpha_2_a);
             let (cos_theta, pdf) = match self.kind {
                 MicrofacetType::Beckmann => {
-                    let cos_theta = 1.0 / (1.0 - alpha_2 * (1.0 - u.x).ln()).sqrt();
-                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(1e-20);
-                    (cos_theta, (1.0 - u.x) / (PI * au * av * cos_theta_3))
+                    let cos_theta = one / (one - alpha_2 * (one - u.x).ln()).sqrt();
+                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(T::splat(1e-20));
+                    (cos_theta, (one - u.x) / (au * PI * av * cos_theta_3))
                 }
                 MicrofacetType::Ggx => {
-                    let tan_theta_m_2 = alpha_2 * u.x / (1.0 - u.x);
-                    let cos_theta = 1.0 / (1.0 + tan_theta_m_2).sqrt();
-                    let temp = 1.0 + tan_theta_m_2 / alpha_2;
-                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(1e-20);
-                    (cos_theta, 1.0 / (PI * au * av * cos_theta_3 * temp * temp))
+                    let tan_theta_m_2 = alpha_2 * u.x / (one - u.x);
+                    let cos_theta = one / (one + tan_theta_m_2).sqrt();
+                    let temp = one + tan_theta_m_2 / alpha_2;
+                    let cos_theta_3 = (cos_theta * cos_theta * cos_theta).max(T::splat(1e-20));
+                    (cos_theta, one / (au * PI * av * cos_theta_3 * temp * temp))
                 }
             };
-            let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
-            let m = Vec3::new(cos_phi * sin_theta, sin_phi * sin_theta, cos_theta);
+            let sin_theta = (one - cos_theta * cos_theta).max(T::splat(0.0)).sqrt();
+            let m = V3::new(cos_phi * sin_theta, sin_phi * sin_theta, cos_theta);
             (m, pdf)
         } else {
             // 1. Stretch wi to the alpha = 1 configuration.
-            let wi_p = Vec3::new(au * wi.x, av * wi.y, wi.z).normalize();
+            let wi_p = V3::new(au * wi.x, av * wi.y, wi.z).normalize();
             let (sin_phi, cos_phi) = sincos_phi(wi_p);
             let cos_theta = wi_p.z;
             // 2. Sample the slopes of visible normals for alpha = 1.
@@ -174,60 +215,71 @@ impl Microfacet {
             let sx = (cos_phi * slope.x - sin_phi * slope.y) * au;
             let sy = (sin_phi * slope.x + cos_phi * slope.y) * av;
             // 4. Normal and density.
-            let m = Vec3::new(-sx, -sy, 1.0).normalize();
-            let pdf = self.eval(m) * self.smith_g1(wi, m) * wi.dot(m).abs() / wi.z;
+            let m = V3::new(-sx, -sy, one).normalize();
+            let pdf = self.eval_t(m) * self.smith_g1_t(wi, m) * wi.dot(m).abs() / wi.z;
             (m, pdf)
         }
     }
 }
 
 /// (sin φ, cos φ) of a direction, (0, 1) at the pole (Mitsuba `Frame3f::sincos_phi`).
-#[inline]
-fn sincos_phi(v: Vec3) -> (f32, f32) {
+#[inline(always)]
+fn sincos_phi<T: Real>(v: V3<T>) -> (T, T) {
     // x² + y² as Mitsuba's `Frame3f::sin_theta_2`, not 1 − z², which cancels near the pole.
     let sin_theta_2 = v.x.mul_add(v.x, v.y * v.y);
-    if sin_theta_2.abs() <= 4.0 * (f32::EPSILON * 0.5) {
-        return (0.0, 1.0);
-    }
-    let inv = 1.0 / sin_theta_2.sqrt();
-    ((v.y * inv).clamp(-1.0, 1.0), (v.x * inv).clamp(-1.0, 1.0))
+    let pole = sin_theta_2.abs().le(T::splat(4.0 * (f32::EPSILON * 0.5)));
+    let inv = T::splat(1.0) / sin_theta_2.sqrt();
+    (
+        T::select(pole, T::splat(0.0), (v.y * inv).clamp(-1.0, 1.0)),
+        T::select(pole, T::splat(1.0), (v.x * inv).clamp(-1.0, 1.0)),
+    )
 }
 
 /// Beckmann visible-slope sampling for alpha = 1 by Mitsuba's numerical inversion (Jakob 2014,
 /// "An improved visible normal sampling routine for the Beckmann distribution"): three Newton
 /// steps in the erf domain from the analytic θ_i = π/2 solution.
-#[inline]
-fn sample_visible_11_beckmann(cos_theta_i: f32, u: Vec2) -> Vec2 {
-    let tan_theta_i = (1.0 - cos_theta_i * cos_theta_i).max(0.0).sqrt() / cos_theta_i;
-    let cot_theta_i = 1.0 / tan_theta_i;
+#[inline(always)]
+fn sample_visible_11_beckmann<T: Real>(cos_theta_i: T, u: V2<T>) -> V2<T> {
+    let one = T::splat(1.0);
+    let tan_theta_i = (one - cos_theta_i * cos_theta_i).max(T::splat(0.0)).sqrt() / cos_theta_i;
+    let cot_theta_i = one / tan_theta_i;
     // Search interval, parameterised in the erf() domain.
-    let maxval = erf(cot_theta_i);
-    let u = u.clamp(Vec2::splat(1e-6), Vec2::splat(1.0 - 1e-6));
-    let mut x = maxval - (maxval + 1.0) * erf((-u.x.ln()).sqrt());
+    let maxval = cot_theta_i.map(erf);
+    // glam's `Vec2::clamp`: max, then min.
+    let clamp = |x: T| {
+        let (lo, hi) = (T::splat(1e-6), T::splat(1.0 - 1e-6));
+        let x = T::select(x.gt(lo), x, lo);
+        T::select(x.lt(hi), x, hi)
+    };
+    let u = V2::new(clamp(u.x), clamp(u.y));
+    let mut x = maxval - (maxval + one) * (-u.x.ln()).sqrt().map(erf);
     // Normalisation of the CDF.
-    let ux = u.x * (1.0 + maxval + INV_SQRT_PI * tan_theta_i * (-cot_theta_i * cot_theta_i).exp());
+    let ux =
+        u.x * (one + maxval + tan_theta_i * INV_SQRT_PI * ((-cot_theta_i) * cot_theta_i).exp());
     for _ in 0..3 {
-        let slope = erfinv(x);
-        let value = 1.0 + x + INV_SQRT_PI * tan_theta_i * (-slope * slope).exp() - ux;
-        let derivative = 1.0 - slope * tan_theta_i;
-        x -= value / derivative;
+        let slope = x.map(erfinv);
+        let value = one + x + tan_theta_i * INV_SQRT_PI * ((-slope) * slope).exp() - ux;
+        let derivative = one - slope * tan_theta_i;
+        x = x - value / derivative;
     }
-    Vec2::new(erfinv(x), erfinv(2.0 * u.y - 1.0))
+    V2::new(x.map(erfinv), (u.y * 2.0 - 1.0).map(erfinv))
 }
 
 /// GGX visible-slope sampling for alpha = 1 (Heitz 2018, "A simpler and exact sampling routine
 /// for the GGX distribution of visible normals"), in Mitsuba's slope formulation.
-#[inline]
-fn sample_visible_11_ggx(cos_theta_i: f32, u: Vec2) -> Vec2 {
-    let mut p = warp::square_to_uniform_disk_concentric(u);
-    let s = 0.5 * (1.0 + cos_theta_i);
-    let lo = (1.0 - p.x * p.x).max(0.0).sqrt();
+#[inline(always)]
+fn sample_visible_11_ggx<T: Real>(cos_theta_i: T, u: V2<T>) -> V2<T> {
+    let one = T::splat(1.0);
+    let zero = T::splat(0.0);
+    let mut p = warp::square_to_uniform_disk_concentric_t(u);
+    let s = (one + cos_theta_i) * 0.5;
+    let lo = (one - p.x * p.x).max(zero).sqrt();
     p.y = lo + (p.y - lo) * s;
     let (x, y) = (p.x, p.y);
-    let z = (1.0 - p.length_squared()).max(0.0).sqrt();
-    let sin_theta_i = (1.0 - cos_theta_i * cos_theta_i).max(0.0).sqrt();
-    let norm = 1.0 / (sin_theta_i * y + cos_theta_i * z);
-    Vec2::new(cos_theta_i * y - sin_theta_i * z, x) * norm
+    let z = (one - p.length_squared()).max(zero).sqrt();
+    let sin_theta_i = (one - cos_theta_i * cos_theta_i).max(zero).sqrt();
+    let norm = one / (sin_theta_i * y + cos_theta_i * z);
+    V2::new(cos_theta_i * y - sin_theta_i * z, x).scale(norm)
 }
 
 #[cfg(test)]

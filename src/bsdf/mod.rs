@@ -35,6 +35,8 @@ mod golden;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
+mod tests_batch;
+#[cfg(test)]
 mod tests_beckmann;
 
 pub use at::BsdfAt;

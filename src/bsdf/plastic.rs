@@ -4,12 +4,28 @@
 //! reflectance (`nonlinear` divides by 1 − ρ·F_dr instead). One-sided, as Mitsuba.
 
 use super::fresnel::{
-    fresnel_dielectric, fresnel_dielectric_r_x, fresnel_diffuse_reflectance, reflect,
+    fresnel_dielectric, fresnel_dielectric_t, fresnel_diffuse_reflectance, reflect,
 };
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::real::{Real, V2, V3};
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3, warp};
+
+/// A coated base's albedo `d` divided by what the coating's internal reflections (diffuse
+/// reflectance `internal`) keep in: d / (1 − internal), or d / (1 − d · internal) when
+/// `nonlinear` (Mitsuba's plastic and roughplastic), for one lane or sixteen.
+#[inline(always)]
+pub fn base_under_coating<T: Real>(d: V3<T>, internal: f32, nonlinear: bool) -> V3<T> {
+    let one = T::splat(1.0);
+    if nonlinear {
+        let k = |d: T| d / (one - d * internal);
+        V3::new(k(d.x), k(d.y), k(d.z))
+    } else {
+        let k = 1.0 - internal;
+        V3::new(d.x / k, d.y / k, d.z / k)
+    }
+}
 
 /// Smooth plastic, eta = int_ior / ext_ior (Mitsuba defaults 1.49 / 1.000277).
 #[derive(Clone, Debug)]
@@ -68,12 +84,14 @@ impl Plastic {
     /// The base's albedo divided by what the coating's internal reflections keep in.
     #[inline]
     pub fn base(&self, uv: Vec2) -> Spectrum {
-        let d = self.diffuse_reflectance.eval(uv);
-        if self.nonlinear {
-            d / (Spectrum::ONE - d * self.fdr_int)
-        } else {
-            d / (1.0 - self.fdr_int)
-        }
+        self.base_t(uv.into()).into()
+    }
+
+    /// [`Self::base`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn base_t<T: Real>(&self, uv: V2<T>) -> V3<T> {
+        let d = self.diffuse_reflectance.eval_t(uv);
+        base_under_coating(d, self.fdr_int, self.nonlinear)
     }
 
     /// Probability of sampling the diffuse lobe given F(θ_i).
@@ -159,8 +177,8 @@ impl Plastic {
     pub fn eval_pdf_x(&self, base: V3x, wi: V3x, wo: V3x) -> (V3x, Fx) {
         let zero = Fx::splat(0.0);
         let below = wi.z.le(zero).or(wo.z.le(zero));
-        let f_i = fresnel_dielectric_r_x(wi.z, self.eta);
-        let f_o = fresnel_dielectric_r_x(wo.z, self.eta);
+        let f_i = fresnel_dielectric_t(wi.z, self.eta).r;
+        let f_o = fresnel_dielectric_t(wo.z, self.eta).r;
         let cos_pdf = warp::square_to_cosine_hemisphere_pdf_x(wo);
         let f = base.scale(cos_pdf * self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o));
         let pdf = cos_pdf * self.prob_diffuse_x(f_i);
@@ -182,7 +200,7 @@ impl Plastic {
         sample2: V2x,
     ) -> (V3x, Fx, V3x, Mx, Mx) {
         let zero = Fx::splat(0.0);
-        let f_i = fresnel_dielectric_r_x(wi.z, self.eta);
+        let f_i = fresnel_dielectric_t(wi.z, self.eta).r;
         let prob_diffuse = self.prob_diffuse_x(f_i);
         let prob_specular = 1.0 - prob_diffuse;
         let specular_lobe = sample1.lt(prob_specular);
@@ -192,7 +210,7 @@ impl Plastic {
         // The diffuse lobe.
         let wd = warp::square_to_cosine_hemisphere_x(sample2);
         let pdf_d = prob_diffuse * warp::square_to_cosine_hemisphere_pdf_x(wd);
-        let f_o = fresnel_dielectric_r_x(wd.z, self.eta);
+        let f_o = fresnel_dielectric_t(wd.z, self.eta).r;
         let w_diff = base.scale(self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o) / prob_diffuse);
         let above = wi.z.le(zero).not();
         let ok = above.and(specular_lobe.or(pdf_d.le(zero).not()));

@@ -2,10 +2,11 @@
 //! distribution, Smith masking and complex-IOR Fresnel. One-sided. Roughness and IOR are
 //! textures evaluated at the hit, as in Mitsuba 3.9.1 (`alpha_u->eval_1(si)`, `eta->eval(si)`).
 
-use super::fresnel::{fresnel_conductor_rgb, reflect_about};
+use super::fresnel::fresnel_conductor_rgb_t;
 use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Rough conductor (Mitsuba `roughconductor`): alpha_u along s, alpha_v along t.
@@ -29,23 +30,6 @@ pub struct RoughConductor {
 }
 
 impl RoughConductor {
-    /// The distribution at `uv` (roughness textures evaluated there).
-    #[inline]
-    fn distr(&self, uv: Vec2) -> Microfacet {
-        Microfacet::new(
-            self.distribution,
-            self.alpha_u.eval_1(uv),
-            self.alpha_v.eval_1(uv),
-            self.sample_visible,
-        )
-    }
-
-    /// Fresnel reflectance at `cos_theta_i` with the IOR textures evaluated at `uv`.
-    #[inline]
-    fn fresnel(&self, cos_theta_i: f32, uv: Vec2) -> Spectrum {
-        fresnel_conductor_rgb(cos_theta_i, self.eta.eval(uv), self.k.eval(uv))
-    }
-
     /// Glossy reflection.
     pub fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::GLOSSY_REFLECTION;
@@ -68,20 +52,7 @@ impl RoughConductor {
 
     /// Density of [`RoughConductor::sample`] (reflection Jacobian 1/(4 wo·m) included).
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        let wi = si.wi;
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let m = (wo + wi).normalize();
-        if wi.dot(m) <= 0.0 || wo.dot(m) <= 0.0 {
-            return 0.0;
-        }
-        let d = self.distr(si.uv);
-        if d.sample_visible {
-            d.eval(m) * d.smith_g1(wi, m) / (4.0 * wi.z)
-        } else {
-            d.pdf(wi, m) / (4.0 * wo.dot(m))
-        }
+        self.eval_pdf(si, wo).1
     }
 
     /// `eval` and `pdf` together, sharing the half vector and D (Mitsuba `eval_pdf`).
@@ -90,24 +61,8 @@ impl RoughConductor {
         if wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
-        let h = (wo + wi).normalize();
-        let d = self.distr(si.uv);
-        let dm = d.eval(h);
-        if dm == 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let g1_wi = d.smith_g1(wi, h);
-        let g = g1_wi * d.smith_g1(wo, h);
-        let f = self.fresnel(wi.dot(h), si.uv);
-        let value = self.specular_reflectance.eval(si.uv) * f * (dm * g / (4.0 * wi.z));
-        let pdf = if wi.dot(h) <= 0.0 || wo.dot(h) <= 0.0 {
-            0.0
-        } else if d.sample_visible {
-            dm * g1_wi / (4.0 * wi.z)
-        } else {
-            d.pdf(wi, h) / (4.0 * wo.dot(h))
-        };
-        (value, pdf)
+        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), wi.into(), wo.into());
+        (v.into(), pdf)
     }
 
     /// Samples a microfacet normal and reflects `wi` about it. Weight: G1(wo) F (visible
@@ -118,32 +73,107 @@ impl RoughConductor {
         _sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let wi = si.wi;
-        if wi.z <= 0.0 {
+        if si.wi.z <= 0.0 {
             return None;
         }
-        let d = self.distr(si.uv);
-        let (m, pdf_m) = d.sample(wi, sample2);
-        let wo = reflect_about(wi, m);
-        if !(pdf_m != 0.0 && wo.z > 0.0) {
-            return None;
-        }
-        let weight = if d.sample_visible {
-            d.smith_g1(wo, m)
-        } else {
-            d.g(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
-        };
-        let pdf = pdf_m / (4.0 * wo.dot(m));
-        if !(pdf.is_finite() && pdf > 0.0) {
-            return None;
-        }
-        let f = self.fresnel(wi.dot(m), si.uv);
+        let (wo, pdf, weight, ok) =
+            self.sample_t(&self.at(si.uv.into()), si.wi.into(), sample2.into());
         let bs = BsdfSample {
-            wo,
+            wo: wo.into(),
             pdf,
             eta: 1.0,
             sampled: BsdfFlags::GLOSSY_REFLECTION,
         };
-        Some((bs, self.specular_reflectance.eval(si.uv) * f * weight))
+        ok.then_some((bs, weight.into()))
     }
+
+    /// The textures at `uv`, for one lane or sixteen.
+    #[inline(always)]
+    pub fn at<T: Real>(&self, uv: V2<T>) -> RoughConductorAt<T> {
+        RoughConductorAt {
+            distr: Microfacet::new_t(
+                self.distribution,
+                self.alpha_u.eval_1_t(uv),
+                self.alpha_v.eval_1_t(uv),
+                self.sample_visible,
+            ),
+            eta: self.eta.eval_t(uv),
+            k: self.k.eval_t(uv),
+            specular: self.specular_reflectance.eval_t(uv),
+        }
+    }
+
+    /// [`Self::eval_pdf`] for one lane or sixteen with the textures `at` the hit.
+    #[inline(always)]
+    pub fn eval_pdf_t<T: Real>(
+        &self,
+        at: &RoughConductorAt<T>,
+        wi: V3<T>,
+        wo: V3<T>,
+    ) -> (V3<T>, T) {
+        let zero = T::splat(0.0);
+        let d = &at.distr;
+        let below = wi.z.le(zero).or(wo.z.le(zero));
+        let h = wo.add(wi).normalize();
+        let dm = d.eval_t(h);
+        let g1_wi = d.smith_g1_t(wi, h);
+        let g = g1_wi * d.smith_g1_t(wo, h);
+        let f = fresnel_conductor_rgb_t(wi.dot(h), at.eta, at.k);
+        let value = at.specular.mul(f).scale(dm * g / (wi.z * 4.0));
+        let pdf = if d.sample_visible {
+            dm * g1_wi / (wi.z * 4.0)
+        } else {
+            d.pdf_t(wi, h) / (wo.dot(h) * 4.0)
+        };
+        let back = wi.dot(h).le(zero).or(wo.dot(h).le(zero));
+        let none = below.or(dm.eq(zero));
+        let zero3 = V3::new(zero, zero, zero);
+        (
+            V3::select(none, zero3, value),
+            T::select(none.or(back), zero, pdf),
+        )
+    }
+
+    /// [`Self::sample`] for one lane or sixteen with the textures `at` the hit: (wo, pdf,
+    /// weight, valid), valid false where that returns None.
+    #[inline(always)]
+    pub fn sample_t<T: Real>(
+        &self,
+        at: &RoughConductorAt<T>,
+        wi: V3<T>,
+        sample2: V2<T>,
+    ) -> (V3<T>, T, V3<T>, T::Mask) {
+        let zero = T::splat(0.0);
+        let d = &at.distr;
+        let (m, pdf_m) = d.sample_t(wi, sample2);
+        let wo = m.scale(wi.dot(m) * 2.0).sub(wi);
+        let weight = if d.sample_visible {
+            d.smith_g1_t(wo, m)
+        } else {
+            d.g_t(wi, wo, m) * wi.dot(m) / (wi.z * m.z)
+        };
+        let pdf = pdf_m / (wo.dot(m) * 4.0);
+        let f = fresnel_conductor_rgb_t(wi.dot(m), at.eta, at.k);
+        let ok =
+            wi.z.le(zero)
+                .not()
+                .and(pdf_m.eq(zero).not())
+                .and(wo.z.gt(zero))
+                .and(pdf.is_finite())
+                .and(pdf.gt(zero));
+        (wo, pdf, at.specular.mul(f).scale(weight), ok)
+    }
+}
+
+/// A rough conductor's textures at a hit (per lane for [`crate::math::simd::wide::Fx`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RoughConductorAt<T> {
+    /// The distribution with the roughness there.
+    pub distr: Microfacet<T>,
+    /// Real part of the IOR.
+    pub eta: V3<T>,
+    /// Extinction coefficient.
+    pub k: V3<T>,
+    /// Multiplier on the reflectance.
+    pub specular: V3<T>,
 }

@@ -2,10 +2,11 @@
 //! reflection and refraction on both sides, lobe chosen with probability F(wi·m), radiance
 //! transport (1/η² on refraction), optional texture-driven anisotropic roughness.
 
-use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
+use super::fresnel::fresnel_dielectric_t;
 use super::microfacet::{Microfacet, MicrofacetType};
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Rough dielectric, eta = int_ior / ext_ior (the normal points to the exterior).
@@ -28,29 +29,30 @@ pub struct RoughDielectric {
 }
 
 /// −v if `s` < 0 (Mitsuba `mulsign`, with +0 and −0 distinguished as there).
-#[inline]
-fn mulsign(v: Vec3, s: f32) -> Vec3 {
-    if s.is_sign_negative() { -v } else { v }
+#[inline(always)]
+fn mulsign<T: Real>(v: V3<T>, s: T) -> V3<T> {
+    V3::select(s.is_sign_negative(), v.neg(), v)
 }
 
 impl RoughDielectric {
-    #[inline]
-    fn distr(&self, uv: Vec2) -> Microfacet {
-        Microfacet::new(
+    /// The distribution at `uv` (roughness textures evaluated there), for one lane or sixteen.
+    #[inline(always)]
+    pub fn distr_t<T: Real>(&self, uv: V2<T>) -> Microfacet<T> {
+        Microfacet::new_t(
             self.distribution,
-            self.alpha_u.eval_1(uv),
-            self.alpha_v.eval_1(uv),
+            self.alpha_u.eval_1_t(uv),
+            self.alpha_v.eval_1_t(uv),
             self.sample_visible,
         )
     }
 
     /// The distribution that sampling uses: non-visible sampling widens it by 1.2 − 0.2 √|cos θ_i|.
-    #[inline]
-    fn sample_distr(&self, d: Microfacet, cos_theta_i: f32) -> Microfacet {
+    #[inline(always)]
+    fn sample_distr<T: Real>(&self, d: Microfacet<T>, cos_theta_i: T) -> Microfacet<T> {
         if d.sample_visible {
             d
         } else {
-            let s = 1.2 - 0.2 * cos_theta_i.abs().sqrt();
+            let s = T::splat(1.2) - cos_theta_i.abs().sqrt() * 0.2;
             Microfacet {
                 kind: d.kind,
                 alpha_u: d.alpha_u * s,
@@ -86,50 +88,8 @@ impl RoughDielectric {
 
     /// `eval` and `pdf` sharing the generalised half vector (Mitsuba `eval_pdf`).
     pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        let wi = si.wi;
-        let (cos_i, cos_o) = (wi.z, wo.z);
-        if cos_i == 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let reflect = cos_i * cos_o > 0.0;
-        let (eta, inv_eta) = if cos_i > 0.0 {
-            (self.eta, 1.0 / self.eta)
-        } else {
-            (1.0 / self.eta, self.eta)
-        };
-        let m = (wi + wo * if reflect { 1.0 } else { eta }).normalize();
-        let m = mulsign(m, m.z);
-        let (dot_wi_m, dot_wo_m) = (wi.dot(m), wo.dot(m));
-        let active = dot_wi_m * cos_i > 0.0 && dot_wo_m * cos_o > 0.0;
-        let distr = self.distr(si.uv);
-        let d = distr.eval(m);
-        let f = fresnel_dielectric(dot_wi_m, self.eta).r;
-        let g = distr.g(wi, wo, m);
-        let value = if reflect {
-            self.specular_reflectance.eval(si.uv) * (f * d * g / (4.0 * cos_i.abs()))
-        } else {
-            let scale = inv_eta * inv_eta;
-            let v = (scale * (1.0 - f) * d * g * eta * eta * dot_wi_m * dot_wo_m)
-                / (cos_i * (dot_wi_m + eta * dot_wo_m).powi(2));
-            self.specular_transmittance.eval(si.uv) * v.abs()
-        };
-        let value = if value.is_finite() {
-            value
-        } else {
-            Spectrum::ZERO
-        };
-        if !active {
-            return (value, 0.0);
-        }
-        let sd = self.sample_distr(distr, cos_i);
-        let mut pdf = sd.pdf(mulsign(wi, cos_i), m);
-        pdf *= if reflect { f } else { 1.0 - f };
-        let dwh_dwo = if reflect {
-            1.0 / (4.0 * dot_wo_m)
-        } else {
-            (eta * eta * dot_wo_m) / (dot_wi_m + eta * dot_wo_m).powi(2)
-        };
-        (value, pdf * dwh_dwo.abs())
+        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), si.wi.into(), wo.into());
+        (v.into(), pdf)
     }
 
     /// Samples a microfacet normal, then reflects with probability F or refracts.
@@ -139,56 +99,166 @@ impl RoughDielectric {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let wi = si.wi;
-        let cos_i = wi.z;
-        if cos_i == 0.0 {
+        if si.wi.z == 0.0 {
             return None;
         }
-        let distr = self.distr(si.uv);
-        let sd = self.sample_distr(distr, cos_i);
-        let (m, pdf_m) = sd.sample(mulsign(wi, cos_i), sample2);
-        if pdf_m == 0.0 {
-            return None;
-        }
-        let fr = fresnel_dielectric(wi.dot(m), self.eta);
-        let selected_r = sample1 <= fr.r;
-        let (wo, pdf_lobe, eta, sampled, mut weight, dwh_dwo) = if selected_r {
-            let wo = reflect_about(wi, m);
-            (
-                wo,
-                fr.r,
-                1.0,
-                BsdfFlags::GLOSSY_REFLECTION,
-                self.specular_reflectance.eval(si.uv),
-                1.0 / (4.0 * wo.dot(m)),
-            )
+        let s = self.sample_t(
+            &self.at(si.uv.into()),
+            si.wi.into(),
+            sample1,
+            sample2.into(),
+        );
+        let sampled = if s.reflected {
+            BsdfFlags::GLOSSY_REFLECTION
         } else {
-            let wo = refract_about(wi, m, fr.cos_theta_t, fr.eta_ti);
-            let e = fr.eta_it;
-            (
-                wo,
-                1.0 - fr.r,
-                e,
-                BsdfFlags::GLOSSY_TRANSMISSION,
-                self.specular_transmittance.eval(si.uv) * (fr.eta_ti * fr.eta_ti),
-                (e * e * wo.dot(m)) / (wi.dot(m) + e * wo.dot(m)).powi(2),
-            )
+            BsdfFlags::GLOSSY_TRANSMISSION
         };
-        weight *= if distr.sample_visible {
-            distr.smith_g1(wo, m)
-        } else {
-            distr.g(wi, wo, m) * wi.dot(m) / (cos_i * m.z)
-        };
-        let pdf = pdf_m * pdf_lobe * dwh_dwo.abs();
-        if !(pdf > 0.0 && pdf.is_finite() && weight.is_finite()) {
-            return None;
-        }
         let bs = BsdfSample {
-            wo,
-            pdf,
-            eta,
+            wo: s.wo.into(),
+            pdf: s.pdf,
+            eta: s.eta,
             sampled,
         };
-        Some((bs, weight))
+        s.ok.then_some((bs, s.weight.into()))
     }
+
+    /// The textures at `uv`, for one lane or sixteen.
+    #[inline(always)]
+    pub fn at<T: Real>(&self, uv: V2<T>) -> RoughDielectricAt<T> {
+        RoughDielectricAt {
+            distr: self.distr_t(uv),
+            reflectance: self.specular_reflectance.eval_t(uv),
+            transmittance: self.specular_transmittance.eval_t(uv),
+        }
+    }
+
+    /// [`Self::eval_pdf`] for one lane or sixteen with the textures `at` the hit.
+    #[inline(always)]
+    pub fn eval_pdf_t<T: Real>(
+        &self,
+        at: &RoughDielectricAt<T>,
+        wi: V3<T>,
+        wo: V3<T>,
+    ) -> (V3<T>, T) {
+        let (zero, one) = (T::splat(0.0), T::splat(1.0));
+        let (cos_i, cos_o) = (wi.z, wo.z);
+        let reflect = (cos_i * cos_o).gt(zero);
+        let front = cos_i.gt(zero);
+        let eta = T::select(front, T::splat(self.eta), T::splat(1.0 / self.eta));
+        let inv_eta = T::select(front, T::splat(1.0 / self.eta), T::splat(self.eta));
+        let m = wi.add(wo.scale(T::select(reflect, one, eta))).normalize();
+        let m = mulsign(m, m.z);
+        let (dot_wi_m, dot_wo_m) = (wi.dot(m), wo.dot(m));
+        let active = (dot_wi_m * cos_i).gt(zero).and((dot_wo_m * cos_o).gt(zero));
+        let distr = &at.distr;
+        let d = distr.eval_t(m);
+        let f = fresnel_dielectric_t(dot_wi_m, self.eta).r;
+        let g = distr.g_t(wi, wo, m);
+        let v_r = at.reflectance.scale(f * d * g / (cos_i.abs() * 4.0));
+        let scale = inv_eta * inv_eta;
+        let denom = dot_wi_m + eta * dot_wo_m;
+        let v = (scale * (one - f) * d * g * eta * eta * dot_wi_m * dot_wo_m)
+            / (cos_i * (denom * denom));
+        let v_t = at.transmittance.scale(v.abs());
+        let value = V3::select(reflect, v_r, v_t);
+        let zero3 = V3::new(zero, zero, zero);
+        let value = V3::select(value.is_finite(), value, zero3);
+        let sd = self.sample_distr(*distr, cos_i);
+        let pdf = sd.pdf_t(mulsign(wi, cos_i), m) * T::select(reflect, f, one - f);
+        let dwh_dwo = T::select(
+            reflect,
+            one / (dot_wo_m * 4.0),
+            (eta * eta * dot_wo_m) / (denom * denom),
+        );
+        let pdf = T::select(active, pdf * dwh_dwo.abs(), zero);
+        let zero_i = cos_i.eq(zero);
+        (
+            V3::select(zero_i, zero3, value),
+            T::select(zero_i, zero, pdf),
+        )
+    }
+
+    /// [`Self::sample`] for one lane or sixteen with the textures `at` the hit.
+    #[inline(always)]
+    pub fn sample_t<T: Real>(
+        &self,
+        at: &RoughDielectricAt<T>,
+        wi: V3<T>,
+        sample1: T,
+        sample2: V2<T>,
+    ) -> RoughDielectricSample<T> {
+        let (zero, one) = (T::splat(0.0), T::splat(1.0));
+        let cos_i = wi.z;
+        let distr = &at.distr;
+        let sd = self.sample_distr(*distr, cos_i);
+        let (m, pdf_m) = sd.sample_t(mulsign(wi, cos_i), sample2);
+        let fr = fresnel_dielectric_t(wi.dot(m), self.eta);
+        let reflected = sample1.le(fr.r);
+        let wo_r = m.scale(wi.dot(m) * 2.0).sub(wi);
+        let wo_t = m
+            .scale(wi.dot(m) * fr.eta_ti + fr.cos_theta_t)
+            .sub(wi.scale(fr.eta_ti));
+        let wo = V3::select(reflected, wo_r, wo_t);
+        let e = fr.eta_it;
+        let dwh_r = one / (wo.dot(m) * 4.0);
+        let denom = wi.dot(m) + e * wo.dot(m);
+        let dwh_t = (e * e * wo.dot(m)) / (denom * denom);
+        let dwh_dwo = T::select(reflected, dwh_r, dwh_t);
+        let weight = V3::select(
+            reflected,
+            at.reflectance,
+            at.transmittance.scale(fr.eta_ti * fr.eta_ti),
+        );
+        let w = if distr.sample_visible {
+            distr.smith_g1_t(wo, m)
+        } else {
+            distr.g_t(wi, wo, m) * wi.dot(m) / (cos_i * m.z)
+        };
+        let weight = weight.scale(w);
+        let pdf_lobe = T::select(reflected, fr.r, one - fr.r);
+        let pdf = pdf_m * pdf_lobe * dwh_dwo.abs();
+        let ok = cos_i
+            .eq(zero)
+            .not()
+            .and(pdf_m.eq(zero).not())
+            .and(pdf.gt(zero))
+            .and(pdf.is_finite())
+            .and(weight.is_finite());
+        RoughDielectricSample {
+            wo,
+            pdf,
+            weight,
+            eta: T::select(reflected, one, e),
+            reflected,
+            ok,
+        }
+    }
+}
+
+/// A rough dielectric's textures at a hit (per lane for [`crate::math::simd::wide::Fx`]).
+#[derive(Clone, Copy, Debug)]
+pub struct RoughDielectricAt<T> {
+    /// The distribution with the roughness there.
+    pub distr: Microfacet<T>,
+    /// Multiplier on reflection.
+    pub reflectance: V3<T>,
+    /// Multiplier on transmission.
+    pub transmittance: V3<T>,
+}
+
+/// A sample of [`RoughDielectric::sample_t`].
+#[derive(Clone, Copy, Debug)]
+pub struct RoughDielectricSample<T: Real> {
+    /// Sampled direction.
+    pub wo: V3<T>,
+    /// Its density.
+    pub pdf: T,
+    /// eval · |cos θ_o| / pdf.
+    pub weight: V3<T>,
+    /// Relative IOR of the event (1 for reflection).
+    pub eta: T,
+    /// The reflection lobe was chosen.
+    pub reflected: T::Mask,
+    /// False where [`RoughDielectric::sample`] returns None.
+    pub ok: T::Mask,
 }

@@ -5,11 +5,13 @@
 //! tabulated at load by Gauss–Legendre integration over visible normals, exactly as Mitsuba 3
 //! does. Isotropic, one-sided.
 
-use super::fresnel::{fresnel_dielectric, reflect_about, refract_about};
+use super::fresnel::{fresnel_dielectric, fresnel_dielectric_t, reflect_about, refract_about};
 use super::microfacet::{Microfacet, MicrofacetType};
+use super::plastic::base_under_coating;
 use super::{BsdfFlags, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::quad::gauss_legendre;
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
 
 /// Entries of the transmittance table over cos θ ∈ [0, 1] (Mitsuba `MI_ROUGH_TRANSMITTANCE_RES`).
@@ -107,53 +109,19 @@ impl RoughPlastic {
         }
     }
 
-    /// Probability of choosing the glossy lobe given T(θ_i).
-    #[inline]
-    fn prob_specular(&self, t_i: f32) -> f32 {
-        let ps = (1.0 - t_i) * self.specular_sampling_weight;
-        let pd = t_i * (1.0 - self.specular_sampling_weight);
-        ps / (ps + pd)
-    }
-
     /// Both lobes; 0 unless wi and wo are above the surface.
     pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        let wi = si.wi;
-        let (cos_i, cos_o) = (wi.z, wo.z);
+        let (cos_i, cos_o) = (si.wi.z, wo.z);
         if !(cos_i > 0.0 && cos_o > 0.0) {
             return Spectrum::ZERO;
         }
-        let h = (wo + wi).normalize();
-        let d = self.distr.eval(h);
-        let f = fresnel_dielectric(wi.dot(h), self.eta).r;
-        let g = self.distr.g(wi, wo, h);
-        let spec = self.specular_reflectance.eval(si.uv) * (f * d * g / (4.0 * cos_i));
-        let t_i = self.transmittance(cos_i);
-        let t_o = self.transmittance(cos_o);
-        let diff = self.diffuse_reflectance.eval(si.uv);
-        let diff = if self.nonlinear {
-            diff / (Spectrum::ONE - diff * self.internal_reflectance)
-        } else {
-            diff / (1.0 - self.internal_reflectance)
-        };
-        spec + diff * (INV_PI * self.inv_eta_2 * cos_o * t_i * t_o)
+        let (spec, base) = self.at(si.uv.into());
+        self.eval_t(spec, base, si.wi.into(), wo.into()).into()
     }
 
     /// Mixture of the glossy lobe's density and the cosine hemisphere.
     pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        let wi = si.wi;
-        let (cos_i, cos_o) = (wi.z, wo.z);
-        if !(cos_i > 0.0 && cos_o > 0.0) {
-            return 0.0;
-        }
-        let prob_specular = self.prob_specular(self.transmittance(cos_i));
-        let prob_diffuse = 1.0 - prob_specular;
-        let h = (wo + wi).normalize();
-        let spec = if self.distr.sample_visible {
-            self.distr.eval(h) * self.distr.smith_g1(wi, h) / (4.0 * cos_i)
-        } else {
-            self.distr.pdf(wi, h) / (4.0 * wo.dot(h))
-        };
-        spec * prob_specular + prob_diffuse * warp::square_to_cosine_hemisphere_pdf(wo)
+        self.pdf_t(si.wi.into(), wo.into())
     }
 
     /// Chooses a lobe by `sample1`, samples it, and weights by eval / pdf of the mixture.
@@ -163,32 +131,119 @@ impl RoughPlastic {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let wi = si.wi;
-        if !(wi.z > 0.0) {
+        if !(si.wi.z > 0.0) {
             return None;
         }
-        let prob_specular = self.prob_specular(self.transmittance(wi.z));
-        let (wo, sampled) = if sample1 < prob_specular {
-            let (m, _) = self.distr.sample(wi, sample2);
-            (reflect_about(wi, m), BsdfFlags::GLOSSY_REFLECTION)
+        let (spec, base) = self.at(si.uv.into());
+        let (wo, pdf, weight, glossy, ok) =
+            self.sample_t(spec, base, si.wi.into(), sample1, sample2.into());
+        let sampled = if glossy {
+            BsdfFlags::GLOSSY_REFLECTION
         } else {
-            (
-                warp::square_to_cosine_hemisphere(sample2),
-                BsdfFlags::DIFFUSE_REFLECTION,
-            )
+            BsdfFlags::DIFFUSE_REFLECTION
         };
-        let pdf = self.pdf(si, wo);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let value = self.eval(si, wo);
         let bs = BsdfSample {
-            wo,
+            wo: wo.into(),
             pdf,
             eta: 1.0,
             sampled,
         };
-        Some((bs, value / pdf))
+        ok.then_some((bs, weight.into()))
+    }
+
+    /// (specular reflectance, the base's albedo over what the coating keeps in) at `uv`, for
+    /// one lane or sixteen.
+    #[inline(always)]
+    pub fn at<T: Real>(&self, uv: V2<T>) -> (V3<T>, V3<T>) {
+        let diff = self.diffuse_reflectance.eval_t(uv);
+        let base = base_under_coating(diff, self.internal_reflectance, self.nonlinear);
+        (self.specular_reflectance.eval_t(uv), base)
+    }
+
+    /// The distribution for one lane or sixteen.
+    #[inline(always)]
+    fn distr_t<T: Real>(&self) -> Microfacet<T> {
+        Microfacet {
+            kind: self.distr.kind,
+            alpha_u: T::splat(self.distr.alpha_u),
+            alpha_v: T::splat(self.distr.alpha_v),
+            sample_visible: self.distr.sample_visible,
+        }
+    }
+
+    /// Probability of choosing the glossy lobe given the incident cosine.
+    #[inline(always)]
+    fn prob_specular_t<T: Real>(&self, cos_theta_i: T) -> T {
+        let t_i = cos_theta_i.map(|c| self.transmittance(c));
+        let ps = (T::splat(1.0) - t_i) * self.specular_sampling_weight;
+        let pd = t_i * (1.0 - self.specular_sampling_weight);
+        ps / (ps + pd)
+    }
+
+    /// [`Self::eval`] for one lane or sixteen, with the lanes' [`Self::at`].
+    #[inline(always)]
+    pub fn eval_t<T: Real>(&self, spec: V3<T>, base: V3<T>, wi: V3<T>, wo: V3<T>) -> V3<T> {
+        let zero = T::splat(0.0);
+        let distr = self.distr_t::<T>();
+        let (cos_i, cos_o) = (wi.z, wo.z);
+        let h = wo.add(wi).normalize();
+        let d = distr.eval_t(h);
+        let f = fresnel_dielectric_t(wi.dot(h), self.eta).r;
+        let g = distr.g_t(wi, wo, h);
+        let spec = spec.scale(f * d * g / (cos_i * 4.0));
+        let t_i = cos_i.map(|c| self.transmittance(c));
+        let t_o = cos_o.map(|c| self.transmittance(c));
+        let v = spec.add(base.scale(cos_o * (INV_PI * self.inv_eta_2) * t_i * t_o));
+        let above = cos_i.gt(zero).and(cos_o.gt(zero));
+        V3::select(above, v, V3::new(zero, zero, zero))
+    }
+
+    /// [`Self::pdf`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn pdf_t<T: Real>(&self, wi: V3<T>, wo: V3<T>) -> T {
+        let zero = T::splat(0.0);
+        let distr = self.distr_t::<T>();
+        let (cos_i, cos_o) = (wi.z, wo.z);
+        let prob_specular = self.prob_specular_t(cos_i);
+        let prob_diffuse = T::splat(1.0) - prob_specular;
+        let h = wo.add(wi).normalize();
+        let spec = if distr.sample_visible {
+            distr.eval_t(h) * distr.smith_g1_t(wi, h) / (cos_i * 4.0)
+        } else {
+            distr.pdf_t(wi, h) / (wo.dot(h) * 4.0)
+        };
+        let cos_pdf = T::select(wo.z.gt(zero), wo.z * INV_PI, zero);
+        let pdf = spec * prob_specular + prob_diffuse * cos_pdf;
+        T::select(cos_i.gt(zero).and(cos_o.gt(zero)), pdf, zero)
+    }
+
+    /// [`Self::sample`] for one lane or sixteen, with the lanes' [`Self::at`]: (wo, pdf,
+    /// weight, glossy lobe, valid), valid false where that returns None.
+    #[inline(always)]
+    pub fn sample_t<T: Real>(
+        &self,
+        spec: V3<T>,
+        base: V3<T>,
+        wi: V3<T>,
+        sample1: T,
+        sample2: V2<T>,
+    ) -> (V3<T>, T, V3<T>, T::Mask, T::Mask) {
+        let zero = T::splat(0.0);
+        let glossy = sample1.lt(self.prob_specular_t(wi.z));
+        let (m, _) = self.distr_t::<T>().sample_t(wi, sample2);
+        let wo_g = m.scale(wi.dot(m) * 2.0).sub(wi);
+        let wo_d = warp::square_to_cosine_hemisphere_t(sample2);
+        let wo = V3::select(glossy, wo_g, wo_d);
+        let pdf = self.pdf_t(wi, wo);
+        let v = self.eval_t(spec, base, wi, wo);
+        let ok = wi.z.gt(zero).and(pdf.gt(zero));
+        (
+            wo,
+            pdf,
+            V3::new(v.x / pdf, v.y / pdf, v.z / pdf),
+            glossy,
+            ok,
+        )
     }
 }
 

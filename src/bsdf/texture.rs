@@ -3,6 +3,8 @@
 
 use crate::io::RgbImage;
 use crate::math::color::luminance;
+use crate::math::simd::real::{Cond, Real, V2, V3};
+use crate::math::simd::wide::{Fx, V2x, V3x};
 use crate::math::{Spectrum, Vec2};
 use std::sync::Arc;
 
@@ -61,10 +63,16 @@ impl UvTransform {
     /// Applies the map to `uv`.
     #[inline]
     pub fn apply(&self, uv: Vec2) -> Vec2 {
+        self.apply_t(uv.into()).into()
+    }
+
+    /// [`Self::apply`] for one lane or sixteen.
+    #[inline(always)]
+    pub fn apply_t<T: Real>(&self, uv: V2<T>) -> V2<T> {
         let m = &self.0;
-        Vec2::new(
-            m[0] * uv.x + m[1] * uv.y + m[2],
-            m[3] * uv.x + m[4] * uv.y + m[5],
+        V2::new(
+            uv.x * m[0] + uv.y * m[1] + m[2],
+            uv.x * m[3] + uv.y * m[4] + m[5],
         )
     }
 }
@@ -99,7 +107,13 @@ impl BitmapTexture {
 
     /// The filtered value at (untransformed) `uv`.
     pub fn eval(&self, uv: Vec2) -> Spectrum {
-        let uv = self.to_uv.apply(uv);
+        self.eval_t(uv.into()).into()
+    }
+
+    /// [`Self::eval`] for one lane or sixteen (texels gathered lane by lane, the filter in SoA).
+    #[inline]
+    pub fn eval_t<T: Real>(&self, uv: V2<T>) -> V3<T> {
+        let uv = self.to_uv.apply_t(uv);
         match self.filter {
             TexFilter::Bilinear => bilinear(&self.image, uv, self.wrap),
             TexFilter::Nearest => nearest(&self.image, uv, self.wrap),
@@ -120,11 +134,14 @@ pub struct Checkerboard {
 }
 
 impl Checkerboard {
-    /// True where `color0` shows.
-    #[inline]
-    fn is_color0(&self, uv: Vec2) -> bool {
-        let t = self.to_uv.apply(uv);
-        (t.x - t.x.floor() > 0.5) == (t.y - t.y.floor() > 0.5)
+    /// True where `color0` shows (per lane for [`Fx`]).
+    #[inline(always)]
+    fn is_color0<T: Real>(&self, uv: V2<T>) -> T::Mask {
+        let t = self.to_uv.apply_t(uv);
+        let half = T::splat(0.5);
+        let a = (t.x - t.x.floor()).gt(half);
+        let b = (t.y - t.y.floor()).gt(half);
+        a.and(b).or(a.not().and(b.not()))
     }
 }
 
@@ -138,34 +155,53 @@ impl Texture {
     pub fn eval(&self, uv: Vec2) -> Spectrum {
         match self {
             Texture::Constant(c) => *c,
+            _ => self.eval_t(uv.into()).into(),
+        }
+    }
+
+    /// [`Self::eval`] for one lane or sixteen: the lanes' texels gathered, the filters and
+    /// tests in SoA (a checkerboard evaluates both colours and selects).
+    #[inline]
+    pub fn eval_t<T: Real>(&self, uv: V2<T>) -> V3<T> {
+        match self {
+            Texture::Constant(c) => V3::new(T::splat(c.x), T::splat(c.y), T::splat(c.z)),
             Texture::Bitmap(img) => bilinear(img, uv, Wrap::Repeat),
-            Texture::Mapped(b) => b.eval(uv),
+            Texture::Mapped(b) => b.eval_t(uv),
             Texture::Checkerboard(c) => {
-                if c.is_color0(uv) {
-                    c.color0.eval(uv)
-                } else {
-                    c.color1.eval(uv)
-                }
+                V3::select(c.is_color0(uv), c.color0.eval_t(uv), c.color1.eval_t(uv))
             }
         }
+    }
+
+    /// [`Self::eval_t`] of 16 lanes.
+    #[inline]
+    pub fn eval_x(&self, uv: V2x) -> V3x {
+        self.eval_t::<Fx>(uv.into()).into()
     }
 
     /// The scalar value at `uv` (Mitsuba's `eval_1`, used for roughness): a grey constant's
     /// value (Mitsuba's `uniform`), another constant's channel mean (`srgb`), a bitmap's luminance.
     pub fn eval_1(&self, uv: Vec2) -> f32 {
+        self.eval_1_t(uv.into())
+    }
+
+    /// [`Self::eval_1`] for one lane or sixteen.
+    #[inline]
+    pub fn eval_1_t<T: Real>(&self, uv: V2<T>) -> T {
         match self {
-            Texture::Constant(c) if c.x == c.y && c.y == c.z => c.x,
-            Texture::Constant(c) => (c.x + c.y + c.z) / 3.0,
-            Texture::Bitmap(_) | Texture::Mapped(_) => luminance(self.eval(uv)),
+            Texture::Constant(c) if c.x == c.y && c.y == c.z => T::splat(c.x),
+            Texture::Constant(c) => T::splat((c.x + c.y + c.z) / 3.0),
+            Texture::Bitmap(_) | Texture::Mapped(_) => {
+                let c = self.eval_t(uv);
+                c.x * 0.212671 + c.y * 0.715160 + c.z * 0.072169
+            }
             // Mitsuba 3.9's Checkerboard::eval_1 selects with the opposite test to its eval
             // (color0 where the halves differ); matched here so scalar uses agree with it.
-            Texture::Checkerboard(c) => {
-                if c.is_color0(uv) {
-                    c.color1.eval_1(uv)
-                } else {
-                    c.color0.eval_1(uv)
-                }
-            }
+            Texture::Checkerboard(c) => T::select(
+                c.is_color0(uv),
+                c.color1.eval_1_t(uv),
+                c.color0.eval_1_t(uv),
+            ),
         }
     }
 
@@ -238,19 +274,31 @@ fn to_index(v: f32) -> i64 {
     }
 }
 
-fn bilinear(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
+/// Bilinear filtering for one lane or sixteen: the four texels of each lane gathered, the
+/// weights and the blend in SoA.
+#[inline(always)]
+fn bilinear<T: Real>(img: &RgbImage, uv: V2<T>, wrap: Wrap) -> V3<T> {
     let (w, h) = (img.width as i64, img.height as i64);
     let x = uv.x * w as f32 - 0.5;
     let y = uv.y * h as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let (x0, y0) = (to_index(x0), to_index(y0));
-    let px = |xi: i64, yi: i64| {
-        Spectrum::from(img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)))
-    };
-    let top = px(x0, y0) * (1.0 - fx) + px(x0 + 1, y0) * fx;
-    let bottom = px(x0, y0 + 1) * (1.0 - fx) + px(x0 + 1, y0 + 1) * fx;
-    top * (1.0 - fy) + bottom * fy
+    let [p00, p10, p01, p11] = T::gather(x0, y0, |x0, y0| {
+        let (x0, y0) = (to_index(x0), to_index(y0));
+        let px = |xi: i64, yi: i64| {
+            Spectrum::from(img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)))
+        };
+        [
+            px(x0, y0),
+            px(x0 + 1, y0),
+            px(x0, y0 + 1),
+            px(x0 + 1, y0 + 1),
+        ]
+    });
+    let one = T::splat(1.0);
+    let top = p00.scale(one - fx).add(p10.scale(fx));
+    let bottom = p01.scale(one - fx).add(p11.scale(fx));
+    top.scale(one - fy).add(bottom.scale(fy))
 }
 
 /// Mitsuba's `BitmapTexture::eval_1_grad` at the transformed `uv`: partials of the bilinear
@@ -279,11 +327,21 @@ fn bilinear_grad(img: &RgbImage, uv: Vec2, wrap: Wrap, to_uv: &UvTransform) -> V
     )
 }
 
-fn nearest(img: &RgbImage, uv: Vec2, wrap: Wrap) -> Spectrum {
+/// Nearest-texel lookup for one lane or sixteen.
+#[inline(always)]
+fn nearest<T: Real>(img: &RgbImage, uv: V2<T>, wrap: Wrap) -> V3<T> {
     let (w, h) = (img.width as i64, img.height as i64);
-    let xi = to_index((uv.x * w as f32).floor());
-    let yi = to_index((uv.y * h as f32).floor());
-    Spectrum::from(img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)))
+    let [p] = T::gather(
+        (uv.x * w as f32).floor(),
+        (uv.y * h as f32).floor(),
+        |x, y| {
+            let (xi, yi) = (to_index(x), to_index(y));
+            [Spectrum::from(
+                img.get(wrap_index(xi, w, wrap), wrap_index(yi, h, wrap)),
+            )]
+        },
+    );
+    p
 }
 
 #[cfg(test)]

@@ -2,32 +2,51 @@
 
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 use crate::math::simd::lane::sin_cos;
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::simd::wide::{Fx, V2x, V3x};
 use glam::{Vec2, Vec3};
 
 /// Concentric (Shirley–Chiu) map to the unit disk: low distortion, continuous.
 #[inline]
 pub fn square_to_uniform_disk_concentric(u: Vec2) -> Vec2 {
-    let a = 2.0 * u.x - 1.0;
-    let b = 2.0 * u.y - 1.0;
-    if a == 0.0 && b == 0.0 {
-        return Vec2::ZERO;
-    }
-    let (r, phi) = if a * a > b * b {
-        (a, (PI / 4.0) * (b / a))
-    } else {
-        (b, (PI / 2.0) - (PI / 4.0) * (a / b))
-    };
-    let (s, c) = sin_cos(phi);
-    Vec2::new(r * c, r * s)
+    square_to_uniform_disk_concentric_t(u.into()).into()
+}
+
+/// [`square_to_uniform_disk_concentric`] for one lane or sixteen.
+#[inline(always)]
+pub fn square_to_uniform_disk_concentric_t<T: Real>(u: V2<T>) -> V2<T> {
+    let zero = T::splat(0.0);
+    let a = u.x * 2.0 - 1.0;
+    let b = u.y * 2.0 - 1.0;
+    let center = a.eq(zero).and(b.eq(zero));
+    let first = (a * a).gt(b * b);
+    let r = T::select(first, a, b);
+    let phi = T::select(
+        first,
+        (b / a) * (PI / 4.0),
+        T::splat(PI / 2.0) - (a / b) * (PI / 4.0),
+    );
+    let (s, c) = phi.sin_cos();
+    V2::new(
+        T::select(center, zero, r * c),
+        T::select(center, zero, r * s),
+    )
 }
 
 /// Cosine-weighted hemisphere around +z (Malley's method).
 #[inline]
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
-    let d = square_to_uniform_disk_concentric(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
-    Vec3::new(d.x, d.y, z)
+    square_to_cosine_hemisphere_t(u.into()).into()
+}
+
+/// [`square_to_cosine_hemisphere`] for one lane or sixteen.
+#[inline(always)]
+pub fn square_to_cosine_hemisphere_t<T: Real>(u: V2<T>) -> V3<T> {
+    let d = square_to_uniform_disk_concentric_t(u);
+    let z = (T::splat(1.0) - d.length_squared())
+        .max(T::splat(0.0))
+        .sqrt();
+    V3::new(d.x, d.y, z)
 }
 
 /// Solid-angle pdf of [`square_to_cosine_hemisphere`].
@@ -114,22 +133,7 @@ pub fn square_to_uniform_triangle_x(u: V2x) -> V2x {
 /// [`square_to_cosine_hemisphere`] per lane.
 #[inline(always)]
 pub fn square_to_cosine_hemisphere_x(u: V2x) -> V3x {
-    let a = 2.0 * u.x - 1.0;
-    let b = 2.0 * u.y - 1.0;
-    let zero = Fx::splat(0.0);
-    let center = a.eq(zero).and(b.eq(zero));
-    let first = (a * a).gt(b * b);
-    let r = Fx::select(first, a, b);
-    let phi = Fx::select(
-        first,
-        (PI / 4.0) * (b / a),
-        (PI / 2.0) - (PI / 4.0) * (a / b),
-    );
-    let (s, c) = phi.sin_cos();
-    let dx = Fx::select(center, zero, r * c);
-    let dy = Fx::select(center, zero, r * s);
-    let z = (1.0 - (dx * dx + dy * dy)).max(zero).sqrt();
-    V3x::new(dx, dy, z)
+    square_to_cosine_hemisphere_t::<Fx>(u.into()).into()
 }
 
 /// [`square_to_cosine_hemisphere_pdf`] per lane.

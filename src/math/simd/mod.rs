@@ -7,6 +7,7 @@
 //! `cargo bench --bench simd_math` compares them with libm.
 
 pub mod lane;
+pub mod real;
 #[cfg(target_arch = "x86_64")]
 pub mod transpose;
 pub mod wide;
