@@ -31,7 +31,7 @@ fn document(count: usize, index_count: u64) -> (::gltf::Document, Vec<Data>, Vec
     for &t in &tris {
         b.push((t % 256) as u8);
     }
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let u32_at = b.len();
