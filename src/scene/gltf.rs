@@ -19,17 +19,19 @@
 //! - Settings glTF lacks, overridable with defines: `width` (768), `height` (576, or width / the
 //!   camera's aspectRatio if given), `spp` (64), `max_depth` (−1). Other defines are errors.
 
-use super::shapes::{self, LocalMesh, MeshOptions};
+use super::shapes::{self, MeshOptions};
 use super::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::bsdf::{Bsdf, Conductor, Diffuse, MicrofacetType, RoughConductor, Texture, TwoSided};
 use crate::geometry::Mesh;
 use crate::io::RgbImage;
 use crate::math::color::{srgb_to_linear, srgb8_to_linear_table};
-use crate::math::{Mat3, Mat4, Spectrum, Vec2, Vec3};
+use crate::math::{Mat3, Mat4, Spectrum, Vec3};
 use crate::{Error, Result};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
+
+mod mesh;
 
 /// Default film width in pixels (Mitsuba's).
 pub const DEFAULT_WIDTH: u32 = 768;
@@ -338,45 +340,9 @@ impl GltfBuilder<'_> {
                     what()
                 )));
             }
-            let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| d.0.as_slice()));
-            let positions: Vec<Vec3> = reader
-                .read_positions()
-                .ok_or_else(|| self.err(format!("{} has no POSITION attribute", what())))?
-                .map(Vec3::from)
-                .collect();
-            let normals: Vec<Vec3> = reader
-                .read_normals()
-                .map(|n| n.map(Vec3::from).collect())
-                .unwrap_or_default();
-            let uvs: Vec<Vec2> = reader
-                .read_tex_coords(0)
-                .map(|t| t.into_f32().map(Vec2::from).collect())
-                .unwrap_or_default();
-            let flat: Vec<u32> = match reader.read_indices() {
-                Some(i) => i.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
-            };
-            if !flat.len().is_multiple_of(3) {
-                return Err(self.err(format!(
-                    "{}: index count {} is not a multiple of 3",
-                    what(),
-                    flat.len()
-                )));
-            }
-            let mut indices: Vec<[u32; 3]> =
-                flat.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-            if mirror {
-                for t in indices.iter_mut() {
-                    t.swap(1, 2);
-                }
-            }
-            let face_normals = normals.is_empty();
-            let local = LocalMesh {
-                positions,
-                normals,
-                uvs,
-                indices,
-            };
+            let local = mesh::read(&prim, self.buffers, mirror, shapes::available_memory())
+                .map_err(|e| self.err(format!("{}: {e}", what())))?;
+            let face_normals = local.normals.is_empty();
             let opts = MeshOptions {
                 face_normals,
                 ..Default::default()

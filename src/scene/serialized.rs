@@ -5,10 +5,11 @@
 //! The file ends with the byte offset of each shape (u64 in v4, u32 in v3) and the u32 shape
 //! count, which `shape_index` selects by.
 
-use super::shapes::LocalMesh;
+use super::shapes::{LocalMesh, available_memory, check_mesh_fits};
 use crate::io::bytes::Reader;
 use crate::math::{Vec2, Vec3};
 use crate::{Error, Result};
+use rayon::prelude::*;
 use std::io::Read;
 use std::path::Path;
 
@@ -34,13 +35,52 @@ pub struct SerializedShape {
 /// Reads shape `shape_index` of a serialized file.
 pub fn load(path: &Path, shape_index: u32) -> Result<SerializedShape> {
     let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse(&bytes, path, shape_index)
+    parse(&bytes, path, shape_index, available_memory())
 }
 
 const KIND: &str = "corrupt Mitsuba serialized mesh";
 
-/// Parses shape `index` of the file `b` (read from `path`, which errors name).
-fn parse(b: &[u8], path: &Path, index: u32) -> Result<SerializedShape> {
+/// The most bytes zlib's deflate can expand one compressed byte into (its maximum ratio).
+const MAX_INFLATE_RATIO: u64 = 1032;
+
+/// Refuses, before anything is allocated for them, a shape whose declared counts need more
+/// bytes than its `compressed` bytes can inflate to (a count that lies), 2³¹ or more indices, or
+/// more memory than is available.
+fn check_counts(
+    path: &Path,
+    nv: u64,
+    nt: u64,
+    compressed: usize,
+    avail: Option<u64>,
+) -> Result<()> {
+    check_mesh_fits(nv, nt, avail).map_err(|m| Error::format(path, format!("{KIND}: {m}")))?;
+    // 3 f32 per vertex and 3 u32 per triangle at least.
+    let least = nv as u128 * 12 + nt as u128 * 12;
+    let most = compressed as u128 * MAX_INFLATE_RATIO as u128 + 64;
+    if least > most {
+        return Err(Error::format(
+            path,
+            format!(
+                "{KIND}: the shape declares {nv} vertices and {nt} triangles, at least {least} bytes, but its {compressed} compressed bytes inflate to at most {most}: the file is truncated or its counts are wrong"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The `k`-th little-endian float of `size` (4 or 8) bytes in `c`, as f32.
+fn decode(c: &[u8], size: usize, k: usize) -> f32 {
+    let b = &c[k * size..];
+    if size == 8 {
+        f64::from_le_bytes(b[..8].try_into().expect("8 bytes")) as f32
+    } else {
+        f32::from_le_bytes(b[..4].try_into().expect("4 bytes"))
+    }
+}
+
+/// Parses shape `index` of the file `b` (read from `path`, which errors name), refusing a shape
+/// that does not fit in `avail` bytes of memory before allocating for it.
+fn parse(b: &[u8], path: &Path, index: u32, avail: Option<u64>) -> Result<SerializedShape> {
     let mut r = Reader::new(b, path, KIND);
     let header = |r: &mut Reader, at: usize| -> Result<u16> {
         r.seek(at)?;
@@ -158,69 +198,70 @@ fn parse(b: &[u8], path: &Path, index: u32) -> Result<SerializedShape> {
         + if flags & HAS_TEXCOORDS != 0 { 2 } else { 0 }
         + if flags & HAS_COLORS != 0 { 3 } else { 0 };
     let index_size: u64 = if nv > u32::MAX as u64 { 8 } else { 4 };
-    let need = nv
-        .checked_mul(per_vertex * scalar)
-        .and_then(|v| v.checked_add(nt.checked_mul(3 * index_size)?));
-    let need = match need {
-        Some(n) if n <= 1 << 36 && nv <= u32::MAX as u64 => n,
-        _ => {
-            return Err(Error::format(
-                path,
-                format!(
-                    "{KIND}: implausible sizes: {nv} vertices, {nt} triangles (at most 2^32 vertices)"
-                ),
-            ));
-        }
-    };
-    let mut payload = Vec::new();
+    check_counts(path, nv, nt, stream.len(), avail)?;
+    let need = nv * per_vertex * scalar + nt * 3 * index_size;
+    let mut payload = Vec::with_capacity(need as usize);
     read_exact(&mut z, need, &mut payload)?;
-    let mut r = Reader::new(&payload, path, KIND);
-    let size = scalar as u8;
-    let vec3s = |r: &mut Reader, part: &'static str| -> Result<Vec<Vec3>> {
-        r.set_part(part);
-        let v = r.scalars(nv * 3, size, part)?;
-        Ok(v.chunks_exact(3)
-            .map(|c| Vec3::new(c[0], c[1], c[2]))
-            .collect())
+    // The payload's arrays, decoded in parallel straight into the mesh's.
+    let (mut rest, size) = (payload.as_slice(), scalar as usize);
+    let mut take = |n: u64| {
+        let (a, b) = rest.split_at(n as usize);
+        rest = b;
+        a
     };
-    let positions = vec3s(&mut r, "positions")?;
+    let vec3s = |b: &[u8]| -> Vec<Vec3> {
+        b.par_chunks_exact(3 * size)
+            .map(|c| Vec3::new(decode(c, size, 0), decode(c, size, 1), decode(c, size, 2)))
+            .collect()
+    };
+    let positions = vec3s(take(nv * 3 * scalar));
     let normals = if flags & HAS_NORMALS != 0 {
-        vec3s(&mut r, "normals")?
+        vec3s(take(nv * 3 * scalar))
     } else {
         Vec::new()
     };
     let uvs = if flags & HAS_TEXCOORDS != 0 {
-        r.set_part("uvs");
-        let v = r.scalars(nv * 2, size, "uvs")?;
-        v.chunks_exact(2).map(|c| Vec2::new(c[0], c[1])).collect()
+        take(nv * 2 * scalar)
+            .par_chunks_exact(2 * size)
+            .map(|c| Vec2::new(decode(c, size, 0), decode(c, size, 1)))
+            .collect()
     } else {
         Vec::new()
     };
     if flags & HAS_COLORS != 0 {
-        vec3s(&mut r, "colors")?; // vertex colours are not used
+        take(nv * 3 * scalar); // vertex colours are not used
     }
-    r.set_part("triangles");
-    let mut indices = Vec::with_capacity(nt as usize);
-    for t in 0..nt {
-        let mut tri = [0u32; 3];
-        for v in &mut tri {
-            let i = if index_size == 8 {
-                r.u64("index")?
-            } else {
-                r.u32("index")? as u64
-            };
-            if i >= nv {
-                return Err(Error::format(
-                    path,
-                    format!("{KIND}: triangle {t} uses vertex {i}, but there are {nv} vertices"),
-                ));
-            }
-            *v = i as u32;
+    let isize = index_size as usize;
+    let tris = take(nt * 3 * index_size);
+    let index = |c: &[u8], k: usize| -> u64 {
+        let b = &c[k * isize..];
+        if isize == 8 {
+            u64::from_le_bytes(b[..8].try_into().expect("8 bytes"))
+        } else {
+            u32::from_le_bytes(b[..4].try_into().expect("4 bytes")) as u64
         }
-        indices.push(tri);
+    };
+    if let Some((t, i)) = tris
+        .par_chunks_exact(3 * isize)
+        .enumerate()
+        .find_map_first(|(t, c)| {
+            (0..3)
+                .map(|k| index(c, k))
+                .find(|&i| i >= nv)
+                .map(|i| (t, i))
+        })
+    {
+        return Err(Error::format(
+            path,
+            format!("{KIND}: triangle {t} uses vertex {i}, but there are {nv} vertices"),
+        ));
     }
-    r.finish()?;
-    if let Some(p) = positions.iter().position(|p| !p.is_finite()) {
+    let indices = tris
+        .par_chunks_exact(3 * isize)
+        .map(|c| [index(c, 0) as u32, index(c, 1) as u32, index(c, 2) as u32])
+        .collect();
+    drop(payload);
+    if let Some(p) = positions.par_iter().position_first(|p| !p.is_finite()) {
         return Err(Error::format(
             path,
             format!("{KIND}: vertex {p} has a non-finite position"),
@@ -310,15 +351,15 @@ mod tests {
     #[test]
     fn reads_shapes_by_index() {
         let b = two_shapes();
-        let a = parse(&b, pth(), 0).unwrap();
+        let a = parse(&b, pth(), 0, None).unwrap();
         assert_eq!((a.name.as_str(), a.face_normals), ("tri", false));
         assert_eq!(a.mesh.positions[1], Vec3::new(1.0, 0.0, 0.0));
         assert_eq!(a.mesh.indices, vec![[0, 1, 2]]);
-        let q = parse(&b, pth(), 1).unwrap();
+        let q = parse(&b, pth(), 1, None).unwrap();
         assert_eq!((q.name.as_str(), q.face_normals), ("quad", true));
         assert_eq!(q.mesh.uvs[2], Vec2::new(1.0, 1.0));
         assert_eq!(q.mesh.indices.len(), 2);
-        let e = parse(&b, pth(), 2).unwrap_err().to_string();
+        let e = parse(&b, pth(), 2, None).unwrap_err().to_string();
         assert!(e.contains("holds 2 shapes"), "{e}");
     }
 
@@ -346,7 +387,7 @@ mod tests {
     #[test]
     fn bad_files_are_clear_errors() {
         let b = two_shapes();
-        let err = |b: &[u8], i: u32| parse(b, pth(), i).unwrap_err().to_string();
+        let err = |b: &[u8], i: u32| parse(b, pth(), i, None).unwrap_err().to_string();
         assert!(err(&b[..30], 0).contains("truncated"));
         assert!(err(b"ply\n", 0).contains("magic"));
         assert!(err(&[], 0).contains("truncated"));
@@ -358,5 +399,113 @@ mod tests {
         // A triangle index beyond the vertices.
         let b = write(&[("x", 0, vec![[0.0; 3]; 3], vec![], vec![[0, 1, 7]])]);
         assert!(err(&b, 0).contains("vertex 7"));
+    }
+
+    /// A one-shape v4 file with the given flags and declared counts over `payload`.
+    fn shape_file(flags: u32, nv: u64, nt: u64, payload: &[u8]) -> Vec<u8> {
+        let mut raw = Vec::new();
+        raw.extend_from_slice(&flags.to_le_bytes());
+        raw.extend_from_slice(b"s\0");
+        raw.extend_from_slice(&nv.to_le_bytes());
+        raw.extend_from_slice(&nt.to_le_bytes());
+        raw.extend_from_slice(payload);
+        let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
+        z.write_all(&raw).unwrap();
+        let mut out = MAGIC.to_le_bytes().to_vec();
+        out.extend_from_slice(&4u16.to_le_bytes());
+        out.extend_from_slice(&z.finish().unwrap());
+        out.extend_from_slice(&0u64.to_le_bytes());
+        out.extend_from_slice(&1u32.to_le_bytes());
+        out
+    }
+
+    #[test]
+    fn every_attribute_and_precision_round_trips() {
+        let mut rng = crate::math::Pcg32::new(3, 1);
+        let (nv, nt) = (2000usize, 3900usize);
+        let vals: Vec<f64> = (0..nv * 11)
+            .map(|_| rng.next_f32() as f64 * 8.0 - 4.0 + 1e-9)
+            .collect();
+        let tris: Vec<u32> = (0..nt * 3).map(|_| rng.next_below(nv as u32)).collect();
+        for double in [false, true] {
+            for extra in [
+                0,
+                HAS_NORMALS,
+                HAS_TEXCOORDS | HAS_COLORS,
+                HAS_NORMALS | HAS_TEXCOORDS | HAS_COLORS,
+            ] {
+                let flags = extra | if double { DOUBLE } else { SINGLE };
+                let (n, uv, col) = (
+                    extra & HAS_NORMALS != 0,
+                    extra & HAS_TEXCOORDS != 0,
+                    extra & HAS_COLORS != 0,
+                );
+                let per =
+                    3 + if n { 3 } else { 0 } + if uv { 2 } else { 0 } + if col { 3 } else { 0 };
+                let mut payload = Vec::new();
+                for &v in &vals[..nv * per] {
+                    if double {
+                        payload.extend_from_slice(&v.to_le_bytes());
+                    } else {
+                        payload.extend_from_slice(&(v as f32).to_le_bytes());
+                    }
+                }
+                for i in &tris {
+                    payload.extend_from_slice(&i.to_le_bytes());
+                }
+                let b = shape_file(flags, nv as u64, nt as u64, &payload);
+                let m = parse(&b, pth(), 0, None).unwrap().mesh;
+                let f = |k: usize| vals[k] as f32;
+                let v3 = |o: usize, i: usize| {
+                    Vec3::new(f(o + 3 * i), f(o + 3 * i + 1), f(o + 3 * i + 2))
+                };
+                assert_eq!(m.positions, (0..nv).map(|i| v3(0, i)).collect::<Vec<_>>());
+                let mut o = 3 * nv;
+                if n {
+                    assert_eq!(m.normals, (0..nv).map(|i| v3(o, i)).collect::<Vec<_>>());
+                    o += 3 * nv;
+                } else {
+                    assert!(m.normals.is_empty());
+                }
+                if uv {
+                    let want: Vec<Vec2> = (0..nv)
+                        .map(|i| Vec2::new(f(o + 2 * i), f(o + 2 * i + 1)))
+                        .collect();
+                    assert_eq!(m.uvs, want);
+                } else {
+                    assert!(m.uvs.is_empty());
+                }
+                let want: Vec<[u32; 3]> =
+                    tris.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+                assert_eq!(m.indices, want);
+            }
+        }
+    }
+
+    #[test]
+    fn lying_or_huge_counts_fail_before_allocating() {
+        let err = |b: &[u8], avail| parse(b, pth(), 0, avail).unwrap_err().to_string();
+        // 2^30 vertices declared over a few bytes: a count that lies.
+        let e = err(&shape_file(SINGLE, 1 << 30, 1, &[0; 64]), None);
+        assert!(
+            e.contains("mesh.serialized") && e.contains("counts are wrong"),
+            "{e}"
+        );
+        let e = err(&shape_file(SINGLE, 3, (1 << 31) / 3 + 1, &[]), None);
+        assert!(e.contains("2^31"), "{e}");
+        let e = err(&shape_file(SINGLE, 1 << 33, 1, &[]), None);
+        assert!(e.contains("u32"), "{e}");
+        let e = err(&two_shapes(), Some(100));
+        assert!(e.contains("memory is available"), "{e}");
+        // A non-finite position is reported with its vertex.
+        let mut payload = Vec::new();
+        for v in [0.0f32, 0.0, 0.0, 1.0, f32::NAN, 0.0, 0.0, 1.0, 0.0] {
+            payload.extend_from_slice(&v.to_le_bytes());
+        }
+        for i in [0u32, 1, 2] {
+            payload.extend_from_slice(&i.to_le_bytes());
+        }
+        let e = err(&shape_file(SINGLE, 3, 1, &payload), None);
+        assert!(e.contains("vertex 1 has a non-finite"), "{e}");
     }
 }
