@@ -260,7 +260,7 @@ impl PlmcBsdf {
             (qx[q], qy[q]) = (w.x, w.y);
         }
         let all = lights.locate16(&qx, &qy);
-let mut located = [(0usize, [0f32; 3]); BATCH];
+        let mut located = [(0usize, [0f32; 3]); BATCH];
         for (q, l) in located[..wo.len()].iter_mut().enumerate() {
             *l = all.lane(q);
         }
