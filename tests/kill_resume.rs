@@ -5,6 +5,7 @@
 mod common;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
+use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime};
@@ -181,7 +182,18 @@ fn render_stopped_by_sigterm_and_sighup_resumes_bit_exactly_without_redoing_samp
     let mut stopped_at = None;
     for (sig, args) in [("TERM", render_args(&scene, &out)), ("HUP", resume.clone())] {
         let before = mtime(&ckpt);
-        let mut child = btfpt().args(&args).spawn().unwrap();
+        let mut cmd = btfpt();
+        cmd.args(&args);
+        // SIGHUP at its default disposition: under `nohup` the child would inherit it ignored
+        // and, as it should, keep rendering.
+        // SAFETY: only an async-signal-safe call between fork and exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                libc::signal(libc::SIGHUP, libc::SIG_DFL);
+                Ok(())
+            });
+        }
+        let mut child = cmd.spawn().unwrap();
         wait_for(&mut child, "a new checkpoint", || {
             mtime(&ckpt).is_some_and(|t| Some(t) != before)
         });
