@@ -154,7 +154,7 @@ impl Filter {
             FilterKind::Tent => (1.0 - x.abs() / r).max(0.0),
             // The crate's own exp2 (no libm: the same bits on every CPU, and it vectorises over
             // a footprint's weights).
-            FilterKind::Gaussian { alpha, bias } => (exp2(alpha * x * x) - bias).max(0.0),
+            FilterKind::Gaussian { alpha, bias } => gaussian(alpha, bias, x),
             FilterKind::Mitchell { b, c } => {
                 let x = (2.0 * x / r).abs();
                 let (x2, x3) = (x * x, x * x * x);
@@ -199,8 +199,7 @@ impl Filter {
             // weights past n are computed and never read).
             for (g, ws) in w.chunks_exact_mut(8).enumerate().take(n.div_ceil(8)) {
                 for (i, wi) in ws.iter_mut().enumerate() {
-                    let x = base + (8 * g + i) as f32;
-                    *wi = (exp2(alpha * x * x) - bias).max(0.0);
+                    *wi = gaussian(alpha, bias, base + (8 * g + i) as f32);
                 }
             }
         } else {
@@ -210,6 +209,13 @@ impl Filter {
         }
         (lo as i64, n)
     }
+}
+
+/// The Gaussian kernel exp(α x²) − exp(α r²) clamped at 0, with α and the bias as
+/// [`FilterKind::Gaussian`] stores them.
+#[inline(always)]
+fn gaussian(alpha: f32, bias: f32, x: f32) -> f32 {
+    (exp2(alpha * x * x) - bias).max(0.0)
 }
 
 /// Most pixels one sample reaches along an axis (2·MAX_RADIUS + 1, rounded up).

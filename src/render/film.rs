@@ -163,7 +163,7 @@ impl Tile {
         let span = |l: i64, n: usize, full: i64, b0: i64, bn: i64| {
             let first = 0.max(-l).max(b0 - l);
             let end = (n as i64).min(full - l).min(b0 + bn - l);
-            first.max(0) as usize..end.max(first).max(0) as usize
+            first as usize..end.max(first) as usize
         };
         let (xs, ys) = (span(lx, nx, fw, bx0, bw), span(ly, ny, fh, by0, bh));
         for j in ys {

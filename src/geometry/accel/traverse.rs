@@ -151,38 +151,27 @@ fn traverse<const ANY: bool, V: F8>(
         }
         // Any hit: no order to keep (tmax stays put until the first hit ends the search), so
         // the entered children are stacked as found, as Embree's occlusion traversal does.
-        if ANY {
-            if k > 0 {
-                for e in &inner[..k - 1] {
-                    stack.push(*e);
-                }
-                node = inner[k - 1].node;
-                continue;
-            }
-            match stack.pop() {
-                Some(e) => {
-                    node = e.node;
+        // Closest hit: sort them farthest first (insertion sort, at most eight), dropping those
+        // entered beyond a hit found in a sibling leaf.
+        let m = if ANY {
+            k
+        } else {
+            let mut m = 0;
+            for a in 0..k {
+                let e = inner[a];
+                if e.t > tmax {
                     continue;
                 }
-                None => return best,
+                let mut j = m;
+                while j > 0 && inner[j - 1].t < e.t {
+                    inner[j] = inner[j - 1];
+                    j -= 1;
+                }
+                inner[j] = e;
+                m += 1;
             }
-        }
-        // Sort the entered inner children farthest first (insertion sort, at most eight),
-        // dropping those entered beyond a hit found in a sibling leaf.
-        let mut m = 0;
-        for a in 0..k {
-            let e = inner[a];
-            if e.t > tmax {
-                continue;
-            }
-            let mut j = m;
-            while j > 0 && inner[j - 1].t < e.t {
-                inner[j] = inner[j - 1];
-                j -= 1;
-            }
-            inner[j] = e;
-            m += 1;
-        }
+            m
+        };
         if m > 0 {
             for e in &inner[..m - 1] {
                 stack.push(*e);
