@@ -11,7 +11,9 @@ false alarm) and of each fault (every pass is a miss) are compared with the refe
 A fault whose power is below 95 % at SPP is run again at 4x the spp, up to MAX_SPP.
 
 usage: scripts/compare_calibration.py [--seeds 20] [--spp 64] [--max-spp 1024] [--json out.json]
-       [--scenes a,b] [--no-faults | --faults WORD,...]
+       [--scenes a,b] [--no-faults | --faults WORD,...] [--renders DIR]
+With --renders DIR every render is kept there (named by scene, fault, spp and seed) and reused
+by a later run, so a change to `compare` can be measured again without rendering.
 Needs target/release/btfpt (cargo build --release), or the binary named by $BTFPT. Only the
 standard library.
 """
@@ -122,12 +124,15 @@ def main():
     ap.add_argument("--no-faults", action="store_true", help="only the correct renders (false alarms)")
     ap.add_argument("--scenes", default="cornell-box,cornell-box-all,btf-sphere,mitsuba-bsdfs")
     ap.add_argument("--faults", help="only the faults whose names contain one of these comma-separated words")
+    ap.add_argument("--renders", help="keep the renders in this folder and reuse the ones already there")
     a = ap.parse_args()
     if not os.path.isfile(BIN):
         sys.exit(f"{BIN} not found: run cargo build --release first")
     # A kill still runs the `finally` that removes the fault scenes written beside the scenes.
     signal.signal(signal.SIGTERM, lambda *_: sys.exit("terminated"))
     tmp = tempfile.mkdtemp(prefix="btfpt-calib-")
+    if a.renders:
+        os.makedirs(a.renders, exist_ok=True)
     log = os.path.join(tmp, "log.txt")
     # The BTF of btf-sphere once as a folder (a synth: URI would be regenerated per render), as
     # the Mitsuba reference was made.
@@ -166,11 +171,16 @@ def main():
                     fails = {"with": 0, "without": 0}
                     t0 = time.time()
                     for seed in range(1, a.seeds + 1):
-                        out = os.path.join(tmp, "t.exr")
-                        var = os.path.join(tmp, "t_var.exr")
-                        rc = run([BIN, "render", scene, "--spp", str(spp), "--seed", str(seed), "-o", out,
-                                  "--variance", var, *defines], log)
-                        assert rc == 0, f"render failed, see {log}"
+                        if a.renders:
+                            tag = re.sub(r"[^a-z0-9]+", "-", fault.lower()).strip("-")
+                            out = os.path.join(a.renders, f"{name}.{tag}.{spp}spp.seed{seed}.exr")
+                        else:
+                            out = os.path.join(tmp, "t.exr")
+                        var = out[:-4] + "_var.exr"
+                        if not (a.renders and os.path.exists(out) and os.path.exists(var)):
+                            rc = run([BIN, "render", scene, "--spp", str(spp), "--seed", str(seed), "-o", out,
+                                      "--variance", var, *defines], log)
+                            assert rc == 0, f"render failed, see {log}"
                         for mode in fails:
                             fails[mode] += not verdict(out, var, ref, spp, mode, tmp, log)
                     row = {"scene": name, "fault": fault, "spp": spp, "seeds": a.seeds,
