@@ -3,9 +3,10 @@
 plugin on a fitted .plmc model (btfpt.mitsuba) and through the raw-BTF plugin of
 reference-images/ (btf_plugin.py) on the measured data. Prints, per way and run, the process's
 CPU seconds (user + sys, from the kernel's accounting of the finished child), its peak resident
-memory, the resident memory the material adds (resident set after `mi.load_file` minus before
-it: the material's own memory, apart from the fixed cost of Python, Mitsuba and LLVM), the
-wall time of loading and of rendering, and the medians and the raw/plmc ratios.
+memory (its own VmHWM), the resident memory the material adds (resident set after
+`mi.load_file` minus before it: the material's own memory, apart from the fixed cost of Python,
+Mitsuba and LLVM), the wall time of loading and of rendering, and the medians and the raw/plmc
+ratios.
 
 usage: scripts/bench_mitsuba_plugin.py SCENE.xml (--size N | --raw DATA --plmc MODEL.plmc) --spp N
            [--material corduroy] [--seed 1] [--work DIR] [-D name=value ...] [--runs 3]
@@ -85,12 +86,17 @@ def child(args) -> None:
     if args.out:
         Path(args.out).mkdir(parents=True, exist_ok=True)
         mi.Bitmap(img).write(str(Path(args.out) / f"{args.child}.exr"))
+    # The peak from the process's own memory map, not wait4's ru_maxrss: that one also counts
+    # the parent's resident set at the fork, before the exec (a Mitsuba parent, as in
+    # make_report.py, would show as this child's peak).
+    _, hwm = rss_mib()
     print(json.dumps({"import": t1 - t0, "load": t2 - t1, "render": t3 - t2, "rss_before_load_mib": rss0,
-                      "rss_after_load_mib": rss1, "peak_after_load_mib": hwm1, "material_mib": rss1 - rss0}))
+                      "rss_after_load_mib": rss1, "peak_after_load_mib": hwm1, "material_mib": rss1 - rss0,
+                      "peak_mib": hwm}))
 
 
 def run_child(argv: list[str], way: str) -> dict:
-    """Runs this script as a child for `way`: its report, CPU seconds and peak memory (wait4)."""
+    """Runs this script as a child for `way`: its report and CPU seconds (wait4)."""
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
         p = subprocess.Popen([sys.executable, __file__, *argv, "--child", way], stdout=out, stderr=err)
         _, status, ru = os.wait4(p.pid, 0)
@@ -101,7 +107,6 @@ def run_child(argv: list[str], way: str) -> dict:
             raise RuntimeError(f"the {way} render failed (exit {p.returncode}):\n{err.read()[-2000:]}")
         r = json.loads(out.read().strip().splitlines()[-1])
     r["cpu"] = ru.ru_utime + ru.ru_stime
-    r["peak_mib"] = ru.ru_maxrss / 1024
     return r
 
 
