@@ -526,7 +526,9 @@ def plugin_markdown(p: dict) -> list[str]:
          f"Each is `btfpt compare` with both images' variances (Mitsuba: the mean of {st['plugin_passes']} "
          f"independent passes of {st['plugin_spp']} spp and the variance of that mean; btfpt: "
          f"{st['hi_spp']} spp with `--variance`); the verdict is compare's calibrated one "
-         "(`scripts/plugin_vs_btfpt.py SCENE --plmc MODEL --raw DATA` makes the same figures).", "",
+         "(`scripts/plugin_vs_btfpt.py SCENE --plmc MODEL --raw DATA` makes the same figures). The "
+         "renderer comparison must pass; the model comparison fails wherever the model's error is "
+         "larger than the two renders' noise, so its figures, not its verdict, say how large it is.", "",
          "| scene | comparison | relMSE | MAE | luminance ratio | failing 4×4 blocks | verdict |",
          "| --- | --- | --- | --- | --- | --- | --- |"]
     label = {"model": "model: Mitsuba raw vs Mitsuba PLM-C", "renderer": "renderer: Mitsuba PLM-C vs btfpt PLM-C"}
@@ -534,7 +536,10 @@ def plugin_markdown(p: dict) -> list[str]:
         for k in ("model", "renderer"):
             r = sc.get(k) or {}
             blocks = f"{r['failing_blocks']} / {r['blocks']}" if "blocks" in r else "n/a"
-            verdict = "n/a" if "passed" not in r else "PASS" if r["passed"] else "FAIL: " + "; ".join(r["failures"])
+            # Each failure's first clause (the full sentences, with the worst pixels, are in
+            # report.json).
+            verdict = "n/a" if "passed" not in r else "PASS" if r["passed"] else \
+                "FAIL: " + "; ".join(f.split(";")[0].split(" (")[0] for f in r["failures"])
             L.append(f"| {name} | {label[k]} | {fmt(r.get('relmse'))} | {fmt(r.get('mae'))} | "
                      f"{fmt(r.get('mean_luminance_ratio'), '.4f')} | {blocks} | {verdict} |")
     b = p.get("bench")
