@@ -23,6 +23,17 @@ folder (what the references were rendered from), fitted with `btfpt fit` default
 read that folder (-D btf=...). Everything runs in one process, scene after scene, so the timings
 of the two renderers are side by side under the same machine load (the load average is recorded
 before and after each scene; on a shared machine compare CPU times).
+Last (btfpt.mitsuba.register() changes Dr.Jit's flags for the rest of the process), Mitsuba with
+btfpt's plugin (python/, built into the .venv by make_report.sh), through the functions of
+scripts/plugin_vs_btfpt.py and scripts/bench_mitsuba_plugin.py:
+  * per BTF scene, the model's error (Mitsuba raw-BTF plugin vs Mitsuba PLM-C plugin, the
+    renderer held fixed) and the renderer's (Mitsuba PLM-C plugin vs btfpt PLM-C, the model held
+    fixed), each `btfpt compare` with both images' variances (--plugin-passes independent Mitsuba
+    passes of --plugin-spp, btfpt at --hi-spp with --variance);
+  * Mitsuba's CPU time and memory with either plugin on btf-plane at --spp (in passes of
+    --plugin-pass-spp) on a --plugin-size² corduroy (synth + fit, kept in target/bench-plugin),
+    one process per render, --runs alternated runs.
+--sections plugin reruns only that part and merges it into report/report.json and REPORT.md.
 Robust: a failing step is recorded in the report and the rest still runs; exit status 1 then.
 """
 from __future__ import annotations
@@ -54,6 +65,7 @@ SCENES = [  # (scene file, reference name, has a BTF)
 MODELS = ["lm", "plm", "plmc"]
 MODEL_LABEL = {"raw": "raw", "lm": "LM", "plm": "PLM", "plmc": "PLM-C"}
 SYNTH = ["corduroy", "--size", "32", "--seed", "1"]
+PLUGIN_BENCH_SCENE = "scenes/btf-plane/scene.xml"
 
 ERRORS: list[str] = []
 
@@ -131,12 +143,19 @@ def compare(btfpt: Path, test: Path, ref: Path, spp: int | None, diff: Path | No
     p, _, _ = run(cmd, check=False)
     if not out.is_file():
         raise RuntimeError(f"btfpt compare {test} wrote no JSON: {p.stderr.strip()[-400:]}")
-    c = json.loads(out.read_text())["comparison"]
+    return figures(json.loads(out.read_text()))
+
+
+def figures(doc: dict) -> dict:
+    """The figures of a `btfpt compare --json` document the report shows."""
+    c = doc["comparison"]
     r = {k: c[k] for k in ("relmse", "mae", "rmse", "mean_luminance_ratio")}
     b = c.get("block_test")
     if b:
         r["failing_blocks"], r["blocks"] = b["failing"], b["cells"]
         r["mean_z"] = (c.get("pixel_test") or {}).get("mean_z")
+    if doc.get("passed") is not None:
+        r["passed"], r["failures"] = doc["passed"], doc.get("failures", [])
     return r
 
 
@@ -190,6 +209,39 @@ class Mitsuba:
         return {"render_s": wall, "cpu_s": cpu, "load_s": load, "first_render_s": first}
 
 
+def plugin_section(btfpt: Path, mat: Path, plmc: Path, work: Path, a) -> dict:
+    """Mitsuba with btfpt's plugin (the module doc says what): the two renderers' comparisons per
+    BTF scene and the plugins' speed and memory. Call it after every other Mitsuba render of the
+    process (btfpt.mitsuba.register() changes Dr.Jit's flags)."""
+    sys.path.insert(0, str(ROOT / "scripts"))
+    import bench_mitsuba_plugin as bench
+    import plugin_vs_btfpt as pvb
+
+    info = machine_info()
+    res: dict = {"date_utc": info["date_utc"], "commit": info["commit"], "load_before": os.getloadavg(),
+                 "settings": {k: getattr(a, k) for k in ("spp", "hi_spp", "runs", "plugin_size", "plugin_spp",
+                                                          "plugin_passes", "plugin_pass_spp", "threads")},
+                 "bench_scene": PLUGIN_BENCH_SCENE, "scenes": {}}
+    for xml_rel, name, is_btf in SCENES:
+        if not is_btf or (a.only and name not in a.only):
+            continue
+        print(f"== plugin: {name}", file=sys.stderr)
+        r = step(f"plugin: {name}: two renderers", pvb.two_renderers, ROOT / xml_rel, plmc, mat, {},
+                 a.plugin_passes, a.plugin_spp, a.hi_spp, "llvm_ad_rgb", work / "plugin" / name, btfpt)
+        if r:
+            res["scenes"][name] = {"model": figures(r["model"][0]), "renderer": figures(r["renderer"][0])}
+    print("== plugin: speed and memory", file=sys.stderr)
+    m = step("plugin: material", bench.make_material, btfpt, "corduroy", a.plugin_size, 1,
+             ROOT / "target" / "bench-plugin")
+    if m:
+        b = step("plugin: speed and memory", bench.bench, ROOT / PLUGIN_BENCH_SCENE, *m, a.spp, [], a.runs,
+                 a.plugin_pass_spp, 0, "llvm_ad_rgb", None, log=lambda t: print(t, file=sys.stderr))
+        if b:
+            res["bench"] = b | {"material": bench.material_bytes(*m)}
+    res["load_after"] = os.getloadavg()
+    return res
+
+
 def median_times(ts: list[dict]) -> dict:
     """Per-key medians of timing dicts (keys whose values are all numbers)."""
     import statistics
@@ -216,9 +268,23 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=HERE / "REPORT.md")
     ap.add_argument("--images", type=Path, default=HERE / "report")
     ap.add_argument("--only", action="append", help="only these scene names (repeatable; for trying it out)")
+    ap.add_argument("--sections", choices=["all", "plugin"], default="all",
+                    help="plugin: rerun only the Mitsuba plugin section, merged into the existing report")
+    ap.add_argument("--plugin-size", type=int, default=128, help="texels per side of the plugin bench's material")
+    ap.add_argument("--plugin-passes", type=int, default=8, help="Mitsuba passes of the two-renderer comparisons")
+    ap.add_argument("--plugin-spp", type=int, default=16, help="spp of each of those passes")
+    ap.add_argument("--plugin-pass-spp", type=int, default=4, help="spp per pass of the plugin bench's renders")
     a = ap.parse_args(argv)
-    if a.spp < 1 or a.hi_spp < 1 or a.threads < 1 or a.runs < 1:
-        ap.error("--spp, --hi-spp, --threads and --runs must be positive")
+    if min(a.spp, a.hi_spp, a.threads, a.runs, a.plugin_size, a.plugin_spp, a.plugin_pass_spp) < 1:
+        ap.error("--spp, --hi-spp, --threads, --runs and the --plugin-* sizes must be positive")
+    if a.plugin_passes < 2:
+        ap.error("--plugin-passes must be at least 2 (the variance of the mean needs two)")
+    earlier = None
+    if a.sections != "all":
+        try:
+            earlier = json.loads((a.images / "report.json").read_text())
+        except (OSError, ValueError) as e:
+            sys.exit(f"{a.images / 'report.json'}: cannot read the report to merge into ({e}); run all sections")
     btfpt = a.btfpt.resolve()
     if not btfpt.is_file():
         sys.exit(f"{btfpt}: btfpt binary not found (cargo build --release)")
@@ -237,15 +303,16 @@ def main(argv=None) -> int:
         r = step("btfpt synth", run, [btfpt, "synth", *SYNTH, "--format", "exr", "-o", mat])
         if r:
             mres["synth_cpu_s"] = r[2]
-            for m in MODELS:
+            for m in MODELS if earlier is None else ["plmc"]:
                 f = work / f"corduroy.{m}.plmc"
                 r = step(f"btfpt fit {m}", run, [btfpt, "fit", mat, "-o", f, "--model", m])
                 if r:
                     mres[m] = {"fit_wall_s": r[1], "fit_cpu_s": r[2], "bytes": f.stat().st_size,
                                "summary": r[0].stderr.strip().splitlines()[-2:]}
-        shutil.rmtree(a.images, ignore_errors=True)
+        if earlier is None:
+            shutil.rmtree(a.images, ignore_errors=True)
         for xml_rel, name, is_btf in SCENES:
-            if a.only and name not in a.only:
+            if (a.only and name not in a.only) or earlier is not None:
                 continue
             xml = ROOT / xml_rel
             ref = HERE / name / f"{name}.exr"
@@ -316,10 +383,22 @@ def main(argv=None) -> int:
                 if "raw" in hi:
                     res["model_error"]["raw_render_s"] = hi["raw"][1]["render_s"]
             res["load_after"] = os.getloadavg()
+        plmc = work / "corduroy.plmc.plmc"
+        if mitsuba and plmc.is_file():
+            results["plugin"] = plugin_section(btfpt, mat, plmc, work, a)
+        else:
+            ERRORS.append("plugin: skipped (Mitsuba or the PLM-C fit of the material is missing)")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     info["load_end"] = os.getloadavg()
     results["errors"] = ERRORS
+    if earlier is not None:
+        # Only the plugin section is new: everything else, and the settings the other sections
+        # were made with, come from the earlier run.
+        earlier["errors"] = [e for e in earlier.get("errors", []) if not e.startswith("plugin")] + ERRORS
+        earlier["plugin"] = results.get("plugin")
+        results = earlier
+        a = argparse.Namespace(**(vars(a) | {k: earlier["settings"][k] for k in ("spp", "hi_spp", "threads", "runs")}))
     a.images.mkdir(parents=True, exist_ok=True)
     (a.images / "report.json").write_text(json.dumps(results, indent=1, default=str) + "\n")
     a.out.write_text(markdown(results, a))
@@ -332,8 +411,9 @@ def markdown(res: dict, a) -> str:
     la = lambda t: " / ".join(f"{x:.2f}" for x in t)  # noqa: E731
     rel = os.path.relpath(a.images, a.out.parent)
     L = ["# Validation report: btfpt vs Mitsuba 3", "",
-         "Generated by `reference-images/make_report.sh` (do not edit by hand; rerun it). Every figure",
-         "below comes from that one run. What is measured and how: the docstring of",
+         "Generated by `reference-images/make_report.sh` (do not edit by hand; rerun it). Every figure "
+         "below comes from that one run" + (" (the plugin section, which can be rerun alone, says when it ran)"
+                                            if res.get("plugin") else "") + ". What is measured and how: the docstring of",
          "`reference-images/make_report.py`; the references and their calibration: `NOTES.md`.", ""]
     if res["errors"]:
         L += ["**Steps that failed in this run:**", ""] + [f"- {e}" for e in res["errors"]] + [""]
@@ -427,7 +507,67 @@ def markdown(res: dict, a) -> str:
                   "| " + " | ".join(cell(f, t) for f, _, t in cols) + " |",
                   "| " + " | ".join(cell(d, "difference") for _, d, _ in cols) + " |"]
         L.append("")
+    if res.get("plugin"):
+        L += plugin_markdown(res["plugin"])
     return "\n".join(L)
+
+
+def plugin_markdown(p: dict) -> list[str]:
+    """The section of Mitsuba with btfpt's plugin (see `plugin_section`)."""
+    la = lambda t: " / ".join(f"{x:.2f}" for x in t)  # noqa: E731
+    st = p["settings"]
+    L = ["## Mitsuba with btfpt's plugin", "",
+         f"Run {p['date_utc']} at commit `{p['commit']}`; load average {la(p['load_before'])} → "
+         f"{la(p['load_after'])}. Mitsuba 3 renders the BTF scenes with the 32² corduroy above twice: "
+         "through the raw-BTF plugin of this folder (`btf_plugin.py`) on the measured data, and through "
+         "btfpt's plugin (`btfpt.mitsuba`, `python/`) on its PLM-C fit. *Model*: Mitsuba raw vs "
+         "Mitsuba PLM-C, the renderer held fixed, so what differs is the model's error. *Renderer*: "
+         "Mitsuba PLM-C vs btfpt PLM-C, the model held fixed, so what differs is the renderers'. "
+         f"Each is `btfpt compare` with both images' variances (Mitsuba: the mean of {st['plugin_passes']} "
+         f"independent passes of {st['plugin_spp']} spp and the variance of that mean; btfpt: "
+         f"{st['hi_spp']} spp with `--variance`); the verdict is compare's calibrated one "
+         "(`scripts/plugin_vs_btfpt.py SCENE --plmc MODEL --raw DATA` makes the same figures). The "
+         "renderer comparison must pass; the model comparison fails wherever the model's error is "
+         "larger than the two renders' noise, so its figures, not its verdict, say how large it is.", "",
+         "| scene | comparison | relMSE | MAE | luminance ratio | failing 4×4 blocks | verdict |",
+         "| --- | --- | --- | --- | --- | --- | --- |"]
+    label = {"model": "model: Mitsuba raw vs Mitsuba PLM-C", "renderer": "renderer: Mitsuba PLM-C vs btfpt PLM-C"}
+    for name, sc in p["scenes"].items():
+        for k in ("model", "renderer"):
+            r = sc.get(k) or {}
+            blocks = f"{r['failing_blocks']} / {r['blocks']}" if "blocks" in r else "n/a"
+            # Each failure's first clause (the full sentences, with the worst pixels, are in
+            # report.json).
+            verdict = "n/a" if "passed" not in r else "PASS" if r["passed"] else \
+                "FAIL: " + "; ".join(f.split(";")[0].split(" (")[0] for f in r["failures"])
+            L.append(f"| {name} | {label[k]} | {fmt(r.get('relmse'))} | {fmt(r.get('mae'))} | "
+                     f"{fmt(r.get('mean_luminance_ratio'), '.4f')} | {blocks} | {verdict} |")
+    b = p.get("bench")
+    if b:
+        m, med, ratio = b["material"], b["median"], b["ratio"]
+        mib = lambda x: f"{x / 2**20:.1f} MiB"  # noqa: E731
+        L += ["", f"Speed and memory: Mitsuba renders `{p['bench_scene']}` at {st['spp']} spp (in passes of "
+              f"{b['pass_spp']} spp) with a {m['size'][0]}×{m['size'][1]}-texel corduroy ({m['views']} × "
+              f"{m['lights']} directions, `btfpt synth corduroy --size {st['plugin_size']} --seed 1` and "
+              "`btfpt fit` defaults), one process per render, both plugins in alternated runs "
+              f"({st['runs']} each, medians; `scripts/bench_mitsuba_plugin.py {p['bench_scene']} --size "
+              f"{st['plugin_size']} --spp {st['spp']} --pass-spp {st['plugin_pass_spp']}`). *Material* = "
+              "resident memory after loading the scene minus before: what the material itself holds, "
+              "apart from the fixed cost of Python, Mitsuba and LLVM that every process pays. The raw "
+              f"plugin's table is {mib(m['raw_float32_bytes'])} of float32 ({mib(m['raw_file_bytes'])} "
+              f"as a half-float `.btfc`), the `.plmc` file {mib(m['plmc_file_bytes'])}: "
+              f"{m['raw_float32_bytes'] / m['plmc_file_bytes']:.0f}×.", "",
+              "| plugin | CPU | peak resident | material resident | scene load | render |",
+              "| --- | --- | --- | --- | --- | --- |"]
+        for w, lab in (("raw", "raw-BTF (`btf_plugin.py`)"), ("plmc", "PLM-C (`btfpt.mitsuba`)")):
+            x = med[w]
+            L.append(f"| {lab} | {x['cpu']:.1f} s | {x['peak_mib']:.0f} MiB | {x['material_mib']:.0f} MiB | "
+                     f"{x['load']:.2f} s | {x['render']:.2f} s |")
+        fx = lambda v: "n/a" if v is None else f"{v:.1f}×"  # noqa: E731
+        L.append(f"| raw / PLM-C | {fx(ratio['cpu'])} | {fx(ratio['peak_mib'])} | {fx(ratio['material_mib'])} | "
+                 f"{fx(ratio['load'])} | {fx(ratio['render'])} |")
+    L.append("")
+    return L
 
 
 if __name__ == "__main__":

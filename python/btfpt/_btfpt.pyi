@@ -17,7 +17,7 @@ class Btf:
 
     @staticmethod
     def open(path: _Path, model: Optional[Literal["raw", "lm", "plm", "plmc"]] = None, uv_scale: float = 1.0) -> "Btf":
-        """Opens raw data (UBO2003 folder, .btf, .btfc, synth:...) or a .plmc model; `model` picks another representation found next to `path`."""
+        """Opens raw data (UBO2003 folder, .btf, .btfc, or a synth:... source read through the cache folder as scenes read it) or a .plmc model; `model` picks another representation found next to `path`."""
     def eval(self, uv: _ArrayLike, wi: _ArrayLike, wo: _ArrayLike) -> _F32:
         """B = π·f·cos θ_l of N queries: uv (N, 2), wi/wo (N, 3) unit local directions -> (N, 3) float32."""
     def pdf(self, uv: _ArrayLike, wi: _ArrayLike, wo: _ArrayLike) -> _F32:
@@ -74,9 +74,11 @@ def synth(material: str, size: Union[int, Tuple[int, int], None] = None, seed: i
           directions: Literal["ubo2003", "ubo2014"] = "ubo2003", format: Literal["png8", "png16", "exr"] = "png8",
           progress: bool = True) -> str: ...
 def fit(data: _Path, out: _Path, model: Literal["lm", "plm", "plmc"] = "plmc", clusters: int = 256,
-        views: Optional[str] = None, tile: Optional[str] = None, progress: bool = True) -> dict[str, Any]: ...
+        views: Optional[str] = None, tile: Optional[str] = None, progress: bool = True) -> dict[str, Any]:
+    """Fits a model to `data` (a UBO2003 folder, .btf, .btfc or a synth:... source, read as `btfpt fit` reads it) into `out`."""
 def eval_model(model: _Path, against: _Path, clusters: int = 256, features: int = 20, seed: int = 0,
-               pca_k: Optional[int] = None, progress: bool = True) -> dict[str, Any]: ...
+               pca_k: Optional[int] = None, progress: bool = True) -> dict[str, Any]:
+    """The document `btfpt eval MODEL --against DATA --json` writes (`against` as fit's `data`)."""
 def compare(test: _Path, reference: _Path, spp: Optional[int] = None, test_variance: Optional[_Path] = None,
             variance: Optional[_Path] = None, sample_variance: Optional[_Path] = None, alpha: float = 0.01,
             scales: Sequence[int] = (4, 8, 16, 32), sample_variance_floor: float = 1e-4, block: int = 4,

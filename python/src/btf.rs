@@ -9,6 +9,7 @@ use crate::query::{self, Model};
 use btfpt::bsdf::plmc::PlmcMaterial;
 use btfpt::bsdf::{BtfBsdf, BtfMaterial, PlmcBsdf};
 use btfpt::btf::BtfSource;
+use btfpt::btf::synth::disk_cache;
 use btfpt::model::{BtfModel, PlmcModel, codec, resolve_model_file};
 use btfpt::scene::btf_bsdf::SynthSpec;
 use numpy::ndarray::Array3;
@@ -48,7 +49,12 @@ impl Btf {
                     "\"{path}\" is a synthetic raw BTF; model \"{m}\" needs a fitted .plmc file"
                 )));
             }
-            let raw = spec.and_then(|s| s.generate()).py_err()?;
+            // As a scene's `synth:` source: read from the user's cache folder, generated and
+            // cached when missing, in memory only when no folder is known.
+            let dir = disk_cache::default_cache_dir();
+            let (raw, _) = spec
+                .and_then(|s| disk_cache::load_or_generate(&s, dir.as_deref()))
+                .py_err()?;
             let material = BtfMaterial::new(Arc::new(raw)).py_err()?;
             return Btf::raw(material, PathBuf::from(path), uv_scale);
         }

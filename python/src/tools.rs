@@ -3,7 +3,7 @@
 
 use crate::errors::{IntoPy, invalid, missing};
 use crate::interrupt::{self, Progress};
-use btfpt::btf::synth::{MaterialKind, SynthSettings, measure};
+use btfpt::btf::synth::{MaterialKind, SynthSettings, disk_cache, measure};
 use btfpt::btf::ubo2003::{ImageKind, write_folder};
 use btfpt::btf::{self, DirectionSet, tiling};
 use btfpt::fit::pipeline::{self, FitOptions};
@@ -21,6 +21,21 @@ fn exists(p: &Path, what: &str) -> PyResult<()> {
     } else {
         Err(missing(format!("{}: {what} not found", p.display())))
     }
+}
+
+/// The file to read for the BTF data `data`, as the CLI's `fit` and `eval --against` read it:
+/// `data` itself, or for a `synth:` source its entry in the user's cache folder (generated
+/// first, GIL released; with `progress` the note of where it came from goes to stderr).
+fn data_file(py: Python<'_>, data: PathBuf, progress: bool) -> PyResult<PathBuf> {
+    let dir = disk_cache::default_cache_dir();
+    let (path, note) = py
+        .detach(|| disk_cache::resolve_input(&data, dir.as_deref()))
+        .py_err()?;
+    if let (Some(note), true) = (note, progress) {
+        eprintln!("{note}");
+    }
+    exists(&path, "BTF data")?;
+    Ok(path)
 }
 
 /// Measures the procedural material `material` ("wool", "corduroy", "leather", "wood", "foil")
@@ -117,7 +132,9 @@ pub fn synth(
     Ok(out)
 }
 
-/// Fits a model to measured data, as `btfpt fit DATA -o OUT`: `model` "lm", "plm" or "plmc",
+/// Fits a model to measured data, as `btfpt fit DATA -o OUT` (`data` a UBO2003 folder, `.btf`,
+/// `.btfc` or a `synth:` source, read through the cache folder as the CLI reads it): `model`
+/// "lm", "plm" or "plmc",
 /// `clusters` per view and colour channel, `views` (e.g. "0..10" or "1/4": fit only those into
 /// OUT.parts/, as `--views`), `tile` ("WxH": one seamless tile, as `--tile`). Ctrl-C keeps the
 /// finished views in OUT.parts/; the same call resumes. Returns a dict of the figures `fit`
@@ -146,7 +163,6 @@ pub fn fit<'py>(
             )));
         }
     };
-    exists(&data, "BTF data")?;
     if out.is_dir() {
         return Err(invalid(format!(
             "{}: is a folder; give a .plmc file name",
@@ -170,6 +186,7 @@ pub fn fit<'py>(
         clusters,
         ..FitOptions::default()
     };
+    let data = data_file(py, data, progress)?;
     let source_data = py.detach(|| btf::open(&data)).py_err()?;
     let nviews = source_data.views().len();
     let selection = views
@@ -271,7 +288,8 @@ pub fn fit<'py>(
 }
 
 /// Evaluates a model file against the measured data it was fitted to, as `btfpt eval MODEL
-/// --against DATA --json`: returns the JSON document as a dict (error table per model kind,
+/// --against DATA --json` (`against` as `fit`'s `data`, `synth:` sources included): returns the
+/// JSON document as a dict (error table per model kind,
 /// raw size, seam figures, the tile's figures for tiled models).
 #[pyfunction]
 #[pyo3(signature = (model, against, clusters=256, features=20, seed=0, pca_k=None, progress=true))]
@@ -287,7 +305,7 @@ pub fn eval_model<'py>(
     progress: bool,
 ) -> PyResult<Bound<'py, PyAny>> {
     exists(&model, "model file")?;
-    exists(&against, "BTF data")?;
+    let against = data_file(py, against, progress)?;
     let views = codec::read_header(&model).py_err()?.views.len();
     let opts = FitOptions {
         clusters,

@@ -118,3 +118,29 @@ def test_compare_equals_cli_json(cli, tmp_path):
         btfpt.compare(a, tmp_path / "nope.exr")
     with pytest.raises(btfpt.errors.InvalidArgumentError, match=r"--alpha 2: must be in \(0, 1\)"):
         btfpt.compare(a, b, alpha=2)
+
+
+def test_synth_sources_read_as_cli(cli, tmp_path, monkeypatch):
+    # A synth: source is generated once into the cache folder, as the CLI does, and every call
+    # then reads that entry: the same model bytes and the same eval figures as the CLI's.
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("BTFPT_CACHE_DIR", str(cache))
+    src = "synth:leather?size=4&seed=2&strata=1"
+    r = btfpt.fit(src, tmp_path / "py.plmc", clusters=4, progress=False)
+    (entry,) = cache.iterdir()
+    assert entry.suffix == ".btfc" and r["size"] == (4, 4)
+    run_cli(cli, "fit", src, "-o", tmp_path / "cli.plmc", "--clusters", "4")
+    assert (tmp_path / "py.plmc").read_bytes() == (tmp_path / "cli.plmc").read_bytes()
+    assert list(cache.iterdir()) == [entry]
+    doc = btfpt.eval_model(tmp_path / "py.plmc", src, clusters=4, progress=False)
+    run_cli(cli, "eval", tmp_path / "cli.plmc", "--against", src, "--clusters", "4",
+            "--json", tmp_path / "cli.json")
+    assert doc == json.loads((tmp_path / "cli.json").read_text())
+    a, b = btfpt.Btf.open(src), btfpt.Btf.open(entry)
+    assert a.kind == b.kind == "raw" and a.size == (4, 4)
+    for v, l in [(0, 0), (40, 17)]:
+        np.testing.assert_array_equal(a.texel_image(v, l), b.texel_image(v, l))
+    with pytest.raises(btfpt.errors.InvalidArgumentError, match="velvet"):
+        btfpt.fit("synth:velvet", tmp_path / "v.plmc", progress=False)
+    with pytest.raises(btfpt.errors.InvalidArgumentError, match="size=0"):
+        btfpt.eval_model(tmp_path / "py.plmc", "synth:wool?size=0", progress=False)

@@ -167,6 +167,34 @@ pub fn load_or_generate(spec: &SynthSpec, dir: Option<&Path>) -> Result<(RawBtf,
     })
 }
 
+/// The file to read for a BTF that a command or a Python call names (`info`, `fit`, `eval
+/// --against`, `btfpt.fit`, `btfpt.Btf.open`, ...): `input` itself, or for a `synth:` source its
+/// entry in the cache folder `dir` (generated and written first when missing or corrupt) with a
+/// note saying where the material came from. A source that cannot be cached is an error naming
+/// `input`, since these callers read files.
+pub fn resolve_input(input: &Path, dir: Option<&Path>) -> Result<(PathBuf, Option<String>)> {
+    let Some(spec) = input.to_str().and_then(SynthSpec::parse) else {
+        return Ok((input.to_path_buf(), None));
+    };
+    let spec = spec?;
+    let Some(dir) = dir else {
+        return Err(Error::Invalid(format!(
+            "{}: a synth: source is read through the cache folder, and none is known: set \
+             {CACHE_DIR_ENV} (or XDG_CACHE_HOME or HOME)",
+            input.display()
+        )));
+    };
+    let (_, origin) = load_or_generate(&spec, Some(dir))
+        .map_err(|e| Error::Invalid(format!("generating {}: {e}", input.display())))?;
+    let note = format!("{}: {origin}", spec.canonical());
+    match origin {
+        SynthOrigin::Cached(p) | SynthOrigin::Generated { entry: p, .. } => Ok((p, Some(note))),
+        SynthOrigin::Uncached { reason, .. } => {
+            Err(Error::Invalid(format!("{}: {reason}", input.display())))
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,6 +249,29 @@ mod tests {
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
             .collect();
         assert_eq!(names.len(), 2, "{names:?}");
+    }
+
+    #[test]
+    fn inputs_resolve_to_their_cache_entry_or_themselves() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = "synth:leather?size=2&seed=3&strata=1&subdiv=1";
+        let (p, note) = resolve_input(Path::new(src), Some(dir.path())).unwrap();
+        assert_eq!(p, entry_path(dir.path(), &spec()));
+        assert!(note.unwrap().contains("generated"));
+        let (_, note) = resolve_input(Path::new(src), Some(dir.path())).unwrap();
+        assert!(note.unwrap().contains("read from the cache"));
+        let (p, note) = resolve_input(Path::new("some/folder"), None).unwrap();
+        assert_eq!((p, note), (PathBuf::from("some/folder"), None));
+        let e = resolve_input(Path::new(src), None).unwrap_err().to_string();
+        assert!(e.contains("none is known"), "{e}");
+        let e = resolve_input(Path::new("synth:velvet"), Some(dir.path()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("velvet"), "{e}");
+        let e = resolve_input(Path::new(src), Some(Path::new("/proc/btfpt-cache")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("cannot write the cache"), "{e}");
     }
 
     #[test]
