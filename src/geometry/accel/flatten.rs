@@ -10,7 +10,9 @@ use obvhs::bvh2::Bvh2;
 /// triangles are packed first-fit, largest leaf first, into as few 8-lane packets as hold them
 /// without splitting a leaf, appended to `packets` as global triangle ids (`gids` of obvhs's
 /// primitive indices; u32::MAX in unused lanes). A leaf child then tests its packet mates too,
-/// which costs nothing (the lanes run at once) and can only find real hits. Returns the index
+/// which costs nothing (the lanes run at once) and can only find real hits; each leaf's slot
+/// records its packet group (`Node8::count`) so a ray entering several leaves of one packet
+/// tests it once. Returns the index
 /// of the root wide node. Iterative, so deep trees cannot overflow the call stack.
 pub(super) fn flatten(
     bvh2: &Bvh2,

@@ -1,7 +1,7 @@
-//! Front-to-back traversal of the 8-wide BVH, compiled twice: with AVX2 enabled over [`Avx8`]
-//! (one ymm register per 8-lane step; picked when `simd::isa()` reports AVX2 or AVX-512) and
-//! in the baseline build over [`Sse8`] (two SSE halves), so a baseline (SSE2) binary still
-//! runs 8-wide code on AVX2 machines.
+//! Front-to-back traversal of the 8-wide BVH, compiled three times: over [`Avx8`] (one ymm
+//! register per 8-lane step) with AVX2 enabled and with AVX-512 VL enabled (32 registers, picked
+//! when `simd::isa()` reports AVX-512), and in the baseline build over [`Sse8`] (two SSE
+//! halves), so a baseline (SSE2) binary still runs 8-wide code on AVX2 machines.
 //!
 //! Not `isa_dispatch!`: that macro compiles one body for every ISA, while here the body's
 //! lane type differs per build (explicit AVX intrinsics only exist in the AVX2 one).
@@ -62,6 +62,12 @@ pub(super) fn run<const ANY: bool>(
     match isa.level() {
         // SAFETY: an `Isa` of these levels is made only by `simd::isa()` / `Isa::available`,
         // which checked AVX2 on this CPU (AVX-512 implies it there).
+        // (AVX-512 VL as well: std caches the CPUID answer, one load per ray.)
+        #[cfg(target_arch = "x86_64")]
+        Level::Avx512 if std::arch::is_x86_feature_detected!("avx512vl") => unsafe {
+            run_avx512::<ANY>(nodes, tris, o, d, tmax)
+        },
+        // SAFETY: as above, AVX2 checked.
         #[cfg(target_arch = "x86_64")]
         Level::Avx512 | Level::Avx2 => unsafe { run_avx2::<ANY>(nodes, tris, o, d, tmax) },
         _ => traverse::<ANY, Sse8>(nodes, tris, o, d, tmax),
@@ -72,6 +78,21 @@ pub(super) fn run<const ANY: bool>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn run_avx2<const ANY: bool>(
+    nodes: &[Node8],
+    tris: &[TriPack],
+    o: Vec3,
+    d: Vec3,
+    tmax: f32,
+) -> SlotHit {
+    traverse::<ANY, Avx8>(nodes, tris, o, d, tmax)
+}
+
+/// [`traverse`] over [`Avx8`] lanes, compiled with AVX-512 (VL) enabled: the same ymm
+/// operations, but EVEX-encoded with 32 vector registers instead of 16, so the per-ray
+/// constants stay in registers instead of being reloaded from the stack at every node.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl")]
+fn run_avx512<const ANY: bool>(
     nodes: &[Node8],
     tris: &[TriPack],
     o: Vec3,
