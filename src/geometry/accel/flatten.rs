@@ -1,6 +1,6 @@
 //! BVH2 → 8-wide collapse: obvhs's binary BVH flattened into [`Node8`]s and leaf packets.
 
-use super::node::{Node8, WIDTH, leaf_count};
+use super::node::{Node8, WIDTH};
 use super::tri::LANES;
 use obvhs::bvh2::Bvh2;
 
@@ -10,9 +10,7 @@ use obvhs::bvh2::Bvh2;
 /// triangles are packed first-fit, largest leaf first, into as few 8-lane packets as hold them
 /// without splitting a leaf, appended to `packets` as global triangle ids (`gids` of obvhs's
 /// primitive indices; u32::MAX in unused lanes). A leaf child then tests its packet mates too,
-/// which costs nothing (the lanes run at once) and can only find real hits; each leaf's slot
-/// records its packet group (`Node8::count`) so a ray entering several leaves of one packet
-/// tests it once. Returns the index
+/// which costs nothing (the lanes run at once) and can only find real hits. Returns the index
 /// of the root wide node. Iterative, so deep trees cannot overflow the call stack.
 pub(super) fn flatten(
     bvh2: &Bvh2,
@@ -31,8 +29,6 @@ pub(super) fn flatten(
     let mut leaves: Vec<(usize, usize, usize)> = Vec::with_capacity(WIDTH);
     // Lanes used in each packet opened for the current wide node.
     let mut fill: Vec<usize> = Vec::with_capacity(WIDTH);
-    // Slot of the first leaf stored in each of those packets (its packet group, see `Node8`).
-    let mut owner: Vec<usize> = Vec::with_capacity(WIDTH);
     while let Some((bi, parent)) = work.pop() {
         let me = nodes.len();
         nodes.push(Node8::EMPTY);
@@ -76,7 +72,6 @@ pub(super) fn flatten(
         // Largest leaf first (ties by slot, so the layout is deterministic).
         leaves.sort_by(|x, y| y.2.cmp(&x.2).then(x.0.cmp(&y.0)));
         fill.clear();
-        owner.clear();
         let base = packets.len();
         for &(slot, f, count) in &leaves {
             let prims = &bvh2.primitive_indices[f..f + count];
@@ -84,7 +79,7 @@ pub(super) fn flatten(
             if count > LANES {
                 // Only with leaves wider than a packet: whole packets of its own.
                 n.child[slot] = packets.len() as u32;
-                n.count[slot] = leaf_count(count.div_ceil(LANES), slot);
+                n.count[slot] = count.div_ceil(LANES) as u32;
                 for chunk in prims.chunks(LANES) {
                     let mut pk = [u32::MAX; LANES];
                     for (l, &p) in pk.iter_mut().zip(chunk) {
@@ -92,7 +87,6 @@ pub(super) fn flatten(
                     }
                     packets.push(pk);
                     fill.push(LANES);
-                    owner.push(slot);
                 }
                 continue;
             }
@@ -101,7 +95,6 @@ pub(super) fn flatten(
                 None => {
                     packets.push([u32::MAX; LANES]);
                     fill.push(0);
-                    owner.push(slot);
                     fill.len() - 1
                 }
             };
@@ -111,7 +104,7 @@ pub(super) fn flatten(
             }
             fill[bin] += count;
             n.child[slot] = (base + bin) as u32;
-            n.count[slot] = leaf_count(1, owner[bin]);
+            n.count[slot] = 1;
         }
     }
     root

@@ -4,10 +4,10 @@
 //! ([`node`], [`flatten`]; leaves of one node share 8-lane packets) and traverse that by hand ([`traverse`]): one 8-lane slab test per
 //! node, front-to-back child order for closest hits, 8-triangle Möller–Trumbore leaf packets
 //! ([`tri`]), and the hit's barycentrics returned so shading does not intersect the triangle
-//! again. The traversal is compiled three times, for AVX2 ([`lanes`]: one ymm register per
-//! 8-lane step), for AVX-512 VL (the same ymm steps with 32 registers) and for the baseline (two
-//! SSE halves), and picked at runtime by `simd::isa()`, so a baseline (SSE2) binary still runs
-//! 8-wide code on AVX2 machines. All builds return the same bits (no fused multiply-adds).
+//! again. The traversal is compiled twice, for AVX2 ([`lanes`]: one ymm register per 8-lane
+//! step, also used on AVX-512 CPUs) and for the baseline (two SSE halves), and picked at runtime
+//! by `simd::isa()`, so a baseline (SSE2) binary still runs 8-wide code on AVX2 machines. Both
+//! builds return the same bits (no fused multiply-adds).
 //!
 //! Why not obvhs's own CWBVH traversal: it decodes 8-bit quantised child boxes (u8 → f32 lane
 //! by lane) at every node and sorts nothing; on incoherent rays it ran at ~1 Mray/s on 130k

@@ -21,44 +21,8 @@ pub(super) struct Node8 {
     pub bounds: [[f32; WIDTH]; 6],
     /// Internal child: index into the node array. Leaf child: first packet of the leaf.
     pub child: [u32; WIDTH],
-    /// 0 for an internal child (or an empty slot); for a leaf, the number of its packets in the
-    /// low [`PACKETS_BITS`] bits and above them its packet group: the slot of the first leaf of
-    /// this node stored in the same packet (leaves of one node share packets), so a packet whose
-    /// leaves are all entered is tested once.
+    /// 0 for an internal child (or an empty slot), else the number of packets of the leaf.
     pub count: [u32; WIDTH],
-}
-
-/// Bits of [`Node8::count`] holding a leaf's packet count; its packet group sits above them.
-pub(super) const PACKETS_BITS: u32 = 16;
-
-/// The `count` of a leaf slot: `packets` packets in packet group `group` (a slot, 0..8).
-#[inline]
-pub(super) fn leaf_count(packets: usize, group: usize) -> u32 {
-    debug_assert!(packets > 0 && packets < 1 << PACKETS_BITS && group < WIDTH);
-    packets as u32 | (group as u32) << PACKETS_BITS
-}
-
-/// Starts loading the node `i` of `nodes` (its four cache lines) without waiting.
-#[inline(always)]
-pub(super) fn prefetch_node(nodes: &[Node8], i: u32) {
-    if let Some(n) = nodes.get(i as usize) {
-        let p = (n as *const Node8).cast::<u8>();
-        for line in 0..4 {
-            prefetch_line(p.wrapping_add(64 * line));
-        }
-    }
-}
-
-/// Starts loading the 64-byte cache line at `p` into the L1 cache without waiting.
-#[inline(always)]
-pub(super) fn prefetch_line(p: *const u8) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>())
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }
 
 impl Node8 {

@@ -404,20 +404,6 @@ fn leaves_share_packets() {
         n as f64 > 0.7 * lanes as f64,
         "{n} triangles in {lanes} lanes"
     );
-    // A leaf's packet group is the first slot stored in its packet: leaves share a group
-    // exactly when they share their packets, and the group's own slot is in it.
-    for wide in &accel.nodes {
-        let leaf = |s: usize| wide.count[s] != 0;
-        for a in (0..node::WIDTH).filter(|&a| leaf(a)) {
-            let group = (wide.count[a] >> node::PACKETS_BITS) as usize;
-            assert!(leaf(group), "slot {a} in group {group}");
-            assert_eq!(wide.count[group] >> node::PACKETS_BITS, group as u32);
-            for b in (0..node::WIDTH).filter(|&b| leaf(b)) {
-                let same = wide.count[b] >> node::PACKETS_BITS == group as u32;
-                assert_eq!(same, wide.child[a] == wide.child[b], "slots {a} and {b}");
-            }
-        }
-    }
 }
 
 #[test]

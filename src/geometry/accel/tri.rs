@@ -22,15 +22,6 @@ pub(super) struct TriPack {
     n: [[f32; LANES]; 3],
 }
 
-/// Starts loading the packet `p` (its six cache lines) without waiting.
-#[inline(always)]
-pub(super) fn prefetch_packet(p: &TriPack) {
-    let b = (p as *const TriPack).cast::<u8>();
-    for line in 0..std::mem::size_of::<TriPack>() / 64 {
-        super::node::prefetch_line(b.wrapping_add(64 * line));
-    }
-}
-
 /// Per-lane hits of one packet: bit k of `mask` set if lane k is hit; t, b1, b2 per lane.
 pub(super) struct PackHit {
     /// Lanes hit at t in (0, tmax].
