@@ -206,7 +206,7 @@ impl BtfLightSampler {
     fn triangle_of(&self, part: Part) -> usize {
         match part {
             Part::Table { view, u } => match &self.tris[view as usize] {
-                Some(tris) => tris.sample(u).0,
+                Some(tris) => tris.sample_bin(u),
                 None => 0,
             },
             _ => 0,
