@@ -226,8 +226,9 @@ mod tests {
     use crate::math::Pcg32;
     use crate::math::frame::from_spherical;
 
-    /// `locate16` against `locate` lane by lane, bit for bit (NaN weights: both NaN), over
-    /// `points` in chunks of 16; returns how many lanes hit a cell searched lane-wise.
+    /// `locate16` (and `locate16_lanes` on its lanes) against `locate` lane by lane, bit for
+    /// bit (NaN weights: both NaN), over `points` in chunks of 16; returns how many lanes hit a
+    /// cell searched lane-wise.
     fn check(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
         let mut fast = 0;
         for chunk in points.chunks(LOCATE_LANES) {
@@ -238,10 +239,14 @@ mod tests {
             }
             let got = ip.locate16(&qx, &qy);
             let scalar = ip.locate16_scalar(&qx, &qy);
+            // A subset of the lanes, varying from chunk to chunk: those lanes are the same.
+            let lanes = 0b1010_0110_0101_1001u16.rotate_left(fast as u32);
+            let part = ip.locate16_lanes(&qx, &qy, lanes);
             let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
             for i in 0..LOCATE_LANES {
                 let (t, w) = ip.locate([qx[i], qy[i]]);
-                for (gt, gw) in [got.lane(i), scalar.lane(i)] {
+                let wanted = (lanes >> i & 1 == 1).then(|| part.lane(i));
+                for (gt, gw) in [got.lane(i), scalar.lane(i)].into_iter().chain(wanted) {
                     assert!(
                         gt == t && (0..3).all(|k| same(gw[k], w[k])),
                         "({}, {}): batched {:?}, locate {:?}",
