@@ -13,7 +13,7 @@
 //! integrator's kernel that calls them.
 
 use super::diffuse::{eval_local_x, pdf_local_x, sample_local_x};
-use super::plmc::{PREPARE_LANES, PlmcBsdf};
+use super::plmc::{PREPARE_LANES, PlmcBsdf, PlmcHit};
 use super::roughconductor::RoughConductorAt;
 use super::roughdielectric::RoughDielectricAt;
 use super::{
@@ -23,6 +23,7 @@ use super::{
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
+use std::mem::MaybeUninit;
 
 /// Lanes of a batch.
 pub const L: usize = 16;
@@ -59,9 +60,15 @@ enum Kind<'a> {
 pub struct BsdfBatch<'a> {
     kind: Kind<'a>,
     bsdf: &'a Bsdf,
-    /// Per lane: the BSDF at its hit, for the lanes that go through the scalar code or the
-    /// fitted-BTF kernel.
+    /// Per lane: the BSDF at its hit, for the lanes that go through the scalar code.
     at: [Option<BsdfAt<'a>>; L],
+    /// A fitted BTF's lanes with per-hit state: hit j is lane `plmc_lane[j]`'s, j <
+    /// `plmc_n`, packed so the batched calls take them as they are (see
+    /// [`Self::plmc_hits`]; left uninitialised past `plmc_n`: other kinds' batches would pay a
+    /// 1.5 KB memset each).
+    plmc_hits: [MaybeUninit<PlmcHit>; L],
+    plmc_lane: [u8; L],
+    plmc_n: usize,
     /// Diffuse lanes: the albedo texture of each started lane (looked up in [`Self::prepare`]).
     tex: [Option<&'a Texture>; L],
     /// The lanes' surface coordinates (set by [`Self::prepare`]).
@@ -94,6 +101,19 @@ pub struct BatchSample {
     pub delta: Mx,
     /// False where sampling failed (the path ends).
     pub ok: Mx,
+}
+
+impl BatchSample {
+    /// Lane `l` set to the scalar sample `bs` with weight `weight`.
+    #[inline(always)]
+    fn set(&mut self, l: usize, (bs, weight): (BsdfSample, Spectrum)) {
+        self.wo.set(l, bs.wo);
+        self.pdf.0[l] = bs.pdf;
+        self.weight.set(l, weight);
+        self.eta.0[l] = bs.eta;
+        self.delta.0[l] = bs.sampled.has(BsdfFlags::DELTA);
+        self.ok.0[l] = true;
+    }
 }
 
 /// The albedo textures of a BSDF the diffuse SoA stages run: (front, back) of a `twosided`
@@ -143,6 +163,9 @@ impl<'a> BsdfBatch<'a> {
             kind,
             bsdf,
             at: [None; L],
+            plmc_hits: [MaybeUninit::uninit(); L],
+            plmc_lane: [0; L],
+            plmc_n: 0,
             tex: [None; L],
             uv: V2x::ZERO,
             albedo: V3x::ZERO,
@@ -213,10 +236,14 @@ impl<'a> BsdfBatch<'a> {
         if let Kind::Plmc(b) = self.kind {
             let hits = b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], live);
             for l in (0..L).filter(|&l| live & (1 << l) != 0) {
-                self.at[l] = Some(match hits[l] {
-                    Some(h) => BsdfAt::Plmc(b, h),
-                    None => BsdfAt::Stateless(self.bsdf),
-                });
+                match hits[l] {
+                    Some(h) => {
+                        self.plmc_hits[self.plmc_n] = MaybeUninit::new(h);
+                        self.plmc_lane[self.plmc_n] = l as u8;
+                        self.plmc_n += 1;
+                    }
+                    None => self.at[l] = Some(BsdfAt::Stateless(self.bsdf)),
+                }
             }
         }
     }
@@ -313,7 +340,7 @@ impl<'a> BsdfBatch<'a> {
         };
         for l in 0..L {
             // (A fitted BTF's lanes with per-hit state were evaluated in the batch.)
-            if let (true, Some(at @ BsdfAt::Stateless(_))) = (want.0[l], &self.at[l]) {
+            if let (true, Some(at)) = (want.0[l], &self.at[l]) {
                 let (fl, pl) = at.eval_for_light(&si(l), wo.get(l), delta.0[l]);
                 f.set(l, fl);
                 pdf.0[l] = pl;
@@ -374,24 +401,13 @@ impl<'a> BsdfBatch<'a> {
             delta: Mx::splat(false),
             ok: Mx::splat(false),
         };
-        let mut batched = [None; L];
         if let Kind::Plmc(b) = self.kind {
-            batched = self.sample_plmc(b, u_lobe, u_bsdf);
+            self.sample_plmc(b, u_lobe, u_bsdf, &mut out);
         }
         for l in 0..L {
             let Some(at) = &self.at[l] else { continue };
-            let s = match at {
-                // (Sampled in the batch.)
-                BsdfAt::Plmc(..) => batched[l],
-                _ => at.sample(&si(l), u_lobe.0[l], u_bsdf.get(l)),
-            };
-            if let Some((bs, wl)) = s {
-                out.wo.set(l, bs.wo);
-                out.pdf.0[l] = bs.pdf;
-                out.weight.set(l, wl);
-                out.eta.0[l] = bs.eta;
-                out.delta.0[l] = bs.sampled.has(BsdfFlags::DELTA);
-                out.ok.0[l] = true;
+            if let Some(s) = at.sample(&si(l), u_lobe.0[l], u_bsdf.get(l)) {
+                out.set(l, s);
             }
         }
         out
@@ -469,69 +485,68 @@ impl<'a> BsdfBatch<'a> {
         })
     }
 
+    /// The per-hit states of a fitted-BTF batch, packed (lane `plmc_lane[j]`'s is the j-th).
+    #[inline(always)]
+    fn plmc_hits(&self) -> &[PlmcHit] {
+        assert!(self.plmc_n <= L);
+        // SAFETY: `prepare` wrote entries 0..plmc_n before raising plmc_n past them, and
+        // MaybeUninit<T> has T's layout.
+        unsafe {
+            std::slice::from_raw_parts(self.plmc_hits.as_ptr() as *const PlmcHit, self.plmc_n)
+        }
+    }
+
     /// The emitter evaluations of a fitted-BTF batch: (f, pdf) per lane for the lanes in `want`
     /// whose BSDF kept its per-hit state (the rest through the scalar code), 16 per pass of the
     /// batched kernel; the pdf is 0 for delta lights.
     #[inline(always)]
     fn eval_plmc(&self, b: &PlmcBsdf, want: Mx, wo: V3x, delta: Mx) -> (V3x, Fx) {
         let (mut f, mut pdf) = (V3x::ZERO, Fx::splat(0.0));
-        let mut hits = [None; L];
-        let mut at = [0usize; L];
+        let n = self.plmc_n;
+        if n == 0 {
+            return (f, pdf);
+        }
+        // Lanes not in `want` get ω_l = 0, which the batch skips like any ω_l below the
+        // horizon (and returns (0, 0) for, as for the lanes it does not evaluate).
         let mut wq = [Vec3::ZERO; L];
         let mut want_pdf = [false; L];
-        let mut m = 0;
-        for l in 0..L {
-            if let (true, Some(BsdfAt::Plmc(_, h))) = (want.0[l], &self.at[l]) {
-                hits[m] = Some(*h);
-                at[m] = l;
-                wq[m] = wo.get(l);
-                want_pdf[m] = !delta.0[l];
-                m += 1;
+        for j in 0..n {
+            let l = self.plmc_lane[j] as usize;
+            if want.0[l] {
+                wq[j] = wo.get(l);
+                want_pdf[j] = !delta.0[l];
             }
         }
-        if let Some(first) = hits[0] {
-            let hits = hits.map(|h| h.unwrap_or(first));
-            let mut out = [(Spectrum::ZERO, 0.0); L];
-            b.eval_pdf_batch(&hits[..m], &wq[..m], &want_pdf[..m], &mut out[..m]);
-            for j in 0..m {
-                f.set(at[j], out[j].0);
-                pdf.0[at[j]] = out[j].1;
-            }
+        let mut out = [(Spectrum::ZERO, 0.0); L];
+        b.eval_pdf_batch(self.plmc_hits(), &wq[..n], &want_pdf[..n], &mut out[..n]);
+        for j in 0..n {
+            let l = self.plmc_lane[j] as usize;
+            f.set(l, out[j].0);
+            pdf.0[l] = out[j].1;
         }
         (f, pdf)
     }
 
-    /// The BSDF samples of a fitted-BTF batch's lanes that kept their per-hit state (`None`
-    /// elsewhere and where sampling fails), their model evaluations 16 per pass of the batched
+    /// The BSDF samples of a fitted-BTF batch's lanes that kept their per-hit state, written
+    /// into `out` where sampling succeeds, their model evaluations 16 per pass of the batched
     /// kernel: [`PlmcBsdf::sample_batch`], the same samples as the scalar `sample_hit`.
     #[inline(always)]
-    fn sample_plmc(
-        &self,
-        b: &PlmcBsdf,
-        u_lobe: Fx,
-        u_bsdf: V2x,
-    ) -> [Option<(BsdfSample, Spectrum)>; L] {
-        let mut out = [None; L];
-        let mut hits = [None; L];
-        let mut at = [0usize; L];
+    fn sample_plmc(&self, b: &PlmcBsdf, u_lobe: Fx, u_bsdf: V2x, out: &mut BatchSample) {
+        let n = self.plmc_n;
+        if n == 0 {
+            return;
+        }
         let (mut u1, mut u2) = ([0f32; L], [Vec2::ZERO; L]);
-        let mut m = 0;
-        for l in 0..L {
-            if let Some(BsdfAt::Plmc(_, h)) = &self.at[l] {
-                hits[m] = Some(*h);
-                at[m] = l;
-                (u1[m], u2[m]) = (u_lobe.0[l], u_bsdf.get(l));
-                m += 1;
+        for j in 0..n {
+            let l = self.plmc_lane[j] as usize;
+            (u1[j], u2[j]) = (u_lobe.0[l], u_bsdf.get(l));
+        }
+        let mut got = [None; L];
+        b.sample_batch(self.plmc_hits(), &u1[..n], &u2[..n], &mut got[..n]);
+        for j in 0..n {
+            if let Some(s) = got[j] {
+                out.set(self.plmc_lane[j] as usize, s);
             }
         }
-        if let Some(first) = hits[0] {
-            let hits = hits.map(|h| h.unwrap_or(first));
-            let mut got = [None; L];
-            b.sample_batch(&hits[..m], &u1[..m], &u2[..m], &mut got[..m]);
-            for j in 0..m {
-                out[at[j]] = got[j];
-            }
-        }
-        out
     }
 }

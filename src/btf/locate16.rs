@@ -44,12 +44,36 @@ impl DirectionInterp {
     /// built), else the scalar search per lane.
     #[inline]
     pub fn locate16(&self, qx: &[f32; LOCATE_LANES], qy: &[f32; LOCATE_LANES]) -> Located16 {
+        self.locate16_lanes(qx, qy, u16::MAX)
+    }
+
+    /// [`DirectionInterp::locate16`] of the lanes whose bit is set in `lanes`; the other lanes
+    /// hold unspecified triangles and weights (a caller's unused lanes then never take the
+    /// scalar search of an over-full cell).
+    #[inline]
+    pub fn locate16_lanes(
+        &self,
+        qx: &[f32; LOCATE_LANES],
+        qy: &[f32; LOCATE_LANES],
+        lanes: u16,
+    ) -> Located16 {
         #[cfg(target_arch = "x86_64")]
         if self.avx512 {
             // SAFETY: `avx512` is set only if this CPU has AVX-512F (checked at construction).
-            return unsafe { self.locate16_avx512(qx, qy) };
+            return unsafe { self.locate16_avx512(qx, qy, lanes) };
         }
-        self.locate16_scalar(qx, qy)
+        let mut out = Located16 {
+            tri: [0; LOCATE_LANES],
+            w: [[0.0; LOCATE_LANES]; 3],
+        };
+        for i in (0..LOCATE_LANES).filter(|&i| lanes & (1 << i) != 0) {
+            let (t, w) = self.locate([qx[i], qy[i]]);
+            out.tri[i] = t as u32;
+            for k in 0..3 {
+                out.w[k][i] = w[k];
+            }
+        }
+        out
     }
 
     /// The scalar search per lane (the reference, and the path of CPUs without AVX-512).
@@ -72,7 +96,12 @@ impl DirectionInterp {
     /// scalar search for the other lanes (and any lane that meets a NaN weight).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn locate16_avx512(&self, qx: &[f32; LOCATE_LANES], qy: &[f32; LOCATE_LANES]) -> Located16 {
+    fn locate16_avx512(
+        &self,
+        qx: &[f32; LOCATE_LANES],
+        qy: &[f32; LOCATE_LANES],
+        lanes: u16,
+    ) -> Located16 {
         use core::arch::x86_64::*;
         let grid = self.grid;
         assert!(self.cands.len() == (grid * grid) as usize);
@@ -174,7 +203,8 @@ impl DirectionInterp {
                 _mm512_storeu_ps(out.w[k].as_mut_ptr(), best_w[k]);
             }
             _mm512_storeu_si512(out.tri.as_mut_ptr() as *mut _, best_t);
-            // Lanes of over-full cells or NaN weights: the exact scalar search.
+            // Lanes of over-full cells or NaN weights: the exact scalar search (wanted lanes).
+            let mut slow = slow & lanes;
             while slow != 0 {
                 let i = slow.trailing_zeros() as usize;
                 slow &= slow - 1;
@@ -196,8 +226,9 @@ mod tests {
     use crate::math::Pcg32;
     use crate::math::frame::from_spherical;
 
-    /// `locate16` against `locate` lane by lane, bit for bit (NaN weights: both NaN), over
-    /// `points` in chunks of 16; returns how many lanes hit a cell searched lane-wise.
+    /// `locate16` (and `locate16_lanes` on its lanes) against `locate` lane by lane, bit for
+    /// bit (NaN weights: both NaN), over `points` in chunks of 16; returns how many lanes hit a
+    /// cell searched lane-wise.
     fn check(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
         let mut fast = 0;
         for chunk in points.chunks(LOCATE_LANES) {
@@ -208,10 +239,14 @@ mod tests {
             }
             let got = ip.locate16(&qx, &qy);
             let scalar = ip.locate16_scalar(&qx, &qy);
+            // A subset of the lanes, varying from chunk to chunk: those lanes are the same.
+            let lanes = 0b1010_0110_0101_1001u16.rotate_left(fast as u32);
+            let part = ip.locate16_lanes(&qx, &qy, lanes);
             let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
             for i in 0..LOCATE_LANES {
                 let (t, w) = ip.locate([qx[i], qy[i]]);
-                for (gt, gw) in [got.lane(i), scalar.lane(i)] {
+                let wanted = (lanes >> i & 1 == 1).then(|| part.lane(i));
+                for (gt, gw) in [got.lane(i), scalar.lane(i)].into_iter().chain(wanted) {
                     assert!(
                         gt == t && (0..3).all(|k| same(gw[k], w[k])),
                         "({}, {}): batched {:?}, locate {:?}",

@@ -20,6 +20,10 @@ pub struct Distribution1D {
     /// Guide table: entry i is the bin sampled at u = i / len, so a sample starts its scan next
     /// to its answer instead of a binary search whose branches mispredict (equal results).
     guide: Vec<u32>,
+    /// Per guide entry: its bin's lower edge, cdf and probability, so that
+    /// [`Distribution1D::sample_bin`] reads one 16-byte entry where the guided search reads
+    /// the guide, then the bin's edges and probability (two dependent cache misses).
+    guide_bin: Vec<GuideBin>,
     /// Sum of the (sanitised) weights.
     total: f64,
 }
@@ -48,20 +52,28 @@ impl Distribution1D {
             *last = 1.0;
         }
         let n = cdf.len();
-        let guide = (0..n)
+        let guide: Vec<u32> = (0..n)
             .map(|i| {
                 let u = i as f32 / n as f32;
                 cdf.partition_point(|&c| c <= u).min(n - 1) as u32
             })
             .collect();
-        let lower = std::iter::once(0.0)
+        let lower: Vec<f32> = std::iter::once(0.0)
             .chain(cdf[..n - 1].iter().copied())
+            .collect();
+        let guide_bin = guide
+            .iter()
+            .map(|&t| {
+                let t = t as usize;
+                GuideBin([lower[t], cdf[t], pmf[t], 0.0])
+            })
             .collect();
         Some(Distribution1D {
             lower,
             cdf,
             pmf,
             guide,
+            guide_bin,
             total,
         })
     }
@@ -107,6 +119,24 @@ impl Distribution1D {
         t
     }
 
+    /// The bin [`Distribution1D::sample`] picks for `u` (the same value), for callers that need
+    /// only the bin: when the guide entry's bin holds `u` and has weight (the common case) it
+    /// is the answer, read from one entry; else the full search.
+    #[inline]
+    pub fn sample_bin(&self, u: f32) -> usize {
+        let n = self.cdf.len();
+        let cell = ((u.max(0.0) * n as f32) as usize).min(n - 1);
+        let t = self.guide[cell] as usize;
+        let GuideBin([lower, cdf, pmf, _]) = self.guide_bin[cell];
+        // `search` takes no step from t (neither of its loops' first tests holds), and
+        // `sample` none back over a zero bin.
+        if !((t > 0) & (lower > u)) & !((t + 1 < n) & (cdf <= u)) & ((pmf != 0.0) | (t == 0)) {
+            t
+        } else {
+            self.sample(u).0
+        }
+    }
+
     /// Picks a bin for `u` in [0, 1); returns (bin, its probability, u re-scaled to [0, 1) inside the bin).
     #[inline]
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
@@ -125,6 +155,11 @@ impl Distribution1D {
         (i, p, rem)
     }
 }
+
+/// A guide entry's bin: `[lower edge, cdf, probability, 0]`, one aligned 16-byte load.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+struct GuideBin([f32; 4]);
 
 /// Tables up to this many bins are searched in registers by [`Distribution1D::sample_x`] (an
 /// area light's triangles in most scenes).
@@ -268,9 +303,14 @@ mod tests {
             us.extend([0.0, 1.0 - f32::EPSILON, 1.0, 2.0, -1.0]);
             us.extend(d.cdf.iter().copied());
             us.extend(d.cdf.iter().map(|c| c.next_down()));
+            us.extend(d.lower.iter().copied());
+            us.extend([f32::NAN, -0.0, f32::INFINITY]);
             for u in us {
                 let want = d.cdf.partition_point(|&c| c <= u).min(n - 1);
-                assert_eq!(d.search(u), want, "n={n} u={u}");
+                if !u.is_nan() {
+                    assert_eq!(d.search(u), want, "n={n} u={u}");
+                }
+                assert_eq!(d.sample_bin(u), d.sample(u).0, "n={n} u={u}");
             }
         }
     }

@@ -3,6 +3,7 @@
 
 use super::kernel::{BATCH, BatchQuery};
 use super::material::PlmcMaterial;
+use crate::bsdf::btf_sampler::SAMPLE_LANES;
 use crate::bsdf::{BsdfFlags, BsdfSample};
 use crate::btf::locate16::LOCATE_LANES;
 use crate::geometry::SurfaceInteraction;
@@ -13,6 +14,8 @@ use std::sync::Arc;
 
 // One batched light location serves a whole batch.
 const _: () = assert!(BATCH <= LOCATE_LANES);
+// One batched light-direction draw serves a whole batch.
+const _: () = assert!(BATCH <= SAMPLE_LANES);
 
 /// A fitted-model BTF instance: shared model + uv tiling + texel filter.
 #[derive(Clone, Debug)]
@@ -250,16 +253,19 @@ impl PlmcBsdf {
     }
 
     /// The light triangles and weights of up to [`BATCH`] directions, located at once (lanes
-    /// past `wo.len()` and below the horizon locate (0, 0) or their own direction and are not
-    /// used).
+    /// past `wo.len()` and below the horizon are not searched and not used).
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     fn locate_batch(&self, wo: &[Vec3]) -> [(usize, [f32; 3]); BATCH] {
         assert!(wo.len() <= BATCH);
         let lights = self.material.sampler.light_interp();
         let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
+        let mut lanes = 0u16;
         for (q, w) in wo.iter().enumerate() {
             (qx[q], qy[q]) = (w.x, w.y);
+            // (`b_pdf_located_batch`'s test: NaN z is evaluated.)
+            lanes |= u16::from(!(w.z <= 0.0)) << q;
         }
-        let all = lights.locate16(&qx, &qy);
+        let all = lights.locate16_lanes(&qx, &qy, lanes);
         let mut located = [(0usize, [0f32; 3]); BATCH];
         for (q, l) in located[..wo.len()].iter_mut().enumerate() {
             *l = all.lane(q);
@@ -412,11 +418,16 @@ impl PlmcBsdf {
         // Directions drawn outside the triangle table (the defensive part, the grazing band)
         // are searched for all at once, as `eval_pdf_batch` does.
         let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
-        let mut search = 0u32;
+        let mut search = 0u16;
+        let (mut vi, mut vw) = ([[0u32; 3]; BATCH], [[0f32; 3]; BATCH]);
         for q in 0..n {
-            let (w, tri) = m
-                .sampler
-                .sample(hits[q].vi, hits[q].vw, sample1[q], sample2[q]);
+            (vi[q], vw[q]) = (hits[q].vi, hits[q].vw);
+        }
+        let mut drawn = [(Vec3::Z, None); BATCH];
+        m.sampler
+            .sample_batch(&vi[..n], &vw[..n], sample1, sample2, &mut drawn[..n]);
+        for q in 0..n {
+            let (w, tri) = drawn[q];
             // (Below the horizon: the evaluation returns (0, 0) and the sample fails.)
             wo[q] = w;
             if w.z > 0.0 {
@@ -431,7 +442,7 @@ impl PlmcBsdf {
             }
         }
         if search != 0 {
-            let all = lights.locate16(&qx, &qy);
+            let all = lights.locate16_lanes(&qx, &qy, search);
             while search != 0 {
                 let q = search.trailing_zeros() as usize;
                 search &= search - 1;

@@ -15,6 +15,7 @@ impl PlmcBsdf {
     /// and uv `(u[l], v[l])`, for the lanes `l` whose bit is set in `lanes`: hit `l` is what
     /// `prepare` returns for that point, to the bit (None below the horizon and for lanes not in
     /// `lanes`), with the same index prefetches. Lanes not in `lanes` may hold anything.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn prepare16(
         &self,
         [wx, wy, wz]: [&[f32; PREPARE_LANES]; 3],
@@ -26,7 +27,11 @@ impl PlmcBsdf {
         if lanes == 0 {
             return out;
         }
-        let located = m.views.locate16(wx, wy);
+        // Only the lanes whose hit is kept are searched (`prepare`'s test: NaN z passes it).
+        let kept = (0..PREPARE_LANES)
+            .filter(|&l| lanes & (1 << l) != 0 && !(wz[l] <= 0.0))
+            .fold(0u16, |k, l| k | 1 << l);
+        let located = m.views.locate16_lanes(wx, wy, kept);
         // Nearest texels of all 16 lanes at once where the CPU has AVX-512 (lanes not in
         // `lanes` are computed too: plain arithmetic on whatever they hold).
         #[cfg(target_arch = "x86_64")]
@@ -40,7 +45,7 @@ impl PlmcBsdf {
         let span = m.index_span();
         for (l, o) in out.iter_mut().enumerate() {
             // `prepare`'s test: NaN z passes it, as there.
-            if lanes & (1 << l) == 0 || wz[l] <= 0.0 {
+            if kept & (1 << l) == 0 {
                 continue;
             }
             let uv = Vec2::new(u[l], v[l]);
