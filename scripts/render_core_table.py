@@ -17,7 +17,7 @@ Rows (medians of alternated runs; the machine may be shared, so compare ratios):
                                 (the script downloads nothing).
   matpreview-btf, btf-sphere,   btfpt render-only CPU of the scene with a fitted PLM-C material
   btf-plane                     (scenes/showcase/materials/corduroy.plmc) over the same scene with
-                                a diffuse material in its place.
+                                a diffuse material in its place (64 / 512 / 512 spp).
 Mitsuba runs Python-hosted (import, load, render, write in one child process): its `mitsuba`
 executable once never finished on matpreview with -t 2 (0 s of CPU after 13 minutes).
 Mitsuba rows need reference-images/.venv (reference-images/setup.sh); --skip-mitsuba leaves them out.
@@ -132,8 +132,9 @@ def diffuse_variant(scene: Path, tmp: Path) -> Path:
 
 def plmc_rows(a, threads: int) -> list[dict]:
     rows = []
-    cases = [("matpreview-btf", ["-D", "spp=16"]), ("btf-sphere", ["-D", "spp=64"]),
-             ("btf-plane", ["-D", "spp=64"])]
+    # Enough samples that a run takes seconds: the summary prints CPU to 0.01 s.
+    cases = [("matpreview-btf", ["-D", "spp=64"]), ("btf-sphere", ["-D", "spp=512"]),
+             ("btf-plane", ["-D", "spp=512"])]
     with tempfile.TemporaryDirectory() as tmp_s:
         tmp = Path(tmp_s)
         for name, extra in cases:
