@@ -1,4 +1,4 @@
-//! Issue #17, "a CLI users can trust": closed pipes, merge fingerprints, compare self-tests,
+//! A CLI users can trust: closed pipes, merge fingerprints, compare self-tests,
 //! output extension and output-path rules, and one definition of each reported figure.
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};

@@ -229,7 +229,7 @@ fn cornell_box_all_constant_matches_mitsuba() {
     assert!(f.is_empty(), "{f:?}");
 }
 
-/// plastic, roughplastic, roughdielectric, blendbsdf, mask and normalmap (issue #16) in one box.
+/// plastic, roughplastic, roughdielectric, blendbsdf, mask and normalmap in one box.
 /// A noisy scene (a frosted-glass caustic, light through the half-opaque panel): Mitsuba at
 /// 256 spp fails 218–262 of 9216 pixels and 5–8 of 576 blocks against its own 4096-spp
 /// reference, mean z +0.127…+0.160, relMSE 5.7e-03…6.1e-03 (mitsuba-bsdfs_calibration.json);
@@ -440,7 +440,7 @@ fn reference_has_the_expected_size() {
 }
 
 // ------------------------------------------------------------------------------------------
-// Mitsuba scene-file features (#16): include/path/alias/spectrum, serialized, cylinder, bitmap
+// Mitsuba scene-file features: include/path/alias/spectrum, serialized, cylinder, bitmap
 // options, checkerboard, hide_emitters (path) and the direct integrator, each scene against its
 // own Mitsuba reference and calibration (reference-images/mitsuba-features*/).
 

@@ -1,4 +1,4 @@
-//! Mitsuba scene-file constructs (#16) written by the tests themselves: `<include>`, `<path>`,
+//! Mitsuba scene-file constructs written by the tests themselves: `<include>`, `<path>`,
 //! `<alias>`, `<spectrum>`, Mitsuba 0.6 upgrades, serialized and cylinder shapes, bitmap and
 //! checkerboard textures, samplers, the direct integrator; and their bad inputs (each message
 //! names the file and the line).
