@@ -113,60 +113,32 @@ fn parallel_decoding_gives_the_meshes_the_crate_reader_gives() {
     assert_eq!(unindexed.indices[2], [6, 7, 8]);
 }
 
-fn first(doc: &::gltf::Document) -> ::gltf::Mesh<'_> {
-    doc.meshes().next().unwrap()
+/// The error `read` gives for the first primitive of `doc`'s first mesh.
+fn first_error(doc: &::gltf::Document, buffers: &[Data], avail: Option<u64>) -> String {
+    let prim = doc.meshes().next().unwrap().primitives().next().unwrap();
+    read(&prim, buffers, false, avail).unwrap_err()
 }
 
 #[test]
 fn lying_or_huge_counts_fail_before_allocating() {
     let (doc, buffers, ..) = document(1_000_000, (NT * 3) as u64);
-    let e = read(
-        &first(&doc).primitives().next().unwrap(),
-        &buffers,
-        false,
-        None,
-    )
-    .unwrap_err();
+    let e = first_error(&doc, &buffers, None);
     assert!(
         e.contains("declares 1000000 elements") && e.contains("POSITION"),
         "{e}"
     );
     let (doc, buffers, ..) = document(NV, 1 << 31);
-    let e = read(
-        &first(&doc).primitives().next().unwrap(),
-        &buffers,
-        false,
-        None,
-    )
-    .unwrap_err();
+    let e = first_error(&doc, &buffers, None);
     assert!(e.contains("2^31"), "{e}");
     let (doc, buffers, ..) = document(NV, (NT * 3 + 3) as u64);
-    let e = read(
-        &first(&doc).primitives().next().unwrap(),
-        &buffers,
-        false,
-        None,
-    )
-    .unwrap_err();
+    let e = first_error(&doc, &buffers, None);
     assert!(e.contains("(indices) declares"), "{e}");
     let (doc, buffers, ..) = document(NV, (NT * 3) as u64);
-    let e = read(
-        &first(&doc).primitives().next().unwrap(),
-        &buffers,
-        false,
-        Some(1000),
-    )
-    .unwrap_err();
+    let e = first_error(&doc, &buffers, Some(1000));
     assert!(e.contains("memory is available"), "{e}");
     // A buffer shorter than its views.
     let short = vec![Data(buffers[0].0[..100].to_vec())];
-    let e = read(
-        &first(&doc).primitives().next().unwrap(),
-        &short,
-        false,
-        None,
-    )
-    .unwrap_err();
+    let e = first_error(&doc, &short, None);
     assert!(e.contains("past the end of its buffer"), "{e}");
 }
 
