@@ -18,12 +18,10 @@ pub struct Distribution1D {
     /// Probability of each bin.
     pmf: Vec<f32>,
     /// Guide table: entry i is the bin sampled at u = i / len, so a sample starts its scan next
-    /// to its answer instead of a binary search whose branches mispredict (equal results).
-    guide: Vec<u32>,
-    /// Per guide entry: its bin's lower edge, cdf and probability, so that
-    /// [`Distribution1D::sample_bin`] reads one 16-byte entry where the guided search reads
-    /// the guide, then the bin's edges and probability (two dependent cache misses).
-    guide_bin: Vec<GuideBin>,
+    /// to its answer instead of a binary search whose branches mispredict (equal results); with
+    /// that bin's lower edge, cdf and probability, so [`Distribution1D::sample_bin`] reads one
+    /// 16-byte entry where the guided search reads the bin's edges and probability after it.
+    guide: Vec<GuideBin>,
     /// Sum of the (sanitised) weights.
     total: f64,
 }
@@ -52,20 +50,19 @@ impl Distribution1D {
             *last = 1.0;
         }
         let n = cdf.len();
-        let guide: Vec<u32> = (0..n)
-            .map(|i| {
-                let u = i as f32 / n as f32;
-                cdf.partition_point(|&c| c <= u).min(n - 1) as u32
-            })
-            .collect();
         let lower: Vec<f32> = std::iter::once(0.0)
             .chain(cdf[..n - 1].iter().copied())
             .collect();
-        let guide_bin = guide
-            .iter()
-            .map(|&t| {
-                let t = t as usize;
-                GuideBin([lower[t], cdf[t], pmf[t], 0.0])
+        let guide = (0..n)
+            .map(|i| {
+                let u = i as f32 / n as f32;
+                let t = cdf.partition_point(|&c| c <= u).min(n - 1);
+                GuideBin {
+                    lower: lower[t],
+                    cdf: cdf[t],
+                    pmf: pmf[t],
+                    bin: t as u32,
+                }
             })
             .collect();
         Some(Distribution1D {
@@ -73,7 +70,6 @@ impl Distribution1D {
             cdf,
             pmf,
             guide,
-            guide_bin,
             total,
         })
     }
@@ -106,7 +102,7 @@ impl Distribution1D {
     fn search(&self, u: f32) -> usize {
         let n = self.cdf.len();
         let cell = ((u.max(0.0) * n as f32) as usize).min(n - 1);
-        let mut t = self.guide[cell] as usize;
+        let mut t = self.guide[cell].bin as usize;
         // The loop conditions are written without short-circuits (both sides are in bounds):
         // a well-guided search takes neither loop, so the one branch of each predicts, where
         // `t > 0 &&` / `t + 1 < n &&` branched on which bin u fell in.
@@ -126,8 +122,13 @@ impl Distribution1D {
     pub fn sample_bin(&self, u: f32) -> usize {
         let n = self.cdf.len();
         let cell = ((u.max(0.0) * n as f32) as usize).min(n - 1);
-        let t = self.guide[cell] as usize;
-        let GuideBin([lower, cdf, pmf, _]) = self.guide_bin[cell];
+        let GuideBin {
+            lower,
+            cdf,
+            pmf,
+            bin,
+        } = self.guide[cell];
+        let t = bin as usize;
         // `search` takes no step from t (neither of its loops' first tests holds), and
         // `sample` none back over a zero bin.
         if !((t > 0) & (lower > u)) & !((t + 1 < n) & (cdf <= u)) & ((pmf != 0.0) | (t == 0)) {
@@ -156,10 +157,16 @@ impl Distribution1D {
     }
 }
 
-/// A guide entry's bin: `[lower edge, cdf, probability, 0]`, one aligned 16-byte load.
+/// A guide entry: the bin sampled at its u and that bin's lower edge, cdf and probability, one
+/// aligned 16-byte load.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-struct GuideBin([f32; 4]);
+struct GuideBin {
+    lower: f32,
+    cdf: f32,
+    pmf: f32,
+    bin: u32,
+}
 
 /// Tables up to this many bins are searched in registers by [`Distribution1D::sample_x`] (an
 /// area light's triangles in most scenes).
@@ -178,7 +185,7 @@ impl Distribution1D {
         let last = n - 1;
         let mut t: [usize; WIDTH] = lanes(|l| {
             let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
-            self.guide[cell] as usize
+            self.guide[cell].bin as usize
         });
         let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
         loop {
