@@ -670,7 +670,7 @@ def register() -> None:
 
 def write_triangulation_json(path: Path, which: str = "ubo2003") -> None:
     """Writes the triangulation this plugin uses for the UBO2003 or UBO2014 direction set as JSON;
-    btfpt's test `mitsuba_plugin_triangulation_is_ours` (tests/regression_btf.rs) checks that it
+    btfpt's test `mitsuba_plugin_triangulation_is_ours` (tests/images/raw_btf.rs) checks that it
     is btfpt's own (UBO2014 has dozens of exactly cocircular quads: it exercises the tie rule)."""
     import json
 
@@ -688,7 +688,7 @@ def write_triangulation_json(path: Path, which: str = "ubo2003") -> None:
                 "triangles counter-clockwise, indices in btfpt's index order. Written by "
                 "`reference-images/btf_plugin.py --write-triangulation`; the Mitsuba btf plugin "
                 "builds the same one (btf_plugin.canonical_delaunay), and btfpt's "
-                "tests/regression_btf.rs checks it equals btfpt's own (src/btf/delaunay.rs).",
+                "tests/images/raw_btf.rs checks it equals btfpt's own (src/btf/delaunay.rs).",
         "triangles_differing_from_plain_qhull": len(ours - qhull),
         "angles_deg": ang.tolist(),
         "triangles": tris.tolist(),

@@ -17,7 +17,7 @@ For every committed reference scene (reference-images/<name>/<name>.exr, Mitsuba
   * BTF scenes: the models' own error, btfpt at --hi-spp with the same seed for every model
     (common random numbers: the noise mostly cancels) scored against btfpt's raw render, and
     relMSE(model, ref) - relMSE(raw, ref), the model's share of the error against Mitsuba. These
-    are the figures tests/regression_plmc.rs takes its bounds from.
+    are the figures tests/images/plmc.rs takes its bounds from.
 The BTF material is synth:corduroy?size=32&seed=1 written by `btfpt synth` as a UBO2003 EXR
 folder (what the references were rendered from), fitted with `btfpt fit` defaults; both renderers
 read that folder (-D btf=...). Everything runs in one process, scene after scene, so the timings

@@ -34,10 +34,6 @@ pub mod twosided;
 mod golden;
 #[cfg(test)]
 mod tests;
-#[cfg(test)]
-mod tests_batch;
-#[cfg(test)]
-mod tests_beckmann;
 
 pub use at::BsdfAt;
 pub use blend::BlendBsdf;

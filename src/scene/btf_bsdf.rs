@@ -217,7 +217,7 @@ mod tests {
             Arc::ptr_eq(a.material(), b.material()),
             "one material per canonical source and process"
         );
-        // Equality with `btfpt synth ... --format exr` output: tests/regression_btf.rs.
+        // Equality with `btfpt synth ... --format exr` output: tests/images/raw_btf.rs.
         let mine = a.material().btf();
         assert_eq!(
             (mine.width(), mine.height(), mine.views().len()),

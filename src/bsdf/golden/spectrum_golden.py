@@ -1,6 +1,6 @@
 """Regenerates spectrum_golden.txt: the RGB values Mitsuba 3.9.1's RGB variants give a
 <spectrum> with a wavelength list (or a uniform one) when a scene is loaded, the reference that
-src/math/cie1931.rs and tests/scene_xml.rs test against.
+src/math/cie1931.rs and tests/scene_loading/mitsuba_xml.rs test against.
 
     /path/to/venv/bin/python src/bsdf/golden/spectrum_golden.py > src/bsdf/golden/spectrum_golden.txt
 

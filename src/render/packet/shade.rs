@@ -11,7 +11,7 @@
 //! Every lane runs the scalar integrator's arithmetic through the `_x` twins of its helpers
 //! ([`triangle_surface_x`], [`FrameX`], [`sample_toward_x`], …), which round like them, on the
 //! same random stream, so a lane's path is the same bits as
-//! [`crate::render::path`]'s (`tests/render_packet.rs` compares them).
+//! [`crate::render::path`]'s (`tests/rendering/packet_vs_scalar.rs` compares them).
 //! What is not arithmetic stays scalar per lane: the gathers (mesh vertices, the pool's slots),
 //! the random numbers, emitter selection and emission at emitter hits. Emitters other than
 //! triangle-mesh area lights sample the lanes that chose them together

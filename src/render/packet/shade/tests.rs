@@ -1,7 +1,7 @@
 //! Every `_x` twin the SoA kernel calls against its scalar original, lane by lane and bit for
 //! bit, on random inputs mixed with the degenerate ones the branches exist for (zero vectors,
 //! tangents parallel to the normal, degenerate uv maps, points behind a light, lights at
-//! infinity, zero pdfs). `tests/render_packet.rs` checks the whole kernel; this names the twin
+//! infinity, zero pdfs). `tests/rendering/packet_vs_scalar.rs` checks the whole kernel; this names the twin
 //! that drifted.
 
 use crate::bsdf::diffuse::{

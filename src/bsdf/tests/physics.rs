@@ -3,8 +3,8 @@
 //! uniformly-sampled albedo, energy bounds, delta-lobe probabilities, eval/pdf/weight consistency,
 //! reciprocity and one-/two-sidedness.
 
-use super::chi2::{Chi2Outcome, Chi2Test};
-use super::*;
+use crate::bsdf::chi2::{Chi2Outcome, Chi2Test};
+use crate::bsdf::*;
 use crate::math::frame::from_spherical;
 use crate::math::{Pcg32, warp};
 use std::sync::Arc;

@@ -1,8 +1,7 @@
 //! `btfpt check`: a suite with one passing and one deliberately failing case, the report files,
 //! `--update`, and clear errors for bad suites.
-mod common;
 
-use common::btfpt_output;
+use crate::common::btfpt_output;
 use std::path::Path;
 
 fn scene() -> String {

@@ -4,15 +4,13 @@
 //! statistical agreement of independent renders by per-pixel and 4×4-block z-tests on the
 //! committed Cornell scenes.
 
-mod common;
-
+use crate::common::render;
 use btfpt::io::RgbImage;
 use btfpt::metrics::{Comparison, Criteria};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
 use btfpt::scene::{LoadOptions, Scene};
-use common::render;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 

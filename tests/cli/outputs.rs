@@ -3,10 +3,10 @@
 //! encoding its extension names, `eval` says when model and data encodings differ, and `info`
 //! describes only what it could open.
 
-mod common;
+use crate::common;
 
+use crate::common::btfpt_output;
 use btfpt::btf::{self, BtfSource, DirectionSet, RawBtf, StoredEncoding};
-use common::btfpt_output;
 use std::path::{Path, PathBuf};
 
 /// A 2×2-texel BTF on the 81 UBO2003 directions whose values reach 3 (above what PNG holds).

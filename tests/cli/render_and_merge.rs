@@ -1,12 +1,11 @@
 //! The `btfpt merge` and `btfpt render` command lines: success path and clear errors.
-mod common;
 
+use crate::common::*;
 use btfpt::geometry::generate::sphere;
 use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::RenderScene;
 use btfpt::render::partial::{PartialMeta, read_partial_exr, write_partial_exr};
 use btfpt::scene::Emitter;
-use common::*;
 
 #[test]
 fn merge_cli_combines_crops_and_reports_bad_input() {

@@ -21,7 +21,7 @@
 //!   raw share the camera paths and nearly all sampling decisions, so most of the noise cancels
 //!   and what remains is the model error): ≤ 2 × its value at 1024 spp. This is what gives the test
 //!   power on the noisy sphere (at 64 spp the noise there is 10× the model term in relMSE vs
-//!   Mitsuba); btfpt raw itself is held to Mitsuba by tests/regression_btf.rs.
+//!   Mitsuba); btfpt raw itself is held to Mitsuba by tests/images/raw_btf.rs.
 //! - mean luminance ratio within 1 ± (|measured model bias| + 0.5 %).
 //! - failing 4×4 blocks ≤ 2 × the measured fraction + 2 % of the blocks: the z-test sees where the
 //!   model is locally wrong; a broken model is wrong almost everywhere.
@@ -34,8 +34,7 @@
 //! polynomials dropped 1.2e-3 / 1.9e-3, perturbed clusters and wrong model 7e-2…2e-1 (these also
 //! fail luminance and blocks).
 
-mod reference;
-
+use crate::reference::{reference, render, root, score};
 use btfpt::bsdf::Bsdf;
 use btfpt::btf::{BtfSource, RawBtf};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
@@ -44,7 +43,6 @@ use btfpt::model::codec;
 use btfpt::model::{BtfModel, ModelKind, PlmcModel, ViewParams};
 use btfpt::scene::btf_bsdf::SynthSpec;
 use btfpt::scene::{self, LoadOptions, Scene};
-use reference::{reference, render, root, score};
 use std::path::Path;
 use std::sync::OnceLock;
 

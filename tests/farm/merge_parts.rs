@@ -2,10 +2,8 @@
 //! one-machine image, a part rendered with another BTF or mesh file is refused, and a merge that
 //! lacks bands says so.
 
-mod common;
-
+use crate::common::btfpt_output;
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
-use common::btfpt_output;
 use std::path::{Path, PathBuf};
 
 /// A 1×1-texel BTF on the UBO2003 directions, of constant colour `rgb`.

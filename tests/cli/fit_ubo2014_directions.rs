@@ -1,7 +1,6 @@
 //! A UBO2014-direction material (151 views × 151 lights, only a `.btfc` cache can hold it) fits
 //! end to end through the memory-mapped cache, whole and split by views, to the same bytes.
-mod common;
-use common::btfpt_output as btfpt;
+use crate::common::btfpt_output as btfpt;
 use std::path::Path;
 
 fn s(p: &Path) -> &str {

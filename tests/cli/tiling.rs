@@ -1,8 +1,7 @@
 //! `btfpt fit --tile`, `eval` (seam_ratio) and `tile-preview` on a small generated BTF.
-mod common;
+use crate::common::btfpt_output as btfpt;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding, cache};
 use btfpt::math::Pcg32;
-use common::btfpt_output as btfpt;
 
 /// 2 views × 81 lights of a 40 × 36 blurred-noise texture lit by a cosine-like factor.
 fn write_sample(path: &std::path::Path) {

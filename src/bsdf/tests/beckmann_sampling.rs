@@ -3,8 +3,8 @@
 //! sides of the rough dielectric. The sampled directions must follow `pdf`, and samples may
 //! fail only as often as the pdf's missing mass says.
 
-use super::chi2::Chi2Test;
-use super::*;
+use crate::bsdf::chi2::Chi2Test;
+use crate::bsdf::*;
 use crate::math::Pcg32;
 use crate::math::frame::from_spherical;
 

@@ -1,7 +1,6 @@
 //! Radiometric checks of the integrator with analytic answers (diffuse BSDFs, generated meshes).
 
-mod common;
-
+use crate::common::*;
 use btfpt::geometry::Mesh;
 use btfpt::geometry::generate::{quad, sphere};
 use btfpt::geometry::sphere::Sphere;
@@ -9,7 +8,6 @@ use btfpt::math::Mat4;
 use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::RenderScene;
 use btfpt::scene::Emitter;
-use common::*;
 
 /// A convex diffuse object under a uniform environment reflects exactly albedo·Le (it never sees
 /// itself); pixels missing the object see Le.

@@ -2,7 +2,7 @@
 //! EXR bytes as an uninterrupted render (same seed); so does one stopped the way a scheduler stops a
 //! job (SIGTERM at a time limit or on preemption, SIGHUP), resuming where it stopped; a fit killed
 //! midway, or stopped by SIGTERM, and rerun writes the same `.plmc` bytes as an uninterrupted fit.
-mod common;
+use crate::common;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::os::unix::process::CommandExt;

@@ -1,6 +1,6 @@
 //! `btfpt synth` command line: listing and clear errors on bad arguments.
-mod common;
-use common::btfpt_output as btfpt;
+use crate::common;
+use crate::common::btfpt_output as btfpt;
 
 #[test]
 fn list_names_all_five_materials() {

@@ -1,7 +1,6 @@
 //! `btfpt fit` / `btfpt eval` end to end on a tiny simulated material: fit, evaluate to JSON and
 //! PNG, resume from part files, and clear errors for corrupt or truncated model files.
-mod common;
-use common::btfpt_output as btfpt;
+use crate::common::btfpt_output as btfpt;
 use std::path::Path;
 
 fn s(p: &Path) -> &str {

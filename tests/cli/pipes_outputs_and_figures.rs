@@ -1,13 +1,10 @@
 //! A CLI users can trust: closed pipes, merge fingerprints, compare self-tests,
 //! output extension and output-path rules, and one definition of each reported figure.
 
+use crate::common::btfpt;
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
-
-fn btfpt() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_btfpt"))
-}
+use std::process::{Output, Stdio};
 
 fn text(o: &Output) -> String {
     format!(

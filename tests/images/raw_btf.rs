@@ -21,14 +21,12 @@
 //! The faults are made by transforming the measured data exactly as the broken convention would
 //! (e.g. flipping v ⇔ reading row H − 1 − r), so the library carries no test-only code.
 
-mod reference;
-
+use crate::reference::{reference, render, root, score};
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
 use btfpt::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
 use btfpt::metrics::{Comparison, Criteria};
 use btfpt::scene::{self, LoadOptions, Scene};
 use half::f16;
-use reference::{reference, render, root, score};
 use std::sync::Arc;
 
 /// Samples per pixel of the test renders (the calibration was run at 64 and 256 spp).

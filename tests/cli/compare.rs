@@ -1,7 +1,6 @@
 //! `btfpt compare` end to end on small synthetic EXRs: pass, fail, and every kind of bad input
 //! gives a non-zero exit code with a message naming the problem.
-mod common;
-use common::btfpt;
+use crate::common::btfpt;
 
 use btfpt::io::{RgbImage, write_exr};
 use std::path::{Path, PathBuf};

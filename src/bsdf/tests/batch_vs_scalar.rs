@@ -3,9 +3,9 @@
 //! the degenerate inputs the scalar branches exist for (directions below and on the horizon, at
 //! the pole, sample numbers at 0 and near 1).
 
-use super::batch::{BsdfBatch, L};
-use super::texture::{BitmapTexture, Checkerboard, TexFilter, UvTransform, Wrap};
-use super::*;
+use crate::bsdf::batch::{BsdfBatch, L};
+use crate::bsdf::texture::{BitmapTexture, Checkerboard, TexFilter, UvTransform, Wrap};
+use crate::bsdf::*;
 use crate::io::RgbImage;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Pcg32, warp};

@@ -1,6 +1,5 @@
 //! `btfpt info` / `btfpt convert` end to end on a tiny BTF made here.
-mod common;
-use common::btfpt;
+use crate::common::btfpt;
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 

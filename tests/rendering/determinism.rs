@@ -1,8 +1,7 @@
 //! Determinism and exactness of split work: thread counts, checkpoint/resume, crop and
 //! sample-range merges.
 
-mod common;
-
+use crate::common::*;
 use btfpt::geometry::generate::{quad, sphere};
 use btfpt::math::filter::Filter;
 use btfpt::math::{Spectrum, Vec3};
@@ -10,7 +9,6 @@ use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::partial::{PartialMeta, merge, read_partial_exr, write_partial_exr};
 use btfpt::render::{RenderScene, checkpoint};
 use btfpt::scene::Emitter;
-use common::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 fn test_scene() -> RenderScene {

@@ -4,11 +4,10 @@
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
 use std::path::Path;
-use std::process::Command;
 
 /// Runs btfpt; returns (exit code, stdout, stderr).
 fn btfpt(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_btfpt"))
+    let out = crate::common::btfpt()
         .args(args)
         .env("RAYON_NUM_THREADS", "2")
         .output()
