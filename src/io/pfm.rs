@@ -2,7 +2,7 @@
 //! scale whose sign gives the byte order (negative = little endian), then 32-bit floats in rows
 //! from the bottom of the image up. Read as linear RGB, top row first (as Mitsuba shows them).
 
-use super::image::{MAX_IMAGE_PIXELS, RgbImage};
+use super::rgb_image::{MAX_IMAGE_PIXELS, RgbImage};
 use crate::{Error, Result};
 use std::path::Path;
 

@@ -21,7 +21,7 @@ use crate::math::simd::transpose::transpose16;
 use core::arch::x86_64::*;
 use core::mem::MaybeUninit;
 
-use super::kernel::{BATCH, BatchQuery as Query};
+use super::query::{BATCH, BatchQuery as Query};
 
 // One lane per query, 16 × 16 transposes.
 const _: () = assert!(BATCH == 16);

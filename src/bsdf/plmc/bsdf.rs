@@ -1,8 +1,8 @@
 //! The fitted-model BTF as a BSDF: texel addressing (nearest or bilinear), the per-hit state
 //! shared by one vertex's calls, eval/pdf/sample through the material and the light sampler.
 
-use super::kernel::{BATCH, BatchQuery};
 use super::material::PlmcMaterial;
+use super::query::{BATCH, BatchQuery};
 use crate::bsdf::btf_sampler::SAMPLE_LANES;
 use crate::bsdf::{BsdfFlags, BsdfSample};
 use crate::btf::locate16::LOCATE_LANES;

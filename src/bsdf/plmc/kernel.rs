@@ -5,62 +5,15 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::f4::{self, F4, Isa, Sse2};
-use super::material::PlmcMaterial;
+use super::material::{LobeRec, Params, PlmcMaterial};
+use super::query::{BATCH, BatchQuery};
 use crate::math::Vec3;
 use crate::model::ValueSpace;
-
-/// Most queries of one [`PlmcMaterial::eval_b_batch`] call (one per AVX-512 lane).
-pub const BATCH: usize = 16;
-
-/// One evaluation of a batch: the texel, the 3 measured views and lights around ω_v, ω_l with
-/// their interpolation weights, and ω_l (local frame). 64 bytes in this field order (repr(C)):
-/// the 16-lane kernel reads 16 queries as rows of a 16 × 16 transpose.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C)]
-pub struct BatchQuery {
-    pub texel: u32,
-    pub vi: [u32; 3],
-    pub vw: [f32; 3],
-    pub li: [u32; 3],
-    pub lw: [f32; 3],
-    pub wo: [f32; 3],
-}
 
 /// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
 pub const FLUSH: f32 = 1e-20;
 /// Lanes of one view in the kernel: R, G, B and a pad lane whose result is discarded.
 pub const LANES: usize = 4;
-
-/// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
-pub struct LobeRec(pub [f32; 8]);
-
-/// Polynomial coefficients of one (view, light), coefficient-major: `[a_j of R, G, B]` for
-/// j = 0..4 then one pad. `a_j` of the 3 channels is the 4-lane window starting at `3 j` (its pad
-/// lane reads the next coefficient, harmless: that lane is discarded).
-#[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(64))]
-pub struct PolyRow(pub [f32; 16]);
-
-/// How the per-texel lobes are stored.
-pub(super) enum Params {
-    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[texel][view][R, G, B, pad]`
-    /// (the 3 views of one evaluation are a few hundred bytes apart: one or two cache lines).
-    Clustered8 {
-        k: usize,
-        records: Vec<LobeRec>,
-        index: Vec<[u8; 4]>,
-    },
-    /// PLM-C with more than 256 clusters: u16 indices.
-    Clustered16 {
-        k: usize,
-        records: Vec<LobeRec>,
-        index: Vec<[u16; 4]>,
-    },
-    /// LM / PLM: one lobe per texel and channel, `[view][texel][channel]` as `[ρ, Dx, Dy, Dz, n]`.
-    Texel { lobes: Vec<[f32; 5]> },
-}
 
 /// The lobes (R, G, B) of one (view, texel), transposed to lanes: ρ, Dx, Dy, Dz, n.
 pub(super) type LaneLobes = [F4; 5];

@@ -2,7 +2,6 @@
 //! range clamps, the direction interpolators and the light sampler.
 
 use super::f4;
-use super::kernel::{LobeRec, Params, PolyRow};
 use crate::bsdf::btf_sampler::BtfLightSampler;
 use crate::btf::directions::DirectionInterp;
 use crate::math::color::luminance;
@@ -11,6 +10,37 @@ use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams, codec};
 use crate::{Error, Result};
 use std::path::Path;
 use std::sync::Arc;
+
+/// One lobe record `[ρ, Dx, Dy, Dz, n, 0, 0, 0]`, 32-byte aligned.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(32))]
+pub struct LobeRec(pub [f32; 8]);
+
+/// Polynomial coefficients of one (view, light), coefficient-major: `[a_j of R, G, B]` for
+/// j = 0..4 then one pad. `a_j` of the 3 channels is the 4-lane window starting at `3 j` (its pad
+/// lane reads the next coefficient, harmless: that lane is discarded).
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C, align(64))]
+pub struct PolyRow(pub [f32; 16]);
+
+/// How the per-texel lobes are stored.
+pub(super) enum Params {
+    /// PLM-C, ≤ 256 clusters: records `[view][channel][k]`, index `[texel][view][R, G, B, pad]`
+    /// (the 3 views of one evaluation are a few hundred bytes apart: one or two cache lines).
+    Clustered8 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u8; 4]>,
+    },
+    /// PLM-C with more than 256 clusters: u16 indices.
+    Clustered16 {
+        k: usize,
+        records: Vec<LobeRec>,
+        index: Vec<[u16; 4]>,
+    },
+    /// LM / PLM: one lobe per texel and channel, `[view][texel][channel]` as `[ρ, Dx, Dy, Dz, n]`.
+    Texel { lobes: Vec<[f32; 5]> },
+}
 
 /// A fitted model in its evaluation layout, with direction interpolators and sampling tables;
 /// shared (`Arc`) by every [`PlmcBsdf`] that uses the same file.

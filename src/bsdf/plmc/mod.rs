@@ -46,11 +46,13 @@ mod f4;
 mod kernel;
 mod material;
 mod prepare16;
+mod query;
 mod tables;
 #[cfg(test)]
 mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
-pub use kernel::{BATCH, BatchQuery, FLUSH, LANES, LobeRec, PolyRow};
-pub use material::{PlmcMaterial, shared_material};
+pub use kernel::{FLUSH, LANES};
+pub use material::{LobeRec, PlmcMaterial, PolyRow, shared_material};
 pub use prepare16::PREPARE_LANES;
+pub use query::{BATCH, BatchQuery};
