@@ -1,11 +1,12 @@
-//! Agreement with Mitsuba 3 itself: `golden/mitsuba3_golden.txt` holds eval/pdf/sample results of
-//! Mitsuba 3.9.1's own plugins (variant `scalar_rgb`, made by `golden/mitsuba_golden.py`) at fixed
-//! directions and random numbers; every line must be reproduced by our models.
+//! Agreement with Mitsuba 3 itself: `reference-images/bsdf_golden.txt` holds eval/pdf/sample
+//! results of Mitsuba 3.9.1's own plugins (variant `scalar_rgb`, made by
+//! `reference-images/bsdf_golden.py`) at fixed directions and random numbers; every line must be
+//! reproduced by our models.
 
 use super::texture::{Checkerboard, UvTransform};
 use super::*;
 
-const GOLDEN: &str = include_str!("golden/mitsuba3_golden.txt");
+const GOLDEN: &str = include_str!("../../reference-images/bsdf_golden.txt");
 
 const GOLD_ETA: Spectrum = Spectrum::new(0.143, 0.374, 1.442);
 const GOLD_K: Spectrum = Spectrum::new(3.983, 2.385, 1.603);
@@ -30,7 +31,7 @@ fn rough_with(distribution: MicrofacetType, alpha_u: f32, alpha_v: f32, vis: boo
     })
 }
 
-/// The configurations of `mitsuba_golden.py`, by name.
+/// The configurations of `bsdf_golden.py`, by name.
 fn config(name: &str) -> Bsdf {
     match name {
         "diffuse" => Bsdf::Diffuse(Diffuse {
@@ -164,7 +165,7 @@ fn config(name: &str) -> Bsdf {
     }
 }
 
-/// `mitsuba_golden.py`'s 4×3 raw RGB height image (row 0 at v = 0, as both lay it out).
+/// `bsdf_golden.py`'s 4×3 raw RGB height image (row 0 at v = 0, as both lay it out).
 fn bump_texels() -> Texture {
     let mut img = crate::io::RgbImage::new(4, 3);
     for j in 0..3 {
@@ -248,7 +249,7 @@ fn beckmann_config(name: &str) -> Bsdf {
     }
 }
 
-/// `mitsuba_golden.py`'s `texels`: a 4×3 raw image, value (i, j) = f(i, j) × scales per channel.
+/// `bsdf_golden.py`'s `texels`: a 4×3 raw image, value (i, j) = f(i, j) × scales per channel.
 fn texels(f: impl Fn(usize, usize) -> f64, scales: [f64; 3]) -> Texture {
     let mut img = crate::io::RgbImage::new(4, 3);
     for j in 0..3 {

@@ -428,8 +428,8 @@ pub fn spectrum_list_to_srgb(
 mod tests {
     use super::*;
 
-    /// Mitsuba 3.9.1's own results (`src/bsdf/golden/spectrum_golden.py`, scalar_rgb).
-    const GOLDEN: &str = include_str!("../bsdf/golden/spectrum_golden.txt");
+    /// Mitsuba 3.9.1's own results (`reference-images/spectrum_golden.py`, scalar_rgb).
+    const GOLDEN: &str = include_str!("../../reference-images/spectrum_golden.txt");
 
     fn parse(list: &str) -> (Vec<f64>, Vec<f64>) {
         list.split([',', ' '])

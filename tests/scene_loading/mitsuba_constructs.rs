@@ -250,8 +250,8 @@ fn top_level_area_emitter_referenced_by_a_shape() {
     expect_err(&p, "b.xml", 8, "no shape references this one");
 }
 
-/// Mitsuba 3.9.1's values (`src/bsdf/golden/spectrum_golden.py`): `<use> r g b <spectrum>`.
-const SPECTRUM_GOLDEN: &str = include_str!("../../src/bsdf/golden/spectrum_golden.txt");
+/// Mitsuba 3.9.1's values (`reference-images/spectrum_golden.py`): `<use> r g b <spectrum>`.
+const SPECTRUM_GOLDEN: &str = include_str!("../../reference-images/spectrum_golden.txt");
 
 /// Wavelength-list spectra load as Mitsuba's RGB variants convert them: a diffuse reflectance
 /// (D65-weighted, clipped to [0, 1]), a conductor's eta (unbounded), an area light's and a

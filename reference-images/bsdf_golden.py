@@ -1,8 +1,8 @@
-"""Regenerates mitsuba3_golden.txt: eval/pdf/sample of Mitsuba 3's own BSDF plugins (scalar_rgb)
+"""Regenerates bsdf_golden.txt: eval/pdf/sample of Mitsuba 3's own BSDF plugins (scalar_rgb)
 at fixed directions and random numbers, the reference that src/bsdf/golden.rs tests against.
 
     python -m venv /tmp/mts && /tmp/mts/bin/pip install mitsuba
-    /tmp/mts/bin/python src/bsdf/golden/mitsuba_golden.py > src/bsdf/golden/mitsuba3_golden.txt
+    /tmp/mts/bin/python reference-images/bsdf_golden.py > reference-images/bsdf_golden.txt
 
 Line formats (whitespace separated, one case per line):
     bsdf <id> <name>                                      (configuration, see CONFIGS / golden.rs)

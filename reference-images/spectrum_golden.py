@@ -2,7 +2,7 @@
 <spectrum> with a wavelength list (or a uniform one) when a scene is loaded, the reference that
 src/math/cie1931.rs and tests/scene_loading/mitsuba_xml.rs test against.
 
-    /path/to/venv/bin/python src/bsdf/golden/spectrum_golden.py > src/bsdf/golden/spectrum_golden.txt
+    /path/to/venv/bin/python reference-images/spectrum_golden.py > reference-images/spectrum_golden.txt
 
 Line format: <use> <r> <g> <b> <spectrum value>, with <use> one of
     reflectance  a diffuse bsdf's "reflectance" (bounded: D65-weighted, clipped to [0, 1])
