@@ -40,13 +40,10 @@ pub const REFINE_CANDIDATES: usize = 16;
 /// The paper clusters the original values. Measured values carry per-texel noise and detail the
 /// one-lobe model cannot represent, so K-means on them partly groups texels by that residual, and
 /// the lobe refitted on a cluster then sits farther from its members' own lobes. Clustering the
-/// LM values groups texels by what a cluster lobe can represent: on synthetic 64² samples
-/// (seed 1, K = 256, 20 features) PLM-C's MAE drops .0377 → .0350 on wool (PLM .0319), .0200 →
-/// .0186 on leather (PLM .0158), .0091 → .0078 on wood, .0209 → .0207 on corduroy and rises
-/// .0323 → .0326 on foil, file sizes within 4% (figures measured before the model-space
-/// refinement of `refine.rs`, which now follows K-means either way: with it, leather PLM-C/PLM is
-/// 1.091 on LM values and 1.105 on originals). KL selection is on the original images, as in the
-/// paper; the refinement and the L1 polynomials are departures, stated in `fit`'s output.
+/// LM values groups texels by what a cluster lobe can represent, which lowers PLM-C's error on
+/// most synthetic materials (docs/model.md, "Clustering on LM values", has the figures and the
+/// command). KL selection is on the original images, as in the paper; the refinement and the L1
+/// polynomials are departures, stated in `fit`'s output.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ClusterOn {
     /// The original (measured) values, as in the paper.

@@ -8,9 +8,9 @@
 //!
 //! Loads: the index entries and the bound `y_max` by 16-lane gathers; the lobe records (32
 //! bytes each) and polynomial rows by whole-record loads put side by side and turned into lanes
-//! by 16 × 16 register transposes. A 16-lane gather is microcoded on Zen 4 (several times the
-//! cost of 16 row loads plus their share of a transpose): reading the 45 record fields per
-//! pass by gathers cost about 13 ns per query of the 256² bench's ~60 ns kernel.
+//! by 16 × 16 register transposes, not gathered field by field: a 16-lane gather is microcoded
+//! on AMD Zen 4 and costs several times 16 row loads plus their share of a transpose, and a
+//! pass reads 45 record fields (docs/architecture.md, "Speed: PLM-C against diffuse").
 //!
 //! Same arithmetic as `avx512::eval`, operation by operation (the same fused multiply-adds in
 //! the same order, the same clamps with the same operand order, its log2/exp2): each lane's

@@ -7,7 +7,7 @@
 //! They run 16 lobes per step in SoA with the branch-free `exp2`/`log2` of
 //! [`crate::math::simd::lane`] (no fused multiply-adds: the same bits on every ISA), the same
 //! kind of arithmetic the evaluation kernels use, instead of two libm `powf` calls per term (the
-//! Lafortune power and the sRGB decode), which took ~0.25 s of every material's load.
+//! Lafortune power and the sRGB decode), whose cost would otherwise dominate a material's load.
 
 use crate::math::simd::lane;
 use crate::model::{PlmcModel, ValueSpace, ViewParams, lobe, polynomial};
