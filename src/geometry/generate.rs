@@ -1,5 +1,5 @@
-//! Procedural meshes for tests, benchmarks and examples: spheres (optionally displaced or facing
-//! inward), quads and boxes.
+//! Procedural meshes for the tests and benchmarks (compiled for `cfg(test)` and the `test-support`
+//! feature only): spheres (optionally displaced or facing inward), quads and boxes.
 
 use super::Mesh;
 use crate::math::{PI, Vec2, Vec3};

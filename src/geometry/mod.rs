@@ -1,6 +1,7 @@
 //! Scene geometry: triangle meshes in world space, the hit record, and (in `accel`) the BVH.
 
 pub mod accel;
+#[cfg(any(test, feature = "test-support"))]
 pub mod generate;
 pub mod intersection;
 pub mod mesh;

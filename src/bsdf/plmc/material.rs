@@ -197,6 +197,7 @@ impl PlmcMaterial {
 
     /// The same material evaluated by the baseline SSE2 kernel even on an AVX2+FMA CPU (to
     /// compare the two builds; results agree to float rounding).
+    #[cfg(any(test, feature = "test-support"))]
     pub fn without_avx2(mut self) -> Self {
         #[cfg(target_arch = "x86_64")]
         {
@@ -208,6 +209,7 @@ impl PlmcMaterial {
 
     /// The same material without the AVX-512 kernel (the generic kernel's AVX2+FMA build where
     /// the CPU has it): to compare the builds; results agree to float rounding.
+    #[cfg(any(test, feature = "test-support"))]
     pub fn without_avx512(mut self) -> Self {
         #[cfg(target_arch = "x86_64")]
         {
@@ -217,6 +219,7 @@ impl PlmcMaterial {
     }
 
     /// True if evaluations run the AVX2+FMA build of the kernel.
+    #[cfg(test)]
     pub fn uses_avx2(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
         return self.avx2.is_some();
@@ -225,6 +228,7 @@ impl PlmcMaterial {
     }
 
     /// True if PLM-C evaluations (u8 indices, nearest texel) run the AVX-512 kernel.
+    #[cfg(test)]
     pub fn uses_avx512(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
         return self.avx512.is_some() && matches!(self.params, Params::Clustered8 { .. });
