@@ -44,6 +44,7 @@ mod batch;
 mod bsdf;
 mod f4;
 mod kernel;
+mod lobes;
 mod material;
 mod prepare16;
 mod tables;
@@ -51,6 +52,7 @@ mod tables;
 mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
+pub use lobes::{HitLobes, LOBE_FRACTION};
 pub use kernel::{BATCH, BatchQuery, FLUSH, LANES, LobeRec, PolyRow};
 pub use material::{PlmcMaterial, shared_material};
 pub use prepare16::PREPARE_LANES;

@@ -1,0 +1,298 @@
+//! Light-direction sampling from a texel's own fitted lobes.
+//!
+//! A fitted model holds, per measured view, texel and channel, the paper's one-lobe Lafortune
+//! model Y = ρ·max(0, D·ω_l)^n, mapped by the view's polynomial (PLM, PLM-C). As a density over
+//! ω_l it is a Phong lobe of exponent n around the axis D/|D|: p(ω) = (n + 1)/(2π) · (a·ω)^n
+//! for a·ω > 0, drawn exactly by cos θ_a = u^(1/(n+1)) about the axis. For a hit the 9 lobes of
+//! its 3 interpolated views × 3 channels form a mixture, lobe j chosen with probability ∝ view
+//! weight × the channel's luminance weight × the lobe's albedo after the mapping
+//! ([`lobe_albedo`]). Directions drawn below the horizon are rejected (the sample fails), so
+//! the density of what is drawn on the upper hemisphere is the mixture's density itself.
+//!
+//! [`PlmcBsdf`](super::PlmcBsdf) combines this part with the tabulated light sampler (which
+//! holds the uniform defensive part) by one-sample MIS: probability [`LOBE_FRACTION`] for the
+//! lobes, the rest for the sampler; its `pdf` is the mixture's exact density. Plain scalar
+//! arithmetic without fused multiply-adds and with the branch-free `exp2`/`log2` of
+//! `math::simd::lane`, so every CPU and both integrators get the same bits.
+
+use crate::math::frame::Frame;
+use crate::math::simd::lane::{exp2, log2, sin_cos};
+use crate::math::{INV_TWO_PI, Vec2, Vec3};
+
+/// Probability of the lobe part of the sampling mixture (when a hit has lobes; the rest goes to
+/// the tabulated sampler with its uniform defensive part).
+pub const LOBE_FRACTION: f32 = 0.5;
+/// Lobes of one hit: 3 views × 3 channels.
+pub const HIT_LOBES: usize = 9;
+/// Luminance weights of R, G, B (`math::color::luminance`): a channel's share of the selection.
+const LUM: [f32; 3] = [0.212671, 0.715160, 0.072169];
+/// Exponents above this are sampled and evaluated as this one (a lobe narrower than f32
+/// directions resolve; keeps (n + 1)/(2π) and the powers finite).
+const MAX_EXPONENT: f32 = 1.0e5;
+
+/// The lobe mixture of one hit: the lobes with positive selection probability, packed in
+/// front (`count` of them).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct HitLobes {
+    /// Unit lobe axes, as three coordinate arrays.
+    ax: [f32; HIT_LOBES],
+    ay: [f32; HIT_LOBES],
+    az: [f32; HIT_LOBES],
+    /// Exponents n.
+    n: [f32; HIT_LOBES],
+    /// Selection probability × (n + 1)/(2π): lobe j's density is `norm[j] · (a·ω)^n`.
+    norm: [f32; HIT_LOBES],
+    /// Cumulative selection probabilities; the last used one is 1.
+    cdf: [f32; HIT_LOBES],
+    /// Lobes in use (0: the hit has none and the lobe part of the mixture is off).
+    count: u8,
+}
+
+impl HitLobes {
+    /// The mixture of `lobes` (`[ρ, Dx, Dy, Dz, n]`) chosen ∝ `weight` (non-positive, NaN or
+    /// degenerate lobes are left out; none left: an empty mixture).
+    pub fn new(lobes: &[[f32; 5]; HIT_LOBES], weight: &[f32; HIT_LOBES]) -> HitLobes {
+        let mut h = HitLobes::default();
+        let mut total = 0.0f32;
+        let mut w = [0f32; HIT_LOBES];
+        let mut k = 0;
+        for (l, &wt) in lobes.iter().zip(weight) {
+            let len = (l[1] * l[1] + l[2] * l[2] + l[3] * l[3]).sqrt();
+            // (Also false for NaN.)
+            let usable = wt > 0.0 && wt < f32::INFINITY && len > 0.0 && len < f32::INFINITY;
+            if !usable || !(l[4] >= 0.0) {
+                continue;
+            }
+            h.ax[k] = l[1] / len;
+            h.ay[k] = l[2] / len;
+            h.az[k] = l[3] / len;
+            h.n[k] = l[4].min(MAX_EXPONENT);
+            w[k] = wt;
+            total += wt;
+            k += 1;
+        }
+        if !(total > 0.0 && total < f32::INFINITY) {
+            return HitLobes::default();
+        }
+        let mut acc = 0.0f32;
+        for j in 0..k {
+            let p = w[j] / total;
+            acc += p;
+            h.cdf[j] = acc;
+            h.norm[j] = p * ((h.n[j] + 1.0) * INV_TWO_PI);
+        }
+        h.cdf[k - 1] = 1.0;
+        h.count = k as u8;
+        h
+    }
+
+    /// True if the hit has no usable lobe (the mixture is the tabulated sampler alone).
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Which part of the mixture the lobe number `u1` ∈ [0, 1) picks: `Ok(u)` the lobes (u
+    /// chooses one, in [0, 1)), `Err(u)` the tabulated sampler (with `u` ∈ [0, 1) as its own
+    /// lobe number).
+    #[inline]
+    pub fn split(&self, u1: f32) -> Result<f32, f32> {
+        if self.count == 0 {
+            Err(u1)
+        } else if u1 < LOBE_FRACTION {
+            Ok(u1 * (1.0 / LOBE_FRACTION))
+        } else {
+            Err((u1 - LOBE_FRACTION) * (1.0 / (1.0 - LOBE_FRACTION)))
+        }
+    }
+
+    /// The mixture's density at `wo` from the tabulated sampler's density there.
+    #[inline]
+    pub fn mix_pdf(&self, wo: Vec3, table_pdf: f32) -> f32 {
+        if self.count == 0 {
+            table_pdf
+        } else {
+            LOBE_FRACTION * self.pdf(wo) + (1.0 - LOBE_FRACTION) * table_pdf
+        }
+    }
+
+    /// Solid-angle density of [`HitLobes::sample`] at `wo` (its upper-hemisphere directions;
+    /// the mass below the horizon is the probability that a draw is rejected).
+    #[inline]
+    pub fn pdf(&self, wo: Vec3) -> f32 {
+        let mut p = 0.0f32;
+        for j in 0..self.count as usize {
+            let c = self.ax[j] * wo.x + self.ay[j] * wo.y + self.az[j] * wo.z;
+            if c > 0.0 {
+                p += self.norm[j] * pow(c, self.n[j]);
+            }
+        }
+        p
+    }
+
+    /// A direction from the lobe that `u` ∈ [0, 1) picks, placed by `s`; it may lie below the
+    /// horizon (the caller rejects it). The hit must have lobes.
+    #[inline]
+    pub fn sample(&self, u: f32, s: Vec2) -> Vec3 {
+        let last = (self.count as usize).max(1) - 1;
+        let mut j = 0;
+        while j < last && u >= self.cdf[j] {
+            j += 1;
+        }
+        let n = self.n[j];
+        // cos θ = u^(1/(n+1)): the inverse of the lobe's cdf in cos θ (u = 0 gives ≈ 0).
+        let c = exp2(log2(s.x.max(f32::MIN_POSITIVE)) / (n + 1.0)).min(1.0);
+        let r = (1.0 - c * c).max(0.0).sqrt();
+        let (sp, cp) = sin_cos(std::f32::consts::TAU * s.y);
+        let axis = Vec3::new(self.ax[j], self.ay[j], self.az[j]);
+        Frame::from_normal(axis).to_world(Vec3::new(r * cp, r * sp, c))
+    }
+}
+
+/// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::lane`: the same bits on every CPU).
+#[inline(always)]
+fn pow(c: f32, n: f32) -> f32 {
+    exp2(n * log2(c))
+}
+
+/// The selection weight of a lobe of view weight `vw`, channel `c`, albedo `albedo`.
+#[inline(always)]
+pub fn selection_weight(vw: f32, c: usize, albedo: f32) -> f32 {
+    vw * LUM[c] * albedo
+}
+
+/// A lobe's albedo ∫ B dω estimated as its peak value over the upper hemisphere after the
+/// mapping times its solid angle 2π/(n + 1): `map` turns the lobe value Y at the peak
+/// (ρ·(|D|·cos_max)^n, with cos_max = 1 when the axis points above the horizon, else the axis's
+/// horizontal length) into B.
+pub fn lobe_albedo(l: &[f32; 5], map: impl Fn(f32) -> f32) -> f32 {
+    let len = (l[1] * l[1] + l[2] * l[2] + l[3] * l[3]).sqrt();
+    if !(l[0] > 0.0 && len > 0.0 && len < f32::INFINITY && l[4] >= 0.0) {
+        return 0.0;
+    }
+    let az = l[3] / len;
+    let cos_max = if az >= 0.0 {
+        1.0
+    } else {
+        (1.0 - az * az).max(0.0).sqrt()
+    };
+    let n = l[4].min(MAX_EXPONENT);
+    let base = len * cos_max;
+    let y = if base > 0.0 {
+        l[0] * exp2(n * log2(base))
+    } else {
+        0.0
+    };
+    let b = map(y);
+    let a = b * (std::f32::consts::TAU / (n + 1.0));
+    if a > 0.0 && a < f32::INFINITY { a } else { 0.0 }
+}
+
+/// `srgb_to_linear(max(0, v))` with the `lane` exp2/log2 (the same bits on every CPU).
+pub fn srgb_decode(v: f32) -> f32 {
+    let v = v.max(0.0);
+    if v <= 0.04045 {
+        v * (1.0 / 12.92)
+    } else {
+        exp2(2.4 * log2((v + 0.055) * (1.0 / 1.055)))
+    }
+}
+
+use super::kernel::Params;
+use super::material::PlmcMaterial;
+use crate::model::ValueSpace;
+
+impl PlmcMaterial {
+    /// [`lobe_albedo`] of every cluster record, `[view][channel][cluster]` (empty for per-texel
+    /// models, whose albedos are estimated per hit without the mapping): the lobe value at its
+    /// peak clamped and mapped as the kernel does, by the polynomial of the measured light
+    /// nearest to the lobe's axis (`light_dirs`), then decoded.
+    pub(super) fn cluster_lobe_albedos(&self, light_dirs: &[Vec3]) -> Vec<f32> {
+        let (k, records) = match &self.params {
+            Params::Clustered8 { k, records, .. } | Params::Clustered16 { k, records, .. } => {
+                (*k, records)
+            }
+            Params::Texel { .. } => return Vec::new(),
+        };
+        let nl = self.n_lights;
+        let mut out = vec![0f32; records.len()];
+        for (j, (rec, o)) in records.iter().zip(out.iter_mut()).enumerate() {
+            let (v, c) = (j / (3 * k), j / k % 3);
+            let l = record5(&rec.0);
+            let map = |y: f32| {
+                let mut y = y;
+                if !self.polys.is_empty() {
+                    // The measured light nearest to the axis (the largest cosine).
+                    let mut best = (f32::NEG_INFINITY, 0);
+                    for (i, d) in light_dirs.iter().enumerate() {
+                        let cos = l[1] * d.x + l[2] * d.y + l[3] * d.z;
+                        if cos > best.0 {
+                            best = (cos, i);
+                        }
+                    }
+                    let row = &self.polys[v * nl + best.1].0;
+                    let a = |p: usize| row[3 * p + c];
+                    let x = y.min(self.y_max[v][c]);
+                    let p = a(0) + x * (a(1) + x * (a(2) + x * (a(3) + x * a(4))));
+                    y = p.min(self.out_max[v * nl + best.1][c]);
+                }
+                match self.space {
+                    ValueSpace::Linear => y.max(0.0),
+                    ValueSpace::Srgb => srgb_decode(y),
+                }
+            };
+            *o = lobe_albedo(&l, map);
+        }
+        out
+    }
+
+    /// The lobe mixture of a hit at views `vi` (weights `vw`) filtered by `texels`: the lobes
+    /// of the texel with the largest filter weight.
+    pub(super) fn hit_lobes(&self, vi: [u32; 3], vw: [f32; 3], texels: &[(usize, f32)]) -> HitLobes {
+        let mut t = texels.first().map_or(0, |x| x.0);
+        let mut best = f32::NEG_INFINITY;
+        for &(i, w) in texels {
+            if w > best {
+                (t, best) = (i, w);
+            }
+        }
+        let nv = self.n_views;
+        let mut lobes = [[0f32; 5]; HIT_LOBES];
+        let mut weight = [0f32; HIT_LOBES];
+        for a in 0..3 {
+            if !(vw[a] > 0.0) {
+                continue;
+            }
+            let v = vi[a] as usize;
+            for c in 0..3 {
+                let (l, albedo) = match &self.params {
+                    Params::Clustered8 { k, records, index } => {
+                        let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
+                        (record5(&records[j].0), self.lobe_albedo[j])
+                    }
+                    Params::Clustered16 { k, records, index } => {
+                        let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
+                        (record5(&records[j].0), self.lobe_albedo[j])
+                    }
+                    Params::Texel { lobes: per_texel } => {
+                        let l = per_texel[(v * self.width * self.height + t) * 3 + c];
+                        let albedo = lobe_albedo(&l, |y| match self.space {
+                            ValueSpace::Linear => y.max(0.0),
+                            ValueSpace::Srgb => srgb_decode(y),
+                        });
+                        (l, albedo)
+                    }
+                };
+                lobes[3 * a + c] = l;
+                weight[3 * a + c] = selection_weight(vw[a], c, albedo);
+            }
+        }
+        HitLobes::new(&lobes, &weight)
+    }
+}
+
+/// The `[ρ, Dx, Dy, Dz, n]` of a padded lobe record.
+#[inline(always)]
+fn record5(r: &[f32; 8]) -> [f32; 5] {
+    [r[0], r[1], r[2], r[3], r[4]]
+}
