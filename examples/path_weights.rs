@@ -40,7 +40,9 @@ fn main() -> anyhow::Result<()> {
     let mut it = args.iter();
     while let Some(a) = it.next() {
         if a == "-D" {
-            let d = it.next().ok_or_else(|| anyhow::anyhow!("-D needs name=value"))?;
+            let d = it
+                .next()
+                .ok_or_else(|| anyhow::anyhow!("-D needs name=value"))?;
             let (n, v) = d
                 .split_once('=')
                 .ok_or_else(|| anyhow::anyhow!("-D {d}: expected name=value"))?;
@@ -94,7 +96,10 @@ fn main() -> anyhow::Result<()> {
         weights.extend(wt);
     }
     println!("scene {path}, {w}×{h}, {spp} spp, seed {seed} (scalar path integrator)\n");
-    report("radiance contributions (MIS-weighted, times throughput)", &mut contrib);
+    report(
+        "radiance contributions (MIS-weighted, times throughput)",
+        &mut contrib,
+    );
     report("BSDF sample weights f·cos/pdf (luminance)", &mut weights);
     Ok(())
 }

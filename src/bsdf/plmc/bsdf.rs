@@ -327,7 +327,8 @@ impl PlmcBsdf {
             let located = located[q];
             let (li, lw) = lights.interpolation(located.0, located.1);
             let pdf = if want_pdf[q] {
-                h.lobes.mix_pdf(w, m.sampler.pdf_located(h.vi, h.vw, w, located))
+                h.lobes
+                    .mix_pdf(w, m.sampler.pdf_located(h.vi, h.vw, w, located))
             } else {
                 0.0
             };

@@ -52,7 +52,7 @@ mod tables;
 mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
-pub use lobes::{HitLobes, LOBE_FRACTION};
 pub use kernel::{BATCH, BatchQuery, FLUSH, LANES, LobeRec, PolyRow};
+pub use lobes::{HitLobes, LOBE_FRACTION};
 pub use material::{PlmcMaterial, shared_material};
 pub use prepare16::PREPARE_LANES;
