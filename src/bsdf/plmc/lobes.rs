@@ -24,6 +24,9 @@ use crate::math::{INV_TWO_PI, Vec2, Vec3};
 pub const LOBE_FRACTION: f32 = 0.5;
 /// Lobes of one hit: 3 views × 3 channels.
 pub const HIT_LOBES: usize = 9;
+/// [`HIT_LOBES`] rounded up to whole 4-lane vectors: the density runs over all of them (unused
+/// ones have zero weight), a fixed-length loop the compiler vectorises.
+const PADDED: usize = 12;
 /// Luminance weights of R, G, B (`math::color::luminance`): a channel's share of the selection.
 const LUM: [f32; 3] = [0.212671, 0.715160, 0.072169];
 /// Exponents above this are sampled and evaluated as this one (a lobe narrower than f32
@@ -34,14 +37,15 @@ const MAX_EXPONENT: f32 = 1.0e5;
 /// front (`count` of them).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct HitLobes {
-    /// Unit lobe axes, as three coordinate arrays.
-    ax: [f32; HIT_LOBES],
-    ay: [f32; HIT_LOBES],
-    az: [f32; HIT_LOBES],
+    /// Unit lobe axes, as three coordinate arrays (0 past `count`).
+    ax: [f32; PADDED],
+    ay: [f32; PADDED],
+    az: [f32; PADDED],
     /// Exponents n.
-    n: [f32; HIT_LOBES],
-    /// Selection probability × (n + 1)/(2π): lobe j's density is `norm[j] · (a·ω)^n`.
-    norm: [f32; HIT_LOBES],
+    n: [f32; PADDED],
+    /// Selection probability × (n + 1)/(2π): lobe j's density is `norm[j] · (a·ω)^n` (0 past
+    /// `count`).
+    norm: [f32; PADDED],
     /// Cumulative selection probabilities; the last used one is 1.
     cdf: [f32; HIT_LOBES],
     /// Lobes in use (0: the hit has none and the lobe part of the mixture is off).
@@ -74,6 +78,7 @@ impl HitLobes {
         if !(total > 0.0 && total < f32::INFINITY) {
             return HitLobes::default();
         }
+        // (Unused lanes: axes and weights 0, so their density terms are 0.)
         let mut acc = 0.0f32;
         for j in 0..k {
             let p = w[j] / total;
@@ -120,12 +125,16 @@ impl HitLobes {
     /// the mass below the horizon is the probability that a draw is rejected).
     #[inline]
     pub fn pdf(&self, wo: Vec3) -> f32 {
-        let mut p = 0.0f32;
-        for j in 0..self.count as usize {
+        // Every lane, branch-free (vectorised); then a sum in a fixed order.
+        let mut t = [0f32; PADDED];
+        for j in 0..PADDED {
             let c = self.ax[j] * wo.x + self.ay[j] * wo.y + self.az[j] * wo.z;
-            if c > 0.0 {
-                p += self.norm[j] * pow(c, self.n[j]);
-            }
+            let v = self.norm[j] * pow(c.max(1e-30), self.n[j]);
+            t[j] = if c > 0.0 { v } else { 0.0 };
+        }
+        let mut p = 0.0f32;
+        for v in t {
+            p += v;
         }
         p
     }
