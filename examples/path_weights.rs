@@ -9,8 +9,9 @@
 
 use btfpt::bsdf::Bsdf;
 use btfpt::bsdf::btf_sampler::DEFENSIVE_FRACTION;
-use btfpt::math::Pcg32;
+use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::color::luminance;
+use btfpt::math::{Pcg32, Vec2, Vec3};
 use btfpt::render::RenderScene;
 use btfpt::render::integrator::{TraceStats, film_sample_start};
 use btfpt::render::path::PathEvent;
@@ -60,9 +61,9 @@ fn main() -> anyhow::Result<()> {
     let names = material_names(&scene);
     let rs = RenderScene::new(scene)?;
     let (w, h) = rs.scene.camera.image_size();
-    let component = |bsdf: u32, u1: f32| -> &'static str {
+    let component = |bsdf: u32, wi: Vec3, uv: Vec2, u1: f32| -> &'static str {
         match rs.scene.bsdfs.get(bsdf as usize) {
-            Some(Bsdf::Plmc(b)) => b.sampling_component(u1),
+            Some(Bsdf::Plmc(b)) => b.sampling_component(&SurfaceInteraction::for_tests(wi, uv), u1),
             Some(Bsdf::Btf(_)) if u1 < DEFENSIVE_FRACTION => "uniform",
             Some(Bsdf::Btf(_)) => "table",
             _ => "-",
@@ -136,7 +137,7 @@ fn material_names(scene: &btfpt::scene::Scene) -> Vec<String> {
 fn charge(
     events: &[PathEvent],
     names: &[String],
-    component: &impl Fn(u32, f32) -> &'static str,
+    component: &impl Fn(u32, Vec3, Vec2, f32) -> &'static str,
     contrib: &mut Vec<Rec>,
     weights: &mut Vec<Rec>,
 ) {
@@ -149,6 +150,7 @@ fn charge(
                 depth,
                 bsdf,
                 wi,
+                uv,
                 u1,
                 weight,
                 ..
@@ -158,7 +160,7 @@ fn charge(
                     kind: "BSDF sample",
                     material: name(bsdf),
                     theta: theta(wi.z),
-                    component: component(bsdf, u1),
+                    component: component(bsdf, wi, uv, u1),
                     depth,
                 };
                 weights.push(r.clone());

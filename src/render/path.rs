@@ -17,7 +17,7 @@ use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::filter::Filter;
-use crate::math::{Pcg32, Spectrum, Vec3};
+use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 impl PathTracer {
@@ -179,6 +179,7 @@ impl PathTracer {
                 depth,
                 bsdf: mesh.bsdf,
                 wi: si.wi,
+                uv: si.uv,
                 wo: bs.wo,
                 u1,
                 pdf: bs.pdf,
@@ -226,12 +227,13 @@ pub enum PathEvent {
         wi: Vec3,
         value: Spectrum,
     },
-    /// The BSDF sample that continues the path from vertex `depth`: the lobe number `u1` it
-    /// was drawn with, its direction, density and weight f·cos/pdf.
+    /// The BSDF sample that continues the path from vertex `depth` (surface uv `uv`): the lobe
+    /// number `u1` it was drawn with, its direction, density and weight f·cos/pdf.
     BsdfSampled {
         depth: u32,
         bsdf: u32,
         wi: Vec3,
+        uv: Vec2,
         wo: Vec3,
         u1: f32,
         pdf: f32,

@@ -2,7 +2,7 @@
 //! shared by one vertex's calls, eval/pdf/sample through the material and the light sampler.
 
 use super::kernel::{BATCH, BatchQuery};
-use super::lobes::{HitLobes, LOBE_FRACTION};
+use super::lobes::HitLobes;
 use super::material::PlmcMaterial;
 use crate::bsdf::btf_sampler::SAMPLE_LANES;
 use crate::bsdf::{BsdfFlags, BsdfSample};
@@ -362,13 +362,13 @@ impl PlmcBsdf {
     }
 
     /// The name of the sampling-mixture component that the lobe number `sample1` of
-    /// [`PlmcBsdf::sample`] picks at a hit with lobes ("lobes", "uniform" or "table"), for
-    /// statistics tools.
-    pub fn sampling_component(&self, sample1: f32) -> &'static str {
-        let rest = if sample1 < LOBE_FRACTION {
-            return "lobes";
-        } else {
-            (sample1 - LOBE_FRACTION) * (1.0 / (1.0 - LOBE_FRACTION))
+    /// [`PlmcBsdf::sample`] picks at `si` ("lobes", "uniform" or "table"; "-" below the
+    /// horizon), for statistics tools.
+    pub fn sampling_component(&self, si: &SurfaceInteraction, sample1: f32) -> &'static str {
+        let rest = match self.hit_at(si, false).map(|h| h.lobes.split(sample1)) {
+            Some(Ok(_)) => return "lobes",
+            Some(Err(u)) => u,
+            None => return "-",
         };
         if rest < crate::bsdf::btf_sampler::DEFENSIVE_FRACTION {
             "uniform"

@@ -29,6 +29,10 @@ pub const HIT_LOBES: usize = 9;
 const PADDED: usize = 12;
 /// Luminance weights of R, G, B (`math::color::luminance`): a channel's share of the selection.
 const LUM: [f32; 3] = [0.212671, 0.715160, 0.072169];
+/// Lobes broader than this exponent are left to the tabulated sampler: their width, about
+/// 1/√n rad, spans light triangles (~15° apart), which the tables resolve (and they are
+/// averaged over texels only where broad lobes differ little).
+pub const MIN_EXPONENT: f32 = 8.0;
 /// Exponents above this are sampled and evaluated as this one (a lobe narrower than f32
 /// directions resolve; keeps (n + 1)/(2π) and the powers finite).
 const MAX_EXPONENT: f32 = 1.0e5;
@@ -48,15 +52,26 @@ pub struct HitLobes {
     norm: [f32; PADDED],
     /// Cumulative selection probabilities; the last used one is 1.
     cdf: [f32; HIT_LOBES],
+    /// Probability of the lobe part in the hit's mixture: [`LOBE_FRACTION`] × the sharp
+    /// lobes' share of the 9 lobes' weight (0 when there are none).
+    frac: f32,
     /// Lobes in use (0: the hit has none and the lobe part of the mixture is off).
     count: u8,
 }
 
 impl HitLobes {
     /// The mixture of `lobes` (`[ρ, Dx, Dy, Dz, n]`) chosen ∝ `weight` (non-positive, NaN or
-    /// degenerate lobes are left out; none left: an empty mixture).
+    /// degenerate lobes, and lobes of exponent below [`MIN_EXPONENT`], are left out; none
+    /// left: an empty mixture). The lobe part's probability is [`LOBE_FRACTION`] times the
+    /// kept lobes' share of the total weight.
     pub fn new(lobes: &[[f32; 5]; HIT_LOBES], weight: &[f32; HIT_LOBES]) -> HitLobes {
         let mut h = HitLobes::default();
+        let mut all = 0.0f32;
+        for &wt in weight {
+            if wt > 0.0 && wt < f32::INFINITY {
+                all += wt;
+            }
+        }
         let mut total = 0.0f32;
         let mut w = [0f32; HIT_LOBES];
         let mut k = 0;
@@ -64,7 +79,7 @@ impl HitLobes {
             let len = (l[1] * l[1] + l[2] * l[2] + l[3] * l[3]).sqrt();
             // (Also false for NaN.)
             let usable = wt > 0.0 && wt < f32::INFINITY && len > 0.0 && len < f32::INFINITY;
-            if !usable || !(l[4] >= 0.0) {
+            if !usable || !(l[4] >= MIN_EXPONENT) {
                 continue;
             }
             h.ax[k] = l[1] / len;
@@ -88,6 +103,10 @@ impl HitLobes {
         }
         h.cdf[k - 1] = 1.0;
         h.count = k as u8;
+        h.frac = LOBE_FRACTION * (total / all).min(1.0);
+        if !(h.frac > 0.0) {
+            return HitLobes::default();
+        }
         h
     }
 
@@ -102,13 +121,20 @@ impl HitLobes {
     /// lobe number).
     #[inline]
     pub fn split(&self, u1: f32) -> Result<f32, f32> {
+        const BELOW_ONE: f32 = 1.0 - f32::EPSILON / 2.0;
         if self.count == 0 {
             Err(u1)
-        } else if u1 < LOBE_FRACTION {
-            Ok(u1 * (1.0 / LOBE_FRACTION))
+        } else if u1 < self.frac {
+            Ok((u1 / self.frac).min(BELOW_ONE))
         } else {
-            Err((u1 - LOBE_FRACTION) * (1.0 / (1.0 - LOBE_FRACTION)))
+            Err(((u1 - self.frac) / (1.0 - self.frac)).min(BELOW_ONE))
         }
+    }
+
+    /// Probability of the lobe part of this hit's mixture (0 without lobes).
+    #[inline]
+    pub fn fraction(&self) -> f32 {
+        self.frac
     }
 
     /// The mixture's density at `wo` from the tabulated sampler's density there.
@@ -117,7 +143,7 @@ impl HitLobes {
         if self.count == 0 {
             table_pdf
         } else {
-            LOBE_FRACTION * self.pdf(wo) + (1.0 - LOBE_FRACTION) * table_pdf
+            self.frac * self.pdf(wo) + (1.0 - self.frac) * table_pdf
         }
     }
 
@@ -208,15 +234,32 @@ pub fn srgb_decode(v: f32) -> f32 {
 }
 
 use super::kernel::Params;
+
+/// The pad slot of a cluster record (`LobeRec`, `[ρ, Dx, Dy, Dz, n, pad…]`) that holds the
+/// lobe's albedo after the mapping.
+pub(super) const ALBEDO_SLOT: usize = 5;
 use super::material::PlmcMaterial;
 use crate::model::ValueSpace;
 
 impl PlmcMaterial {
-    /// [`lobe_albedo`] of every cluster record, `[view][channel][cluster]` (empty for per-texel
-    /// models, whose albedos are estimated per hit without the mapping): the lobe value at its
-    /// peak clamped and mapped as the kernel does, by the polynomial of the measured light
-    /// nearest to the lobe's axis (`light_dirs`), then decoded.
-    pub(super) fn cluster_lobe_albedos(&self, light_dirs: &[Vec3]) -> Vec<f32> {
+    /// Writes [`lobe_albedo`] into slot [`ALBEDO_SLOT`] of every cluster record (a pad slot the
+    /// kernels do not read, on the cache line the lobe's parameters are read from): the lobe
+    /// value at its peak clamped and mapped as the kernel does, by the polynomial of the
+    /// measured light nearest to the lobe's axis (`light_dirs`), then decoded. Per-texel
+    /// models have no pad: their albedos are estimated per hit, without the mapping.
+    pub(super) fn store_lobe_albedos(&mut self, light_dirs: &[Vec3]) {
+        let albedo = self.cluster_lobe_albedos(light_dirs);
+        if let Params::Clustered8 { records, .. } | Params::Clustered16 { records, .. } =
+            &mut self.params
+        {
+            for (r, a) in records.iter_mut().zip(albedo) {
+                r.0[ALBEDO_SLOT] = a;
+            }
+        }
+    }
+
+    /// [`lobe_albedo`] of every cluster record (see [`PlmcMaterial::store_lobe_albedos`]).
+    fn cluster_lobe_albedos(&self, light_dirs: &[Vec3]) -> Vec<f32> {
         let (k, records) = match &self.params {
             Params::Clustered8 { k, records, .. } | Params::Clustered16 { k, records, .. } => {
                 (*k, records)
@@ -282,11 +325,11 @@ impl PlmcMaterial {
                 let (l, albedo) = match &self.params {
                     Params::Clustered8 { k, records, index } => {
                         let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
-                        (record5(&records[j].0), self.lobe_albedo[j])
+                        (record5(&records[j].0), records[j].0[ALBEDO_SLOT])
                     }
                     Params::Clustered16 { k, records, index } => {
                         let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
-                        (record5(&records[j].0), self.lobe_albedo[j])
+                        (record5(&records[j].0), records[j].0[ALBEDO_SLOT])
                     }
                     Params::Texel { lobes: per_texel } => {
                         let l = per_texel[(v * self.width * self.height + t) * 3 + c];

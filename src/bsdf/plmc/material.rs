@@ -40,9 +40,6 @@ pub struct PlmcMaterial {
     /// Light sampling tables built from the model's texel-mean values, and the light
     /// interpolator they are built on.
     pub(super) sampler: BtfLightSampler,
-    /// Per cluster record `[view][channel][cluster]`: the lobe's albedo after the mapping, which
-    /// weighs it in the lobe sampling mixture (`lobes.rs`); empty for per-texel models.
-    pub(super) lobe_albedo: Vec<f32>,
     /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
     #[cfg(target_arch = "x86_64")]
     pub(super) avx2: Option<f4::Avx2Fma>,
@@ -161,13 +158,13 @@ impl PlmcMaterial {
             out_max,
             views,
             sampler,
-            lobe_albedo: Vec::new(),
             #[cfg(target_arch = "x86_64")]
             avx2: f4::Avx2Fma::detect(),
             #[cfg(target_arch = "x86_64")]
             avx512: super::avx512::Avx512::detect(),
         };
-        material.lobe_albedo = material.cluster_lobe_albedos(&model.lights.dirs);
+        // (The lobe sampling weights: `lobes.rs`.)
+        material.store_lobe_albedos(&model.lights.dirs);
         Ok(material)
     }
 
