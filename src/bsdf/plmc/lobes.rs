@@ -258,6 +258,35 @@ impl PlmcMaterial {
         }
     }
 
+    /// Per view: whether any of its lobes (cluster records, or every texel's) has an exponent
+    /// of at least [`MIN_EXPONENT`], the only ones [`HitLobes`] keeps.
+    pub(super) fn find_sharp_views(&self) -> Vec<bool> {
+        let sharp = |l: &[f32]| l[0] > 0.0 && l[4] >= MIN_EXPONENT;
+        let nv = self.n_views;
+        match &self.params {
+            Params::Clustered8 { records, .. } | Params::Clustered16 { records, .. } => {
+                let per_view = records.len() / nv.max(1);
+                (0..nv)
+                    .map(|v| {
+                        records[v * per_view..(v + 1) * per_view]
+                            .iter()
+                            .any(|r| sharp(&r.0))
+                    })
+                    .collect()
+            }
+            Params::Texel { lobes } => {
+                let per_view = lobes.len() / nv.max(1);
+                (0..nv)
+                    .map(|v| {
+                        lobes[v * per_view..(v + 1) * per_view]
+                            .iter()
+                            .any(|l| sharp(l))
+                    })
+                    .collect()
+            }
+        }
+    }
+
     /// [`lobe_albedo`] of every cluster record (see [`PlmcMaterial::store_lobe_albedos`]).
     fn cluster_lobe_albedos(&self, light_dirs: &[Vec3]) -> Vec<f32> {
         let (k, records) = match &self.params {
@@ -312,6 +341,9 @@ impl PlmcMaterial {
             if w > best {
                 (t, best) = (i, w);
             }
+        }
+        if !(0..3).any(|a| vw[a] > 0.0 && self.sharp_views[vi[a] as usize]) {
+            return HitLobes::default();
         }
         let nv = self.n_views;
         let mut lobes = [[0f32; 5]; HIT_LOBES];

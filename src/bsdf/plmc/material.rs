@@ -40,6 +40,9 @@ pub struct PlmcMaterial {
     /// Light sampling tables built from the model's texel-mean values, and the light
     /// interpolator they are built on.
     pub(super) sampler: BtfLightSampler,
+    /// Per view: true if some lobe of it is sharp enough to be sampled (`lobes.rs`); hits whose
+    /// 3 views have none skip gathering their lobes.
+    pub(super) sharp_views: Vec<bool>,
     /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
     #[cfg(target_arch = "x86_64")]
     pub(super) avx2: Option<f4::Avx2Fma>,
@@ -158,6 +161,7 @@ impl PlmcMaterial {
             out_max,
             views,
             sampler,
+            sharp_views: Vec::new(),
             #[cfg(target_arch = "x86_64")]
             avx2: f4::Avx2Fma::detect(),
             #[cfg(target_arch = "x86_64")]
@@ -165,6 +169,7 @@ impl PlmcMaterial {
         };
         // (The lobe sampling weights: `lobes.rs`.)
         material.store_lobe_albedos(&model.lights.dirs);
+        material.sharp_views = material.find_sharp_views();
         Ok(material)
     }
 
