@@ -198,6 +198,9 @@ fn charge(
     }
 }
 
+/// An attribute records are grouped by.
+type Key = fn(&Rec) -> String;
+
 /// Prints the top 0.1 % of `recs` by value, grouped by each attribute.
 fn report(title: &str, recs: &mut [Rec]) {
     recs.sort_by(|a, b| b.value.total_cmp(&a.value));
@@ -212,7 +215,7 @@ fn report(title: &str, recs: &mut [Rec]) {
         recs.first().map_or(0.0, |r| r.value),
         100.0 * top_sum / total.max(1e-30)
     );
-    let keyed: [(&str, fn(&Rec) -> String); 5] = [
+    let keyed: [(&str, Key); 5] = [
         ("kind", |r| r.kind.to_string()),
         ("material", |r| r.material.clone()),
         ("view θ_v (15° bins)", |r| {
