@@ -6,12 +6,14 @@
 //! for a·ω > 0, drawn exactly by cos θ_a = u^(1/(n+1)) about the axis. For a hit the 9 lobes of
 //! its 3 interpolated views × 3 channels form a mixture, lobe j chosen with probability ∝ view
 //! weight × the channel's luminance weight × the lobe's albedo after the mapping
-//! ([`lobe_albedo`]). Directions drawn below the horizon are rejected (the sample fails), so
-//! the density of what is drawn on the upper hemisphere is the mixture's density itself.
+//! ([`lobe_albedo`]); lobes broader than [`MIN_EXPONENT`] are left out (the tables resolve
+//! them). Directions drawn below the horizon are rejected (the sample fails), so the density
+//! of what is drawn on the upper hemisphere is the mixture's density itself.
 //!
 //! [`PlmcBsdf`](super::PlmcBsdf) combines this part with the tabulated light sampler (which
-//! holds the uniform defensive part) by one-sample MIS: probability [`LOBE_FRACTION`] for the
-//! lobes, the rest for the sampler; its `pdf` is the mixture's exact density. Plain scalar
+//! holds the uniform defensive part) by one-sample MIS: probability [`LOBE_FRACTION`] × the
+//! kept lobes' share of the 9 lobes' weight for the lobes, the rest for the sampler; its `pdf`
+//! is the mixture's exact density. Plain scalar
 //! arithmetic without fused multiply-adds and with the branch-free `exp2`/`log2` of
 //! `math::simd::lane`, so every CPU and both integrators get the same bits.
 
@@ -456,12 +458,13 @@ mod tests {
     /// The views of the tests: normal, oblique, between the outer rings, grazing.
     const VIEWS: [(f32, f32); 4] = [(0.0, 0.0), (40.0, 70.0), (68.0, 250.0), (84.0, 33.0)];
 
-    /// Chi-square test of `b` at `s`; ∫pdf must equal the accepted share within 4e-3 (the
-    /// quadrature of a lobe of n = 500 at the pole, 0.07 rad wide, is good to about 1 %: 1e-2 there).
+    /// Chi-square test of `b` at `s`, and ∫pdf equal to the accepted share within 4e-3.
     fn chi2_of(b: &PlmcBsdf, s: &SurfaceInteraction, t: &Chi2Test) -> Result<(), String> {
         chi2_within(b, s, t, 4e-3)
     }
 
+    /// [`chi2_of`] with the tolerance `tol` on ∫pdf (the test's quadrature of a lobe of
+    /// n = 500, about 0.05 rad wide, is good to about 1 %).
     fn chi2_within(
         b: &PlmcBsdf,
         s: &SurfaceInteraction,
