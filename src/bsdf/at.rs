@@ -11,6 +11,9 @@ use crate::math::{Spectrum, Vec2, Vec3};
 /// A BSDF bound to one shading point by [`Bsdf::at`]. Every method returns exactly what the
 /// stateless [`Bsdf`] method returns for the same `si` (the one `at` was given). Plain data on
 /// the stack: a borrowed BSDF plus, for a fitted BTF, its hit.
+/// (One per path vertex on the stack, never stored in bulk: the fitted BTF's hit, with its
+/// lobe mixture of a few hundred bytes, stays inline rather than behind an allocation per hit.)
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug)]
 pub enum BsdfAt<'a> {
     /// No per-hit state: the calls forward to the stateless ones.

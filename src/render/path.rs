@@ -17,7 +17,7 @@ use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
 use crate::geometry::shading::surface_interaction;
 use crate::math::filter::Filter;
-use crate::math::{Pcg32, Spectrum, Vec3};
+use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 impl PathTracer {
@@ -68,6 +68,24 @@ impl PathTracer {
         rng: &mut Pcg32,
         stats: &mut TraceStats,
     ) -> Spectrum {
+        self.li_observed(rs, o, d, tmax, rng, stats, &mut |_| {})
+    }
+
+    /// [`PathTracer::li`] (the same value and random numbers) that reports every BSDF sample
+    /// and every radiance contribution of the path to `observe`, for tools that ask where an
+    /// estimate's large values come from (the Mitsuba `direct` integrator reports nothing).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn li_observed(
+        &self,
+        rs: &RenderScene,
+        o: Vec3,
+        d: Vec3,
+        tmax: f32,
+        rng: &mut Pcg32,
+        stats: &mut TraceStats,
+        observe: &mut impl FnMut(PathEvent),
+    ) -> Spectrum {
         if let Some(ds) = &self.direct {
             return super::direct::li(ds, self.hide_emitters, rs, o, d, tmax, rng, stats);
         }
@@ -92,7 +110,9 @@ impl PathTracer {
                     for k in 0..lights.infinite_count() {
                         let (le, pdf_e) = lights.eval_infinite(k, ray_d);
                         let em_pdf = if prev_delta || !self.nee { 0.0 } else { pdf_e };
-                        result += throughput * le * mis_weight(prev_pdf, em_pdf);
+                        let value = throughput * le * mis_weight(prev_pdf, em_pdf);
+                        observe(PathEvent::Emitted { depth, value });
+                        result += value;
                     }
                 }
                 break;
@@ -106,7 +126,9 @@ impl PathTracer {
                     } else {
                         lights.pdf_area_hit(prev_p, &si)
                     };
-                    result += throughput * le * mis_weight(prev_pdf, em_pdf);
+                    let value = throughput * le * mis_weight(prev_pdf, em_pdf);
+                    observe(PathEvent::Emitted { depth, value });
+                    result += value;
                 }
             }
             if depth.saturating_add(1) >= self.max_depth {
@@ -136,7 +158,14 @@ impl PathTracer {
                         } else {
                             mis_weight(ls.pdf, bsdf_pdf)
                         };
-                        result += throughput * f * ls.weight * mis;
+                        let value = throughput * f * ls.weight * mis;
+                        observe(PathEvent::EmitterSampled {
+                            depth,
+                            bsdf: mesh.bsdf,
+                            wi: si.wi,
+                            value,
+                        });
+                        result += value;
                     }
                 }
             }
@@ -146,6 +175,16 @@ impl PathTracer {
             let Some((bs, weight)) = bsdf.sample(&si, u1, u2) else {
                 break;
             };
+            observe(PathEvent::BsdfSampled {
+                depth,
+                bsdf: mesh.bsdf,
+                wi: si.wi,
+                uv: si.uv,
+                wo: bs.wo,
+                u1,
+                pdf: bs.pdf,
+                weight,
+            });
             let wo_world = si.to_world(bs.wo);
             throughput *= weight;
             eta *= bs.eta;
@@ -171,4 +210,33 @@ impl PathTracer {
         }
         result
     }
+}
+
+/// One step of a path as [`PathTracer::li_observed`] reports it (directions in the vertex's
+/// local shading frame, `depth` = the vertex's index along the path, 0 at the camera hit).
+#[derive(Clone, Copy, Debug)]
+pub enum PathEvent {
+    /// Radiance of an emitter that a camera ray or a BSDF-sampled ray hit, MIS weighted, times
+    /// the path throughput (`depth`: the vertex the ray left from + 1).
+    Emitted { depth: u32, value: Spectrum },
+    /// Next-event estimation at vertex `depth`: radiance added, MIS weighted, times the
+    /// throughput; `bsdf` indexes `Scene::bsdfs`, `wi` is the outgoing (view) direction.
+    EmitterSampled {
+        depth: u32,
+        bsdf: u32,
+        wi: Vec3,
+        value: Spectrum,
+    },
+    /// The BSDF sample that continues the path from vertex `depth` (surface uv `uv`): the lobe
+    /// number `u1` it was drawn with, its direction, density and weight f·cos/pdf.
+    BsdfSampled {
+        depth: u32,
+        bsdf: u32,
+        wi: Vec3,
+        uv: Vec2,
+        wo: Vec3,
+        u1: f32,
+        pdf: f32,
+        weight: Spectrum,
+    },
 }

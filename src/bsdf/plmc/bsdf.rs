@@ -1,6 +1,7 @@
 //! The fitted-model BTF as a BSDF: texel addressing (nearest or bilinear), the per-hit state
 //! shared by one vertex's calls, eval/pdf/sample through the material and the light sampler.
 
+use super::lobes::HitLobes;
 use super::material::PlmcMaterial;
 use super::query::{BATCH, BatchQuery};
 use crate::bsdf::btf_sampler::SAMPLE_LANES;
@@ -148,6 +149,7 @@ impl PlmcBsdf {
             vw,
             texels,
             n: n as u8,
+            lobes: self.material.hit_lobes(vi, vw, &texels[..n]),
         })
     }
 
@@ -163,7 +165,8 @@ impl PlmcBsdf {
         let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
         let t = &hit.texels[..hit.n as usize];
         let f = Spectrum::from(m.eval_b_with(hit.vi, hit.vw, li, lw, wo, t)) * INV_PI;
-        (f, m.sampler.pdf_located(hit.vi, hit.vw, wo, located))
+        let table = m.sampler.pdf_located(hit.vi, hit.vw, wo, located);
+        (f, hit.lobes.mix_pdf(wo, table))
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
@@ -198,7 +201,8 @@ impl PlmcBsdf {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        self.material.sampler.pdf(hit.vi, hit.vw, wo)
+        let table = self.material.sampler.pdf(hit.vi, hit.vw, wo);
+        hit.lobes.mix_pdf(wo, table)
     }
 
     /// `(eval, pdf)` sharing the view lookup and the light search.
@@ -323,7 +327,8 @@ impl PlmcBsdf {
             let located = located[q];
             let (li, lw) = lights.interpolation(located.0, located.1);
             let pdf = if want_pdf[q] {
-                m.sampler.pdf_located(h.vi, h.vw, w, located)
+                h.lobes
+                    .mix_pdf(w, m.sampler.pdf_located(h.vi, h.vw, w, located))
             } else {
                 0.0
             };
@@ -356,6 +361,22 @@ impl PlmcBsdf {
         }
     }
 
+    /// The name of the sampling-mixture component that the lobe number `sample1` of
+    /// [`PlmcBsdf::sample`] picks at `si` ("lobes", "uniform" or "table"; "-" below the
+    /// horizon), for statistics tools.
+    pub fn sampling_component(&self, si: &SurfaceInteraction, sample1: f32) -> &'static str {
+        let rest = match self.hit_at(si, false).map(|h| h.lobes.split(sample1)) {
+            Some(Ok(_)) => return "lobes",
+            Some(Err(u)) => u,
+            None => return "-",
+        };
+        if rest < crate::bsdf::btf_sampler::DEFENSIVE_FRACTION {
+            "uniform"
+        } else {
+            "table"
+        }
+    }
+
     /// Samples a light direction from the tabulated mixture; weight = eval / pdf.
     pub fn sample(
         &self,
@@ -375,7 +396,10 @@ impl PlmcBsdf {
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
         let m = &*self.material;
-        let (wo, tri) = m.sampler.sample(hit.vi, hit.vw, sample1, sample2);
+        let (wo, tri) = match hit.lobes.split(sample1) {
+            Ok(u) => (hit.lobes.sample(u, sample2), None),
+            Err(u) => m.sampler.sample(hit.vi, hit.vw, u, sample2),
+        };
         if wo.z <= 0.0 {
             return None;
         }
@@ -419,13 +443,29 @@ impl PlmcBsdf {
         // are searched for all at once, as `eval_pdf_batch` does.
         let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);
         let mut search = 0u16;
+        // The lanes that draw from their lobes draw here; the others' tabulated draws run as
+        // one batch (packed: table lane j is query `slot[j]`).
         let (mut vi, mut vw) = ([[0u32; 3]; BATCH], [[0f32; 3]; BATCH]);
-        for q in 0..n {
-            (vi[q], vw[q]) = (hits[q].vi, hits[q].vw);
-        }
+        let (mut u1, mut u2) = ([0f32; BATCH], [Vec2::ZERO; BATCH]);
+        let mut slot = [0usize; BATCH];
+        let mut nt = 0;
         let mut drawn = [(Vec3::Z, None); BATCH];
+        for q in 0..n {
+            match hits[q].lobes.split(sample1[q]) {
+                Ok(u) => drawn[q] = (hits[q].lobes.sample(u, sample2[q]), None),
+                Err(u) => {
+                    (vi[nt], vw[nt]) = (hits[q].vi, hits[q].vw);
+                    (u1[nt], u2[nt], slot[nt]) = (u, sample2[q], q);
+                    nt += 1;
+                }
+            }
+        }
+        let mut table = [(Vec3::Z, None); BATCH];
         m.sampler
-            .sample_batch(&vi[..n], &vw[..n], sample1, sample2, &mut drawn[..n]);
+            .sample_batch(&vi[..nt], &vw[..nt], &u1[..nt], &u2[..nt], &mut table[..nt]);
+        for j in 0..nt {
+            drawn[slot[j]] = table[j];
+        }
         for q in 0..n {
             let (w, tri) = drawn[q];
             // (Below the horizon: the evaluation returns (0, 0) and the sample fails.)
@@ -479,6 +519,8 @@ pub struct PlmcHit {
     pub(super) vw: [f32; 3],
     pub(super) texels: [(usize, f32); 4],
     pub(super) n: u8,
+    /// The texel's own lobes as a sampling mixture (see `lobes.rs`).
+    pub(super) lobes: HitLobes,
 }
 
 /// `x.floor()` without the libm call the x86_64 baseline makes of it (no SSE4.1 `roundss`):

@@ -70,6 +70,9 @@ pub struct PlmcMaterial {
     /// Light sampling tables built from the model's texel-mean values, and the light
     /// interpolator they are built on.
     pub(super) sampler: BtfLightSampler,
+    /// Per view: true if some lobe of it is sharp enough to be sampled (`lobes.rs`); hits whose
+    /// 3 views have none skip gathering their lobes.
+    pub(super) sharp_views: Vec<bool>,
     /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
     #[cfg(target_arch = "x86_64")]
     pub(super) avx2: Option<f4::Avx2Fma>,
@@ -175,7 +178,7 @@ impl PlmcMaterial {
             .map(|c| luminance(Spectrum::new(c[0], c[1], c[2])))
             .collect();
         let sampler = BtfLightSampler::new(lights, &model.lights.dirs, &lum);
-        Ok(PlmcMaterial {
+        let mut material = PlmcMaterial {
             kind: model.kind,
             space: model.space,
             width: model.width,
@@ -188,11 +191,16 @@ impl PlmcMaterial {
             out_max,
             views,
             sampler,
+            sharp_views: Vec::new(),
             #[cfg(target_arch = "x86_64")]
             avx2: f4::Avx2Fma::detect(),
             #[cfg(target_arch = "x86_64")]
             avx512: super::avx512::Avx512::detect(),
-        })
+        };
+        // (The lobe sampling weights: `lobes.rs`.)
+        material.store_lobe_albedos(&model.lights.dirs);
+        material.sharp_views = material.find_sharp_views();
+        Ok(material)
     }
 
     /// The same material evaluated by the baseline SSE2 kernel even on an AVX2+FMA CPU (to

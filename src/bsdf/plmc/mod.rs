@@ -25,14 +25,15 @@
 //! the CPU has it, else SSE2. A shading hit's view lookup and texel addressing are done once by
 //! [`PlmcBsdf::prepare`] and shared by its `eval_pdf` and `sample` ([`PlmcHit`]).
 //!
-//! Sampling uses the tabulated light sampler of measured BTFs ([`BtfLightSampler`](crate::bsdf::btf_sampler::BtfLightSampler)), built at
+//! Sampling: a one-sample mixture of the hit's own sharp fitted lobes (`lobes.rs`) and the
+//! tabulated light sampler of measured BTFs ([`BtfLightSampler`](crate::bsdf::btf_sampler::BtfLightSampler)), built at
 //! load from the model's texel-averaged values at the measured directions, exactly as for raw
 //! data.
 //!
 //! Files: `material.rs` (the evaluation layout built from a model), `kernel.rs` (the generic
 //! 4-wide kernel and the dispatch), `avx512.rs` (the 16-lane kernel), `batch.rs` (16 queries per
 //! pass, one per lane: the packet integrator's batched emitter evaluations), `f4.rs` (the 4-lane
-//! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state), `prepare16.rs` (the per-hit state of a
+//! vector type for SSE2 / AVX2+FMA), `bsdf.rs` (the BSDF: texel addressing, per-hit state), `lobes.rs` (sampling the texel's lobes), `prepare16.rs` (the per-hit state of a
 //! packet batch, its view lookups 16 at a time), `tables.rs` (the texel-mean values and range
 //! clamps built at load, 16 lobes per step).
 //!
@@ -44,6 +45,7 @@ mod batch;
 mod bsdf;
 mod f4;
 mod kernel;
+mod lobes;
 mod material;
 mod prepare16;
 mod query;
@@ -53,6 +55,7 @@ mod tests;
 
 pub use bsdf::{PlmcBsdf, PlmcHit};
 pub use kernel::{FLUSH, LANES};
+pub use lobes::{HitLobes, LOBE_FRACTION};
 pub use material::{LobeRec, PlmcMaterial, PolyRow, shared_material};
 pub use prepare16::PREPARE_LANES;
 pub use query::{BATCH, BatchQuery};

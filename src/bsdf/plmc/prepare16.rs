@@ -4,6 +4,7 @@
 //! wins) mispredict about once per hit.
 
 use super::bsdf::{PlmcBsdf, PlmcHit};
+use super::lobes::HitLobes;
 use crate::btf::locate16::LOCATE_LANES;
 use crate::math::Vec2;
 
@@ -71,7 +72,12 @@ impl PlmcBsdf {
                 vw,
                 texels,
                 n: n as u8,
+                lobes: HitLobes::default(),
             });
+        }
+        // The lobes after every lane's prefetch was issued (they read those index entries).
+        for h in out.iter_mut().flatten() {
+            h.lobes = m.hit_lobes(h.vi, h.vw, &h.texels[..h.n as usize]);
         }
         out
     }
