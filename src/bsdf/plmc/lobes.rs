@@ -393,9 +393,10 @@ mod tests {
     use super::*;
     use crate::bsdf::chi2::Chi2Test;
     use crate::bsdf::plmc::PlmcBsdf;
+    use crate::bsdf::plmc::tests::albedo_quadrature;
     use crate::btf::DirectionSet;
     use crate::geometry::SurfaceInteraction;
-    use crate::math::{Pcg32, Spectrum, frame::from_spherical};
+    use crate::math::{Pcg32, frame::from_spherical};
     use crate::model::{ModelKind, PackedLobe, PlmcModel, ViewParams};
     use std::path::Path;
     use std::sync::Arc;
@@ -607,21 +608,6 @@ mod tests {
                 }
             }
         }
-    }
-
-    /// ∫ eval dω over the hemisphere by a midpoint rule in (cos θ, φ) with `nt` × 2`nt` cells.
-    fn albedo_quadrature(b: &PlmcBsdf, s: &SurfaceInteraction, nt: usize) -> Spectrum {
-        let np = 2 * nt;
-        let mut acc = Spectrum::ZERO;
-        for i in 0..nt {
-            let c = (i as f32 + 0.5) / nt as f32;
-            for j in 0..np {
-                let p = (j as f32 + 0.5) / np as f32 * std::f32::consts::TAU;
-                let st = (1.0 - c * c).sqrt();
-                acc += b.eval(s, Vec3::new(st * p.cos(), st * p.sin(), c));
-            }
-        }
-        acc * (std::f32::consts::TAU / (nt * np) as f32)
     }
 
     /// Mean and standard error of the luminance of `weight(u1, u2)` over `n` draws.

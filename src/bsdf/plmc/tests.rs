@@ -419,8 +419,8 @@ fn chi2_sampling_matches_pdf() {
 }
 
 /// ∫ eval dω over the hemisphere by a midpoint rule in (cos θ, φ).
-fn albedo_quadrature(b: &PlmcBsdf, s: &SurfaceInteraction) -> Spectrum {
-    let (nt, np) = (200, 400);
+pub(super) fn albedo_quadrature(b: &PlmcBsdf, s: &SurfaceInteraction, nt: usize) -> Spectrum {
+    let np = 2 * nt;
     let mut acc = Spectrum::ZERO;
     for i in 0..nt {
         let c = (i as f32 + 0.5) / nt as f32;
@@ -477,7 +477,7 @@ fn white_lambertian_lm_furnace() {
         dir(85.0, 10.0),
     ] {
         let s = SurfaceInteraction::for_tests(wi, Vec2::new(0.2, 0.7));
-        let quad = albedo_quadrature(&b, &s);
+        let quad = albedo_quadrature(&b, &s, 200);
         assert!((quad - Spectrum::ONE).abs().max_element() < 2e-3, "{quad}");
         let (mean, se) = weight_stats(&b, &s, 1, 20_000, 1);
         assert!((mean - 1.0).abs() < 4.0 * se + 1e-3, "IS {mean} ± {se}");
@@ -499,7 +499,7 @@ fn sampled_albedo_is_the_integral_of_eval() {
         let b = &fixture(kind, space).bsdf;
         for wi in [dir(30.0, 40.0), dir(60.0, 200.0)] {
             let s = SurfaceInteraction::for_tests(wi, Vec2::new(0.55, 0.4));
-            let quad = albedo_quadrature(b, &s);
+            let quad = albedo_quadrature(b, &s, 200);
             for c in 0..3 {
                 let (mean, se) = weight_stats(b, &s, c, 40_000, 2 + c as u64);
                 assert!(
