@@ -3,7 +3,7 @@
 //! `--views` and parts of another fit are refused with clear errors.
 
 use btfpt::btf::{self, DirectionSet, RawBtf, StoredEncoding};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Runs btfpt; returns (exit code, stdout, stderr).
 fn btfpt(args: &[&str]) -> (i32, String, String) {
@@ -43,20 +43,31 @@ fn s(p: &Path) -> &str {
 
 const OPTS: [&str; 4] = ["--clusters", "4", "--features", "5"];
 
+/// `btfpt fit data -o out` with [`OPTS`], then `model` (the options that define the model) and
+/// `extra` (how this run is split).
+fn fit_with(data: &Path, out: &Path, model: &[&str], extra: &[&str]) -> (i32, String, String) {
+    let mut a = vec!["fit", s(data), "-o", s(out)];
+    a.extend_from_slice(model);
+    a.extend_from_slice(&OPTS);
+    a.extend_from_slice(extra);
+    btfpt(&a)
+}
+
+/// The one-process fit of `data` (beside it, as `ref.plmc`) that split fits must reproduce.
+fn reference_fit(data: &Path, model: &[&str]) -> PathBuf {
+    let reference = data.with_file_name("ref.plmc");
+    let (code, _, err) = fit_with(data, &reference, model, &[]);
+    assert_eq!(code, 0, "{err}");
+    reference
+}
+
 #[test]
 fn fit_split_by_views_assembles_byte_identically_and_refuses_bad_views_and_foreign_parts() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("m.btfc");
     write_data(&data, 5, 4, 81);
-    let fit = |out: &Path, extra: &[&str]| {
-        let mut a = vec!["fit", s(&data), "-o", s(out)];
-        a.extend_from_slice(&OPTS);
-        a.extend_from_slice(extra);
-        btfpt(&a)
-    };
-    let reference = dir.path().join("ref.plmc");
-    let (code, _, err) = fit(&reference, &[]);
-    assert_eq!(code, 0, "{err}");
+    let fit = |out: &Path, extra: &[&str]| fit_with(&data, out, &[], extra);
+    let reference = reference_fit(&data, &[]);
 
     let out = dir.path().join("split.plmc");
     let parts = dir.path().join("split.plmc.parts");
@@ -137,15 +148,9 @@ fn tile_fit_split_by_views_assembles_byte_identically() {
     let dir = tempfile::tempdir().unwrap();
     let data = dir.path().join("t.btfc");
     write_data(&data, 24, 20, 3);
-    let fit = |out: &Path, extra: &[&str]| {
-        let mut a = vec!["fit", s(&data), "-o", s(out), "--tile", "12x10"];
-        a.extend_from_slice(&OPTS);
-        a.extend_from_slice(extra);
-        btfpt(&a)
-    };
-    let reference = dir.path().join("ref.plmc");
-    let (code, _, err) = fit(&reference, &[]);
-    assert_eq!(code, 0, "{err}");
+    let tile = ["--tile", "12x10"];
+    let fit = |out: &Path, extra: &[&str]| fit_with(&data, out, &tile, extra);
+    let reference = reference_fit(&data, &tile);
     let out = dir.path().join("split.plmc");
     for views in ["0/2", "1/2"] {
         let (code, text, err) = fit(&out, &["--views", views]);
@@ -153,9 +158,7 @@ fn tile_fit_split_by_views_assembles_byte_identically() {
         assert!(!out.exists(), "{text}");
     }
     // Another tile is another fit: its parts would differ, so the views are refused.
-    let mut a = vec!["fit", s(&data), "-o", s(&out), "--tile", "10x10"];
-    a.extend_from_slice(&OPTS);
-    let (code, _, err) = btfpt(&a);
+    let (code, _, err) = fit_with(&data, &out, &["--tile", "10x10"], &[]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("other options"), "{err}");
     let (code, text, err) = fit(&out, &[]);

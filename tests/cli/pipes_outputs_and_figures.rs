@@ -393,22 +393,9 @@ fn compare_tests_btfpt_against_btfpt_and_mitsuba_and_says_when_nothing_was_teste
 
 /// 2 views × 81 lights of a 16×16 noise texture (linear), as a cache.
 fn small_sample(path: &Path) {
-    let (w, h) = (16usize, 16usize);
     let mut rng = btfpt::math::Pcg32::new(5, 5);
-    let tex: Vec<f32> = (0..w * h).map(|_| 0.2 + 0.6 * rng.next_f32()).collect();
-    let lights = DirectionSet::ubo2003();
-    let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (45.0, 0.0)]);
-    let mut data = Vec::new();
-    for v in 0..2 {
-        for l in 0..81 {
-            let k = lights.dirs[l].z.max(0.05) * (1.0 - 0.2 * v as f32);
-            for &t in &tex {
-                data.extend_from_slice(&[t * k, 0.8 * t * k, 0.6 * t * k]);
-            }
-        }
-    }
-    let btf = RawBtf::from_f32(views, lights, w, h, StoredEncoding::Linear, &data).unwrap();
-    btf::cache::write_raw(&btf, path).unwrap();
+    let tex: Vec<f32> = (0..16 * 16).map(|_| 0.2 + 0.6 * rng.next_f32()).collect();
+    crate::common::write_two_view_btf(path, 16, 16, &tex);
 }
 
 /// The text after `key` up to the end of its line.

@@ -90,24 +90,22 @@ fn render_cli_reports_a_missing_scene_and_bad_arguments() {
 }
 
 /// A small scene file for the command-line renders below.
-const BAND_SCENE: &str = r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
-        <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="7"/>
-            <rfilter type="box"/></film>
-    </sensor>
-    <shape type="sphere"><bsdf type="diffuse"/></shape>
+fn band_scene() -> String {
+    format!(
+        r#"<scene version="3.0.0">
+{}    <shape type="sphere"><bsdf type="diffuse"/></shape>
     <emitter type="constant"/>
 </scene>
-"#;
+"#,
+        crate::common::perspective_sensor(45.0, 3.0, 4, 12, 7)
+    )
+}
 
 #[test]
 fn render_bands_merge_byte_identically_and_bad_bands_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("s.xml");
-    std::fs::write(&scene, BAND_SCENE).unwrap();
+    std::fs::write(&scene, band_scene()).unwrap();
     let run = |extra: &[&str], out: &str| {
         btfpt()
             .arg("render")

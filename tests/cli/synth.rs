@@ -88,17 +88,11 @@ fn synth_sources_are_read_by_every_command_that_reads_a_btf() {
 fn synth_scene(dir: &std::path::Path) -> std::path::PathBuf {
     let xml = format!(
         r#"<scene version="3.0.0">
-    <sensor type="perspective">
-        <float name="fov" value="40"/>
-        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="2"/></sampler>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
-            <rfilter type="box"/></film>
-    </sensor>
-    <shape type="rectangle"><bsdf type="btf"><string name="filename" value="{}"/></bsdf></shape>
+{}    <shape type="rectangle"><bsdf type="btf"><string name="filename" value="{}"/></bsdf></shape>
     <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
 </scene>
 "#,
+        crate::common::perspective_sensor(40.0, 3.0, 2, 8, 8),
         SOURCE.replace('&', "&amp;")
     );
     let p = dir.join("s.xml");

@@ -1,6 +1,5 @@
 //! `btfpt fit --tile`, `eval` (seam_ratio) and `tile-preview` on a small generated BTF.
 use crate::common::btfpt_output as btfpt;
-use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding, cache};
 use btfpt::math::Pcg32;
 
 /// 2 views × 81 lights of a 40 × 36 blurred-noise texture lit by a cosine-like factor.
@@ -18,19 +17,7 @@ fn write_sample(path: &std::path::Path) {
             0.2 + 0.15 * s
         })
         .collect();
-    let lights = DirectionSet::ubo2003();
-    let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (45.0, 0.0)]);
-    let mut data = Vec::new();
-    for v in 0..2 {
-        for l in 0..81 {
-            let k = lights.dirs[l].z.max(0.05) * (1.0 - 0.2 * v as f32);
-            for &t in &tex {
-                data.extend_from_slice(&[t * k, 0.8 * t * k, 0.6 * t * k]);
-            }
-        }
-    }
-    let btf = RawBtf::from_f32(views, lights, w, h, StoredEncoding::Linear, &data).unwrap();
-    cache::write_raw(&btf, path).unwrap();
+    crate::common::write_two_view_btf(path, w, h, &tex);
 }
 
 #[test]

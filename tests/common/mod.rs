@@ -110,3 +110,40 @@ pub fn region_stats(state: &RenderState, mask: impl Fn(usize, usize) -> bool) ->
     let n_f = n.max(1) as f64;
     (s / n_f, (v / (n_f * n_f)).sqrt(), n)
 }
+
+/// A Mitsuba `perspective` sensor of `fov` degrees at (0, 0, `distance`) looking at the origin,
+/// `spp` independent samples, a `width`×`height` box-filtered film: the header of the small
+/// scene files the command-line tests write.
+pub fn perspective_sensor(fov: f32, distance: f32, spp: u32, width: u32, height: u32) -> String {
+    format!(
+        r#"    <sensor type="perspective">
+        <float name="fov" value="{fov}"/>
+        <transform name="to_world"><lookat origin="0, 0, {distance}" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="{spp}"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="{width}"/><integer name="height" value="{height}"/>
+            <rfilter type="box"/></film>
+    </sensor>
+"#
+    )
+}
+
+/// Writes a raw BTF cache of 2 views (0° and 45°) × the 81 UBO2003 lights over a `w`×`h` texture
+/// `tex` (linear, row-major): texel t under light l and view v is `tex[t]` · max(cos θ_l, 0.05) ·
+/// (1 − 0.2 v), with G and B at 0.8 and 0.6 of R.
+pub fn write_two_view_btf(path: &std::path::Path, w: usize, h: usize, tex: &[f32]) {
+    use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding, cache};
+    assert_eq!(tex.len(), w * h);
+    let lights = DirectionSet::ubo2003();
+    let views = DirectionSet::from_angles_deg(vec![(0.0, 0.0), (45.0, 0.0)]);
+    let mut data = Vec::with_capacity(2 * 81 * w * h * 3);
+    for v in 0..2 {
+        for l in 0..81 {
+            let k = lights.dirs[l].z.max(0.05) * (1.0 - 0.2 * v as f32);
+            for &t in tex {
+                data.extend_from_slice(&[t * k, 0.8 * t * k, 0.6 * t * k]);
+            }
+        }
+    }
+    let btf = RawBtf::from_f32(views, lights, w, h, StoredEncoding::Linear, &data).unwrap();
+    cache::write_raw(&btf, path).unwrap();
+}

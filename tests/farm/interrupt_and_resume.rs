@@ -50,28 +50,39 @@ fn stderr_of(child: Child) -> (std::process::ExitStatus, String) {
     (out.status, String::from_utf8_lossy(&out.stderr).to_string())
 }
 
+/// The files of one interrupted-job test: its input, the uninterrupted run's output, the
+/// output of the run that is stopped and resumed, and where that run keeps its progress.
+struct Job {
+    input: PathBuf,
+    reference: PathBuf,
+    out: PathBuf,
+    progress: PathBuf,
+}
+
+fn assert_same_bytes(reference: &Path, out: &Path, what: &str) {
+    assert!(
+        std::fs::read(reference).unwrap() == std::fs::read(out).unwrap(),
+        "{what} differs from the uninterrupted one"
+    );
+}
+
 /// Sized so one thread needs a few seconds even on an idle machine (the interrupted runs must
 /// outlive several 0.1 s checkpoint intervals; analytic spheres made the old 24² job too quick).
-const SCENE: &str = r#"<scene version="3.0.0">
+fn scene() -> String {
+    format!(
+        r#"<scene version="3.0.0">
     <integrator type="path"><integer name="max_depth" value="6"/></integrator>
-    <sensor type="perspective">
-        <float name="fov" value="45"/>
-        <transform name="to_world"><lookat origin="0, 0, 3.5" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="4096"/></sampler>
-        <film type="hdrfilm">
-            <integer name="width" value="48"/>
-            <integer name="height" value="48"/>
-            <rfilter type="box"/>
-        </film>
-    </sensor>
-    <shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.5, 0.3"/></bsdf>
+{}    <shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.5, 0.3"/></bsdf>
         <transform name="to_world"><scale value="0.6"/><rotate y="1" angle="30"/></transform></shape>
     <shape type="rectangle"><bsdf type="diffuse"/>
         <transform name="to_world"><scale value="3"/><rotate x="1" angle="-90"/><translate y="-0.6"/></transform></shape>
     <shape type="sphere"><float name="radius" value="0.3"/><point name="center" x="0.8" y="1.2" z="0.5"/>
         <emitter type="area"><rgb name="radiance" value="20, 18, 15"/></emitter></shape>
 </scene>
-"#;
+"#,
+        common::perspective_sensor(45.0, 3.5, 4096, 48, 48)
+    )
+}
 
 fn render_args(scene: &Path, out: &Path) -> Vec<String> {
     [
@@ -91,24 +102,35 @@ fn render_args(scene: &Path, out: &Path) -> Vec<String> {
     .collect()
 }
 
-#[test]
-fn render_killed_by_sigint_then_sigkill_resumes_bit_exactly() {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.xml");
-    std::fs::write(&scene, SCENE).unwrap();
-
-    // Uninterrupted reference.
-    let reference = dir.path().join("ref.exr");
+/// The scene written to `dir` and rendered once without interruption.
+fn render_job(dir: &Path) -> Job {
+    let input = dir.join("scene.xml");
+    std::fs::write(&input, scene()).unwrap();
+    let reference = dir.join("ref.exr");
     let (st, err) = stderr_of(
         btfpt()
-            .args(render_args(&scene, &reference))
+            .args(render_args(&input, &reference))
             .spawn()
             .unwrap(),
     );
     assert!(st.success(), "{err}");
+    Job {
+        input,
+        reference,
+        out: dir.join("out.exr"),
+        progress: dir.join("out.exr.ckpt"),
+    }
+}
 
-    let out = dir.path().join("out.exr");
-    let ckpt: PathBuf = dir.path().join("out.exr.ckpt");
+#[test]
+fn render_killed_by_sigint_then_sigkill_resumes_bit_exactly() {
+    let dir = tempfile::tempdir().unwrap();
+    let Job {
+        input: scene,
+        reference,
+        out,
+        progress: ckpt,
+    } = render_job(dir.path());
 
     // 1) SIGINT once the first checkpoint exists: the handler writes a final checkpoint, exits ≠ 0.
     let mut child = btfpt().args(render_args(&scene, &out)).spawn().unwrap();
@@ -140,9 +162,7 @@ fn render_killed_by_sigint_then_sigkill_resumes_bit_exactly() {
     let (st, err) = stderr_of(btfpt().args(&args).spawn().unwrap());
     assert!(st.success(), "{err}");
     assert!(err.contains("resuming from"), "{err}");
-    let a = std::fs::read(&reference).unwrap();
-    let b = std::fs::read(&out).unwrap();
-    assert!(a == b, "resumed EXR differs from the uninterrupted one");
+    assert_same_bytes(&reference, &out, "the resumed EXR");
     assert!(!ckpt.exists(), "the checkpoint is removed after success");
 }
 
@@ -162,19 +182,12 @@ fn percent(text: &str, before: &str, after: &str) -> String {
 #[test]
 fn render_stopped_by_sigterm_and_sighup_resumes_bit_exactly_without_redoing_samples() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.xml");
-    std::fs::write(&scene, SCENE).unwrap();
-    let reference = dir.path().join("ref.exr");
-    let (st, err) = stderr_of(
-        btfpt()
-            .args(render_args(&scene, &reference))
-            .spawn()
-            .unwrap(),
-    );
-    assert!(st.success(), "{err}");
-
-    let out = dir.path().join("out.exr");
-    let ckpt: PathBuf = dir.path().join("out.exr.ckpt");
+    let Job {
+        input: scene,
+        reference,
+        out,
+        progress: ckpt,
+    } = render_job(dir.path());
     let mut resume = render_args(&scene, &out);
     resume.push("--resume".into());
     // SIGTERM (a scheduler's time limit), then SIGHUP on the resumed run: each writes the final
@@ -216,10 +229,7 @@ fn render_stopped_by_sigterm_and_sighup_resumes_bit_exactly_without_redoing_samp
     let p = stopped_at.unwrap();
     assert_eq!(percent(&err, "(", "% done"), p, "{err}");
     assert!(p.parse::<f64>().unwrap() > 0.0, "{err}");
-    assert!(
-        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
-        "resumed EXR differs from the uninterrupted one"
-    );
+    assert_same_bytes(&reference, &out, "the resumed EXR");
     assert!(!ckpt.exists(), "the checkpoint is removed after success");
 }
 
@@ -258,105 +268,106 @@ fn fit_args(data: &Path, out: &Path) -> Vec<String> {
     .collect()
 }
 
+/// `btfpt fit` of `data` into `out` on one thread (so the views finish one by one).
+fn fit(data: &Path, out: &Path) -> Command {
+    let mut c = common::btfpt();
+    c.args(fit_args(data, out)).env("RAYON_NUM_THREADS", "1");
+    c
+}
+
+/// The fit's standard output once it ran to completion (it must succeed).
+fn fit_to_completion(data: &Path, out: &Path) -> String {
+    let o = fit(data, out).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A fit of `data` into `out` that runs until three views are finished in `parts`.
+fn fit_past_three_views(data: &Path, out: &Path, parts: &Path) -> Child {
+    let mut child = fit(data, out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for(&mut child, "a few finished views", || {
+        finished_views(parts) >= 3
+    });
+    child
+}
+
+/// The BTF written to `dir` and fitted once without interruption.
+fn fit_job(dir: &Path) -> Job {
+    let input = dir.join("m.btfc");
+    fit_data(&input);
+    let reference = dir.join("ref.plmc");
+    fit_to_completion(&input, &reference);
+    Job {
+        input,
+        reference,
+        out: dir.join("out.plmc"),
+        progress: dir.join("out.plmc.parts"),
+    }
+}
+
+fn file_names(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .map(|r| {
+            r.flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Views a fit has finished and kept in its parts folder.
+fn finished_views(parts: &Path) -> usize {
+    file_names(parts)
+        .iter()
+        .filter(|n| n.ends_with(".part"))
+        .count()
+}
+
 #[test]
 fn fit_killed_midway_and_rerun_writes_the_same_model() {
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("m.btfc");
-    fit_data(&data);
-
-    let reference = dir.path().join("ref.plmc");
-    let (st, err) = stderr_of(
-        btfpt()
-            .args(fit_args(&data, &reference))
-            .env("RAYON_NUM_THREADS", "1")
-            .spawn()
-            .unwrap(),
-    );
-    assert!(st.success(), "{err}");
-
-    let out = dir.path().join("out.plmc");
-    let parts = dir.path().join("out.plmc.parts");
-    let count = |p: &Path| {
-        std::fs::read_dir(p)
-            .map(|r| {
-                r.flatten()
-                    .filter(|e| e.file_name().to_string_lossy().ends_with(".part"))
-                    .count()
-            })
-            .unwrap_or(0)
-    };
-    let mut child = btfpt()
-        .args(fit_args(&data, &out))
-        .env("RAYON_NUM_THREADS", "1")
-        .spawn()
-        .unwrap();
-    wait_for(&mut child, "a few finished views", || count(&parts) >= 3);
+    let Job {
+        input: data,
+        reference,
+        out,
+        progress: parts,
+    } = fit_job(dir.path());
+    let mut child = fit_past_three_views(&data, &out, &parts);
     child.kill().unwrap();
     let _ = stderr_of(child);
     assert!(!out.exists(), "a killed fit must not leave a model file");
-    let done = count(&parts);
+    let done = finished_views(&parts);
     assert!(
         done < 81,
         "the fit finished before the kill: make it slower"
     );
 
-    let child = common::btfpt()
-        .args(fit_args(&data, &out))
-        .env("RAYON_NUM_THREADS", "1")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let o = child.wait_with_output().unwrap();
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = fit_to_completion(&data, &out);
     assert!(text.contains("resumed from"), "{text}");
-    assert!(
-        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
-        "the resumed fit's .plmc differs from the uninterrupted one"
-    );
+    assert_same_bytes(&reference, &out, "the resumed fit's .plmc");
     assert!(!parts.exists(), "parts are removed after success");
 }
 
 #[test]
 fn fit_stopped_by_sigterm_keeps_finished_views_and_resumes_to_the_same_model() {
     let dir = tempfile::tempdir().unwrap();
-    let data = dir.path().join("m.btfc");
-    fit_data(&data);
-    let reference = dir.path().join("ref.plmc");
-    let (st, err) = stderr_of(
-        btfpt()
-            .args(fit_args(&data, &reference))
-            .env("RAYON_NUM_THREADS", "1")
-            .spawn()
-            .unwrap(),
-    );
-    assert!(st.success(), "{err}");
-
-    let out = dir.path().join("out.plmc");
-    let parts = dir.path().join("out.plmc.parts");
-    let names = |p: &Path| -> Vec<String> {
-        std::fs::read_dir(p)
-            .map(|r| {
-                r.flatten()
-                    .map(|e| e.file_name().to_string_lossy().to_string())
-                    .collect()
-            })
-            .unwrap_or_default()
-    };
-    let count = |p: &Path| names(p).iter().filter(|n| n.ends_with(".part")).count();
-    let mut child = btfpt()
-        .args(fit_args(&data, &out))
-        .env("RAYON_NUM_THREADS", "1")
-        .spawn()
-        .unwrap();
-    wait_for(&mut child, "a few finished views", || count(&parts) >= 3);
+    let Job {
+        input: data,
+        reference,
+        out,
+        progress: parts,
+    } = fit_job(dir.path());
+    let child = fit_past_three_views(&data, &out, &parts);
     signal(&child, "TERM");
     let (st, err) = stderr_of(child);
     assert!(!st.success(), "a fit stopped by SIGTERM must exit non-zero");
     assert!(!err.contains("panicked"), "{err}");
     assert!(!out.exists(), "a stopped fit must not leave a model file");
-    let kept = count(&parts);
+    let kept = finished_views(&parts);
     assert!(
         (3..81).contains(&kept),
         "{kept} views kept: the fit must stop early and keep what it finished"
@@ -366,24 +377,15 @@ fn fit_stopped_by_sigterm_keeps_finished_views_and_resumes_to_the_same_model() {
         "{err}"
     );
     assert!(
-        names(&parts).iter().all(|n| n.ends_with(".part")),
+        file_names(&parts).iter().all(|n| n.ends_with(".part")),
         "no temporary files left: {:?}",
-        names(&parts)
+        file_names(&parts)
     );
 
-    let o = Command::new(env!("CARGO_BIN_EXE_btfpt"))
-        .args(fit_args(&data, &out))
-        .env("RAYON_NUM_THREADS", "1")
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = fit_to_completion(&data, &out);
     assert!(
         text.contains(&format!("{kept} views resumed from")),
         "every kept view is reused, none refitted: {text}"
     );
-    assert!(
-        std::fs::read(&reference).unwrap() == std::fs::read(&out).unwrap(),
-        "the resumed fit's .plmc differs from the uninterrupted one"
-    );
+    assert_same_bytes(&reference, &out, "the resumed fit's .plmc");
 }

@@ -30,16 +30,10 @@ fn write_obj(path: &Path, z: f32) {
 fn scene(dir: &Path) -> PathBuf {
     write_btf(&dir.join("m.btfc"), [0.5, 0.4, 0.3]);
     write_obj(&dir.join("wall.obj"), -1.0);
-    let xml = r#"<scene version="3.0.0">
+    let xml = format!(
+        r#"<scene version="3.0.0">
     <integrator type="path"><integer name="max_depth" value="3"/></integrator>
-    <sensor type="perspective">
-        <float name="fov" value="60"/>
-        <transform name="to_world"><lookat origin="0, 0, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
-        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
-        <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
-            <rfilter type="box"/></film>
-    </sensor>
-    <shape type="rectangle">
+{}    <shape type="rectangle">
         <transform name="to_world"><scale value="0.6"/></transform>
         <bsdf type="btf"><string name="filename" value="m.btfc"/></bsdf>
     </shape>
@@ -47,7 +41,9 @@ fn scene(dir: &Path) -> PathBuf {
         <bsdf type="diffuse"><rgb name="reflectance" value="0.7, 0.7, 0.7"/></bsdf></shape>
     <emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>
 </scene>
-"#;
+"#,
+        crate::common::perspective_sensor(60.0, 3.0, 4, 8, 8)
+    );
     let p = dir.join("s.xml");
     std::fs::write(&p, xml).unwrap();
     p

@@ -8,6 +8,7 @@
 //! Criteria (see `bounds`): the 4×4-block z-test, |mean z − reference offset| (global bias),
 //! relMSE and the per-pixel failure count, each bounded from the calibration runs.
 
+use crate::reference::{calibration_runs, root};
 use btfpt::bsdf::{Bsdf, MicrofacetType, Texture};
 use btfpt::io::{RgbImage, read_image};
 use btfpt::math::Spectrum;
@@ -15,7 +16,7 @@ use btfpt::metrics::{Comparison, Criteria, predicted_variance};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::scene::{Emitter, LoadOptions, Scene};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
 
@@ -28,16 +29,13 @@ const ALPHA: f64 = 0.01;
 /// Side of the blocks of the block z-test (as calibrate.py).
 const BLOCK: usize = 4;
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
 /// A committed reference: mean, and the variance of (a `SPP` render − the reference).
 struct Reference {
     name: &'static str,
     mean: RgbImage,
     variance: RgbImage,
-    calibration: serde_json::Value,
+    /// The calibration runs at [`SPP`].
+    calibration: Vec<serde_json::Value>,
 }
 
 fn reference(name: &'static str) -> Reference {
@@ -49,11 +47,7 @@ fn reference(name: &'static str) -> Reference {
     let mean = read("");
     let variance = predicted_variance(Some(&read("_sample_var")), SPP, Some(&read("_var")))
         .unwrap_or_else(|e| panic!("{name}: {e}"));
-    let cal_path = dir.join(format!("{name}_calibration.json"));
-    let text = std::fs::read_to_string(&cal_path)
-        .unwrap_or_else(|e| panic!("{}: {e}", cal_path.display()));
-    let calibration =
-        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", cal_path.display()));
+    let calibration = calibration_runs(name, SPP, 2);
     Reference {
         name,
         mean,
@@ -64,24 +58,14 @@ fn reference(name: &'static str) -> Reference {
 
 /// The calibration runs (Mitsuba vs the reference) at `SPP`: values of `key`.
 fn calibrated(r: &Reference, key: &str) -> Vec<f64> {
-    let runs = r.calibration["runs"]
-        .as_array()
-        .unwrap_or_else(|| panic!("{}: calibration without runs", r.name));
-    let v: Vec<f64> = runs
+    r.calibration
         .iter()
-        .filter(|run| run["spp"].as_u64() == Some(SPP as u64))
         .map(|run| {
             run[key]
                 .as_f64()
                 .unwrap_or_else(|| panic!("{}: calibration run without {key}", r.name))
         })
-        .collect();
-    assert!(
-        v.len() >= 2,
-        "{}: need ≥ 2 calibration runs at {SPP} spp",
-        r.name
-    );
-    v
+        .collect()
 }
 
 fn mean(v: &[f64]) -> f64 {

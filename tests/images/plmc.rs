@@ -34,7 +34,7 @@
 //! polynomials dropped 1.2e-3 / 1.9e-3, perturbed clusters and wrong model 7e-2…2e-1 (these also
 //! fail luminance and blocks).
 
-use crate::reference::{reference, render, root, score};
+use crate::reference::{calibration_runs, reference, render, root, score};
 use btfpt::bsdf::Bsdf;
 use btfpt::btf::{BtfSource, RawBtf};
 use btfpt::fit::pipeline::{FitOptions, fit_model};
@@ -236,21 +236,10 @@ fn faulty(model: &PlmcModel, fault: Fault) -> PlmcModel {
 /// The largest relMSE of the independent Mitsuba renders at [`SPP`] in the committed calibration
 /// (`calibrate.py`, 3 seeds): the noise term.
 fn calibrated_noise_relmse(name: &str) -> f64 {
-    let p = root()
-        .join("reference-images")
-        .join(name)
-        .join(format!("{name}_calibration.json"));
-    let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let runs: Vec<f64> = json["runs"]
-        .as_array()
-        .unwrap()
+    calibration_runs(name, SPP, 3)
         .iter()
-        .filter(|r| r["spp"].as_u64() == Some(SPP as u64))
         .map(|r| r["relmse"].as_f64().unwrap())
-        .collect();
-    assert!(runs.len() >= 3, "{name}: no calibration runs at {SPP} spp");
-    runs.into_iter().fold(0.0, f64::max)
+        .fold(0.0, f64::max)
 }
 
 /// The measured error of the PLM-C model of the test's material in one scene (from

@@ -21,7 +21,7 @@
 //! The faults are made by transforming the measured data exactly as the broken convention would
 //! (e.g. flipping v ⇔ reading row H − 1 − r), so the library carries no test-only code.
 
-use crate::reference::{reference, render, root, score};
+use crate::reference::{calibration_runs, reference, render, root, score};
 use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial};
 use btfpt::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
 use btfpt::metrics::{Comparison, Criteria};
@@ -169,23 +169,7 @@ fn with_fault(mut scene: Scene, fault: Fault) -> Scene {
 /// The bounds must let every independent Mitsuba render of the committed calibration (`calibrate.py`,
 /// 3 seeds at [`SPP`]) pass: they are at least as loose as Mitsuba-vs-Mitsuba.
 fn check_bounds_against_calibration(name: &str, b: &Bounds) {
-    let p = root()
-        .join("reference-images")
-        .join(name)
-        .join(format!("{name}_calibration.json"));
-    let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let runs: Vec<&serde_json::Value> = json["runs"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|r| r["spp"].as_u64() == Some(SPP as u64))
-        .collect();
-    assert!(
-        runs.len() >= 3,
-        "{name}: calibration has no runs at {SPP} spp"
-    );
-    for r in runs {
+    for r in calibration_runs(name, SPP, 3) {
         let blocks = r["failing_blocks4"].as_u64().unwrap() as usize;
         let mean_z = r["mean_z"].as_f64().unwrap();
         let rel = r["relmse"].as_f64().unwrap();

@@ -64,6 +64,32 @@ pub fn render(scene: Scene, spp: u32, seed: u64) -> RgbImage {
     state.mean_image()
 }
 
+/// The runs of the committed calibration (`reference-images/<name>/<name>_calibration.json`,
+/// written by `calibrate.py`: independent Mitsuba renders scored against the reference) at
+/// `spp`; panics unless there are at least `min` of them.
+pub fn calibration_runs(name: &str, spp: u32, min: usize) -> Vec<serde_json::Value> {
+    let p = root()
+        .join("reference-images")
+        .join(name)
+        .join(format!("{name}_calibration.json"));
+    let text = std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let json: serde_json::Value =
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    let runs: Vec<serde_json::Value> = json["runs"]
+        .as_array()
+        .unwrap_or_else(|| panic!("{}: calibration without runs", p.display()))
+        .iter()
+        .filter(|r| r["spp"].as_u64() == Some(spp as u64))
+        .cloned()
+        .collect();
+    assert!(
+        runs.len() >= min,
+        "{name}: need ≥ {min} calibration runs at {spp} spp, found {}",
+        runs.len()
+    );
+    runs
+}
+
 /// What a test render scores against a reference: `btfpt::metrics` (the code behind
 /// `btfpt compare`, the same scoring as reference-images/calibrate.py, so the calibration ranges
 /// apply), with the test's variance predicted from the reference's per-sample variance.

@@ -7,7 +7,7 @@ use btfpt::geometry::sphere::Sphere;
 use btfpt::math::Mat4;
 use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::RenderScene;
-use btfpt::scene::Emitter;
+use btfpt::scene::{Emitter, Scene};
 
 /// A convex diffuse object under a uniform environment reflects exactly albedo·Le (it never sees
 /// itself); pixels missing the object see Le.
@@ -112,20 +112,33 @@ fn nee_and_bsdf_sampling_agree() {
             radiance: Spectrum::splat(0.3),
         }],
     );
+    let ma = mis_matches_bsdf_sampling_alone(s, 64, 256, |_, _| true);
+    // The light faces down (e1 × e2 = x × z = −y) onto the floor, so the image must be
+    // brighter than the environment-only floor value 0.5·0.3 (its back, seen from above, is black).
+    assert!(ma > 0.2, "{ma}");
+}
+
+/// Renders `s` with MIS (NEE and BSDF sampling, `spp_mis` samples) and with BSDF sampling alone
+/// (`spp_bsdf`), asserts their means over the pixels `region` picks agree within 4 σ, and returns
+/// the MIS mean.
+fn mis_matches_bsdf_sampling_alone(
+    s: Scene,
+    spp_mis: u32,
+    spp_bsdf: u32,
+    region: impl Fn(usize, usize) -> bool + Copy,
+) -> f64 {
     let mut rs = RenderScene::new(s).unwrap();
-    let a = render(&rs, settings(&rs.scene, 64, 3));
+    let a = render(&rs, settings(&rs.scene, spp_mis, 3));
     rs.integrator.nee = false;
-    let b = render(&rs, settings(&rs.scene, 256, 4));
-    let (ma, sa, _) = region_stats(&a, |_, _| true);
-    let (mb, sb, _) = region_stats(&b, |_, _| true);
+    let b = render(&rs, settings(&rs.scene, spp_bsdf, 4));
+    let (ma, sa, _) = region_stats(&a, region);
+    let (mb, sb, _) = region_stats(&b, region);
     let z = (ma - mb) / (sa * sa + sb * sb).sqrt();
     assert!(
         z.abs() < 4.0,
         "MIS {ma} ± {sa} vs BSDF-only {mb} ± {sb} (z = {z})"
     );
-    // The light faces down (e1 × e2 = x × z = −y) onto the floor, so the image must be
-    // brighter than the environment-only floor value 0.5·0.3 (its back, seen from above, is black).
-    assert!(ma > 0.2, "{ma}");
+    ma
 }
 
 /// An analytic (Mitsuba `sphere`) mesh with centre `c` and radius `r`.
@@ -190,17 +203,7 @@ fn analytic_sphere_light_nee_and_bsdf_sampling_agree() {
         vec![diffuse(0.5), diffuse(0.0)],
         vec![],
     );
-    let mut rs = RenderScene::new(s).unwrap();
-    let a = render(&rs, settings(&rs.scene, 64, 3));
-    rs.integrator.nee = false;
-    let b = render(&rs, settings(&rs.scene, 512, 4));
-    let (ma, sa, _) = region_stats(&a, |_, _| true);
-    let (mb, sb, _) = region_stats(&b, |_, _| true);
-    let z = (ma - mb) / (sa * sa + sb * sb).sqrt();
-    assert!(
-        z.abs() < 4.0,
-        "MIS {ma} ± {sa} vs BSDF-only {mb} ± {sb} (z = {z})"
-    );
+    let ma = mis_matches_bsdf_sampling_alone(s, 64, 512, |_, _| true);
     assert!(ma > 0.1, "{ma}");
 }
 
@@ -286,15 +289,7 @@ fn envmap_nee_and_bsdf_sampling_agree() {
             filename: "gen.exr".into(),
         }],
     );
-    let mut rs = RenderScene::new(s).unwrap();
-    let a = render(&rs, settings(&rs.scene, 128, 3));
-    rs.integrator.nee = false;
-    let b = render(&rs, settings(&rs.scene, 1024, 4));
-    let (ma, sa, _) = region_stats(&a, |x, y| (3..7).contains(&x) && (3..7).contains(&y));
-    let (mb, sb, _) = region_stats(&b, |x, y| (3..7).contains(&x) && (3..7).contains(&y));
-    let z = (ma - mb) / (sa * sa + sb * sb).sqrt();
-    assert!(
-        z.abs() < 4.0,
-        "MIS {ma} ± {sa} vs BSDF-only {mb} ± {sb} (z = {z})"
-    );
+    mis_matches_bsdf_sampling_alone(s, 128, 1024, |x, y| {
+        (3..7).contains(&x) && (3..7).contains(&y)
+    });
 }
