@@ -15,10 +15,10 @@
 //! kept lobes' share of the 9 lobes' weight for the lobes, the rest for the sampler; its `pdf`
 //! is the mixture's exact density. Plain scalar
 //! arithmetic without fused multiply-adds and with the branch-free `exp2`/`log2` of
-//! `math::simd::lane`, so every CPU and both integrators get the same bits.
+//! `math::simd::approx`, so every CPU and both integrators get the same bits.
 
 use crate::math::frame::Frame;
-use crate::math::simd::lane::{exp2, log2, sin_cos};
+use crate::math::simd::approx::{exp2, log2, sin_cos};
 use crate::math::{INV_TWO_PI, Vec2, Vec3};
 
 /// Probability of the lobe part of the sampling mixture (when a hit has lobes; the rest goes to
@@ -186,7 +186,7 @@ impl HitLobes {
     }
 }
 
-/// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::lane`: the same bits on every CPU).
+/// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::approx`: the same bits on every CPU).
 #[inline(always)]
 fn pow(c: f32, n: f32) -> f32 {
     exp2(n * log2(c))

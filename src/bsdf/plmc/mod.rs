@@ -43,7 +43,6 @@ mod avx512;
 #[cfg(target_arch = "x86_64")]
 mod batch;
 mod bsdf;
-mod f4;
 mod kernel;
 mod lobes;
 mod material;

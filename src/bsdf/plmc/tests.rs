@@ -1,6 +1,6 @@
 use super::bsdf::floor_fast;
-use super::f4::{self, F4, Sse2};
 use super::kernel::{pow_f4, srgb_to_linear_f4};
+use crate::math::simd::f4::F4;
 use super::*;
 use crate::bsdf::BsdfSample;
 use crate::btf::DirectionSet;
@@ -175,24 +175,16 @@ fn fast_math_matches_libm() {
                 worst = worst.max(((got[k] as f64 - want) / want).abs() as f32);
             }
         };
-        check(pow_f4(Sse2, F4::from_array(b), F4::from_array(n)).to_array());
-        #[cfg(target_arch = "x86_64")]
-        if let Some(isa) = f4::Avx2Fma::detect() {
-            check(pow_f4(isa, F4::from_array(b), F4::from_array(n)).to_array());
-        }
+        // (Every build of the fused exp2/log2 returns the same bits: `math::simd::approx`.)
+        check(pow_f4(F4::from_array(b), F4::from_array(n)).to_array());
     }
     // n · |Δlog2 b| · ln 2 with |Δlog2| ≲ 2e-7 at n = 200, plus the exp2 series.
     assert!(worst < 1e-4, "pow relative error {worst}");
     for i in 0..=2000 {
         let v = i as f32 / 1000.0 - 0.5;
         let want = srgb_to_linear(v.max(0.0));
-        let got = srgb_to_linear_f4(Sse2, F4::splat(v)).to_array()[0];
+        let got = srgb_to_linear_f4(F4::splat(v)).to_array()[0];
         assert!(close(got, want, 2e-5), "{v}");
-        #[cfg(target_arch = "x86_64")]
-        if let Some(isa) = f4::Avx2Fma::detect() {
-            let got = srgb_to_linear_f4(isa, F4::splat(v)).to_array()[0];
-            assert!(close(got, want, 2e-5), "{v} fma");
-        }
     }
 }
 

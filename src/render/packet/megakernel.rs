@@ -14,7 +14,7 @@
 
 use super::chunk::{Chunk, FilmSample};
 use super::escaped::shade_escaped;
-use super::lanes::{LANES, LaneStats};
+use super::lane_stats::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
 use super::shade::shade_hits;

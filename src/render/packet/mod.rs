@@ -8,13 +8,13 @@
 
 pub mod chunk;
 pub mod escaped;
-pub mod lanes;
+pub mod lane_stats;
 pub mod megakernel;
 pub mod pool;
 pub mod refill;
 pub mod shade;
 
-pub use lanes::{LANES, LaneCounters, LaneStats};
+pub use lane_stats::{LANES, LaneCounters, LaneStats};
 pub use megakernel::PacketOptions;
 
 use super::RenderScene;

@@ -5,7 +5,7 @@
 //! so each lane starts with the bits [`crate::render::integrator::PathTracer::li`]'s path does.
 
 use super::chunk::{Chunk, FilmSample};
-use super::lanes::LANES;
+use super::lane_stats::LANES;
 use super::pool::PathPool;
 use crate::math::Pcg32x;
 use crate::math::simd::wide::Fx;
