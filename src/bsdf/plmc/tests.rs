@@ -10,7 +10,7 @@ use crate::math::color::srgb_to_linear;
 use crate::math::{Pcg32, frame::from_spherical, warp};
 use crate::math::{Spectrum, Vec2, Vec3};
 use crate::model::{
-    BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec, lobe,
+    BtfFile, BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec, lobe,
     polynomial, resolve_model_file,
 };
 use std::path::Path;
@@ -514,7 +514,7 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     codec::write(&d.join("mat.lm.plmc"), &lm).unwrap();
     std::fs::write(d.join("mat.btfc"), b"x").unwrap();
     let r = |f: &str, m: &str| {
-        BtfModel::parse(m).and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|(p, _)| p))
+        BtfModel::parse(m).and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|f| f.path().to_path_buf()))
     };
     assert_eq!(r("mat.plmc", "plmc").unwrap(), d.join("mat.plmc"));
     assert_eq!(r("mat.plmc", "lm").unwrap(), d.join("mat.lm.plmc"));
@@ -530,6 +530,18 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     let e = r("other.plmc", "raw").unwrap_err().to_string();
     assert!(e.contains("other.plmc") && e.contains("other.btfc"), "{e}");
     assert!(r("mat.plmc", "pca").is_err());
+    // Without a requested model a `.plmc` file is not read to resolve it (its reader learns the
+    // model): even a missing one resolves, and loading it then names it.
+    for f in ["mat.plmc", "missing.plmc"] {
+        assert_eq!(
+            resolve_model_file(&d.join(f), None).unwrap(),
+            BtfFile::Model(d.join(f))
+        );
+    }
+    assert_eq!(
+        resolve_model_file(&d.join("mat.btfc"), None).unwrap(),
+        BtfFile::Raw(d.join("mat.btfc"))
+    );
 
     // Through the scene entry point: model property, override, sharing, errors with the place.
     use crate::scene::btf_bsdf::build_btf;
