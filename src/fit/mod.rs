@@ -18,4 +18,4 @@ pub mod refine;
 pub mod report;
 pub mod select;
 pub mod view;
-pub mod views;
+pub mod view_selection;

@@ -19,7 +19,7 @@ pub use super::view::{ViewFit, ViewStats, fit_view};
 
 use super::lafortune::LobeFitter;
 use super::parts;
-use super::views::ViewSelection;
+use super::view_selection::ViewSelection;
 use crate::btf::{BtfSource, DirectionSet};
 use crate::model::polynomial::Poly;
 use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams};
