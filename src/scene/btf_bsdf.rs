@@ -68,8 +68,7 @@ pub fn build_btf(
     }
     let path = resolve(filename);
     // The message names the BTF source and the problem; the scene error adds where it is used.
-    let source =
-        resolve_model_file(&path, model).map_err(|e| scene_error(format!("btf: {e}")))?;
+    let source = resolve_model_file(&path, model).map_err(|e| scene_error(format!("btf: {e}")))?;
     let bsdf = match &source {
         BtfFile::Raw(p) => shared_raw_material(p)
             .and_then(|m| BtfBsdf::new(m, uv_scale))

@@ -1,5 +1,6 @@
-//! The generic PLM-C / PLM / LM evaluation kernel (4 lanes per view: R, G, B, pad) for SSE2 and
-//! AVX2+FMA, its data layout, and the dispatch to the AVX-512 kernel where it applies.
+//! Every evaluation of a [`PlmcMaterial`] (the material itself, its layout and construction are
+//! `material.rs`): the generic PLM-C / PLM / LM kernel (4 lanes per view: R, G, B, pad) for
+//! SSE2 and AVX2+FMA, and the dispatch to the AVX-512 kernels where they apply.
 //!
 //! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
 #![allow(clippy::needless_range_loop)]
@@ -7,10 +8,10 @@
 use super::material::{LobeRec, Params, PlmcMaterial};
 use super::query::{BATCH, BatchQuery};
 use crate::math::Vec3;
-use crate::math::simd::approx::{fused_exp2_f4, fused_log2_f4};
-use crate::math::simd::f4::F4;
 #[cfg(target_arch = "x86_64")]
 use crate::math::simd::Level;
+use crate::math::simd::approx::{fused_exp2_f4, fused_log2_f4};
+use crate::math::simd::f4::F4;
 use crate::model::ValueSpace;
 
 /// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
@@ -68,6 +69,28 @@ pub(super) struct ViewPoly {
 }
 
 impl PlmcMaterial {
+    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
+    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
+    #[inline]
+    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
+        let (vi, vw) = self.view_lookup(wi);
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
+    }
+
+    /// B blended over `texels` (texel index, weight) with the view lookup already done.
+    #[inline]
+    pub fn eval_b_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, texels)
+    }
+
     /// B blended over `texels` with both direction lookups done (views `vi`/`vw`, lights
     /// `li`/`lw` around `wo`).
     #[inline]
@@ -239,12 +262,7 @@ impl PlmcMaterial {
     /// [`PlmcMaterial::view_poly`] of the 3 views (no closure: too big for the inliner, it
     /// stays an out-of-line call per view).
     #[inline(always)]
-    fn view_polys(
-        &self,
-        vi: [usize; 3],
-        li: [u32; 3],
-        lw: [f32; 3],
-    ) -> [ViewPoly; 3] {
+    fn view_polys(&self, vi: [usize; 3], li: [u32; 3], lw: [f32; 3]) -> [ViewPoly; 3] {
         [
             self.view_poly(vi[0], li, lw),
             self.view_poly(vi[1], li, lw),
@@ -290,12 +308,7 @@ impl PlmcMaterial {
     /// over the views, so their independent dependency chains (log2 → exp2 → polynomial →
     /// decode) are interleaved in the instruction stream rather than run one after the other.
     #[inline(always)]
-    fn eval_views(
-        &self,
-        l: &[LaneLobes; 3],
-        vp: Option<&[ViewPoly; 3]>,
-        wo: Vec3,
-    ) -> [F4; 3] {
+    fn eval_views(&self, l: &[LaneLobes; 3], vp: Option<&[ViewPoly; 3]>, wo: Vec3) -> [F4; 3] {
         let zero = F4::splat(0.0);
         let (wx, wy, wz) = (F4::splat(wo.x), F4::splat(wo.y), F4::splat(wo.z));
         let b: [F4; 3] = each3(|a| l[a][3].mul_add(wz, l[a][2].mul_add(wy, l[a][1] * wx)));

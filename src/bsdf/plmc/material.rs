@@ -306,28 +306,6 @@ impl PlmcMaterial {
     pub fn light_lookup(&self, wo: Vec3) -> ([u32; 3], [f32; 3]) {
         self.sampler.light_interp().lookup(wo)
     }
-
-    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
-    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
-    #[inline]
-    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
-        let (vi, vw) = self.view_lookup(wi);
-        let (li, lw) = self.light_lookup(wo);
-        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
-    }
-
-    /// B blended over `texels` (texel index, weight) with the view lookup already done.
-    #[inline]
-    pub fn eval_b_with_views(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        texels: &[(usize, f32)],
-    ) -> [f32; 3] {
-        let (li, lw) = self.light_lookup(wo);
-        self.eval_b_with(vi, vw, li, lw, wo, texels)
-    }
 }
 
 /// The index planes' address range ([`PlmcMaterial::index_span`]): entry i of the `views` ×

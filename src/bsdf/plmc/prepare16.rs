@@ -42,7 +42,7 @@ impl PlmcBsdf {
         .then(|| {
             // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
             unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
-            });
+        });
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
         let span = m.index_span();

@@ -1,17 +1,17 @@
 use super::bsdf::floor_fast;
 use super::kernel::{pow_f4, srgb_to_linear_f4};
-use crate::math::simd::f4::F4;
 use super::*;
 use crate::bsdf::BsdfSample;
 use crate::btf::DirectionSet;
 use crate::btf::directions::DirectionInterp;
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::srgb_to_linear;
+use crate::math::simd::f4::F4;
 use crate::math::{Pcg32, frame::from_spherical, warp};
 use crate::math::{Spectrum, Vec2, Vec3};
 use crate::model::{
-    BtfFile, BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec, lobe,
-    polynomial, resolve_model_file,
+    BtfFile, BtfModel, Lobe, ModelKind, PackedLobe, PlmcModel, Poly, ValueSpace, ViewParams, codec,
+    lobe, polynomial, resolve_model_file,
 };
 use std::path::Path;
 use std::path::PathBuf;
@@ -514,7 +514,8 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     codec::write(&d.join("mat.lm.plmc"), &lm).unwrap();
     std::fs::write(d.join("mat.btfc"), b"x").unwrap();
     let r = |f: &str, m: &str| {
-        BtfModel::parse(m).and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|f| f.path().to_path_buf()))
+        BtfModel::parse(m)
+            .and_then(|m| resolve_model_file(&d.join(f), Some(m)).map(|f| f.path().to_path_buf()))
     };
     assert_eq!(r("mat.plmc", "plmc").unwrap(), d.join("mat.plmc"));
     assert_eq!(r("mat.plmc", "lm").unwrap(), d.join("mat.lm.plmc"));

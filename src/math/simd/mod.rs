@@ -127,4 +127,3 @@ macro_rules! isa_dispatch {
         }
     };
 }
-

@@ -262,10 +262,7 @@ fn fused_16(x: [f32; 4], b: [f32; 4]) -> ([f32; 4], [f32; 4]) {
         unsafe { _mm512_storeu_ps(a.as_mut_ptr(), v) };
         [a[0], a[1], a[2], a[3]]
     };
-    (
-        back(fused_exp2_16(wide(x))),
-        back(fused_log2_16(wide(b))),
-    )
+    (back(fused_exp2_16(wide(x))), back(fused_log2_16(wide(b))))
 }
 
 #[test]
