@@ -440,6 +440,9 @@ fn splat16(x: f32) -> __m512 {
 
 /// [`fused_log2_f4`] on 16 lanes, to the bit: `vgetmant`/`vgetexp` (exact) instead of the bit
 /// tricks, then the same series in the same order.
+///
+/// # Safety
+/// The CPU must have AVX-512F, AVX2 and FMA ([`super::isa`] at [`super::Level::Avx512`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
@@ -462,6 +465,9 @@ pub fn fused_log2_16(x: __m512) -> __m512 {
 
 /// [`fused_exp2_f4`] on 16 lanes, to the bit: the same clamp, nearest-integer split and series
 /// in the same order, scaled by `vscalef` (exact: the result is a normal float).
+///
+/// # Safety
+/// The CPU must have AVX-512F, AVX2 and FMA ([`super::isa`] at [`super::Level::Avx512`]).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[inline]
