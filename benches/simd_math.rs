@@ -1,8 +1,10 @@
-//! The 16-lane transcendental functions of `math::simd` against libm, per batch of 16 values
+//! The 16-lane transcendental functions of `math::simd::approx` against libm, per batch of 16 values
 //! (thread CPU time): `sin_cos/simd_<isa>` vs `sin_cos/libm`, same for exp2 and log2. The
 //! portable (SSE2) build of the same lane loop is measured too, to show what the ISA buys.
 
-use btfpt::math::simd::{self, F32x16, Isa, WIDTH};
+use btfpt::math::simd::approx::{exp2_isa, log2_isa, sin_cos_isa};
+use btfpt::math::simd::wide::Fx;
+use btfpt::math::simd::{F32x16, Isa, WIDTH};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 
@@ -63,7 +65,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &angles {
-                    let (s, c) = simd::sin_cos(isa, black_box(x));
+                    let (Fx(s), Fx(c)) = sin_cos_isa(isa, Fx(*black_box(x)));
                     acc += s[3] + c[11];
                 }
                 acc
@@ -73,7 +75,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &exps {
-                    acc += simd::exp2(isa, black_box(x))[5];
+                    acc += exp2_isa(isa, Fx(*black_box(x))).0[5];
                 }
                 acc
             })
@@ -82,7 +84,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &logs {
-                    acc += simd::log2(isa, black_box(x))[7];
+                    acc += log2_isa(isa, Fx(*black_box(x))).0[7];
                 }
                 acc
             })

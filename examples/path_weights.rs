@@ -1,5 +1,5 @@
 //! Where an image's largest sample values come from: traces a scene with the scalar path
-//! integrator ([`PathTracer::li_observed`], the same paths as `btfpt render --integrator scalar`)
+//! integrator ([`Integrator::li_observed`], the same paths as `btfpt render --integrator scalar`)
 //! and breaks the top 0.1 % of (a) the radiance contributions and (b) the BSDF sample weights
 //! f·cos/pdf down by material, view (outgoing) elevation, NEE or BSDF-sampled, and the
 //! sampler component that drew the direction.

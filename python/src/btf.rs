@@ -10,7 +10,7 @@ use btfpt::bsdf::plmc::PlmcMaterial;
 use btfpt::bsdf::{BtfBsdf, BtfMaterial, PlmcBsdf};
 use btfpt::btf::BtfSource;
 use btfpt::btf::synth::disk_cache;
-use btfpt::model::{BtfModel, PlmcModel, codec, resolve_model_file};
+use btfpt::model::{BtfFile, BtfModel, PlmcModel, codec, resolve_model_file};
 use btfpt::scene::btf_bsdf::SynthSpec;
 use numpy::ndarray::Array3;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
@@ -62,10 +62,11 @@ impl Btf {
         if !p.exists() {
             return Err(missing(format!("{path}: no such file or folder")));
         }
-        let (source, kind) = resolve_model_file(&p, model).py_err()?;
-        match kind {
-            BtfModel::Raw => Btf::raw(BtfMaterial::load(&source).py_err()?, source, uv_scale),
-            BtfModel::Fitted(_) => {
+        match resolve_model_file(&p, model).py_err()? {
+            BtfFile::Raw(source) => {
+                Btf::raw(BtfMaterial::load(&source).py_err()?, source, uv_scale)
+            }
+            BtfFile::Model(source) => {
                 let fitted = codec::read(&source).py_err()?;
                 let material = PlmcMaterial::new(&fitted)
                     .map_err(|e| btfpt::Error::format(&source, e.to_string()))

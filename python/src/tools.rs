@@ -8,7 +8,7 @@ use btfpt::btf::ubo2003::{ImageKind, write_folder};
 use btfpt::btf::{self, DirectionSet, tiling};
 use btfpt::fit::pipeline::{self, FitOptions};
 use btfpt::fit::report::raw_bytes;
-use btfpt::fit::views::ViewSelection;
+use btfpt::fit::view_selection::ViewSelection;
 use btfpt::model::{ModelKind, codec};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

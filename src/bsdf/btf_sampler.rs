@@ -14,7 +14,7 @@
 
 use crate::btf::directions::DirectionInterp;
 use crate::math::distribution::Distribution1D;
-use crate::math::simd::lane::sin_cos;
+use crate::math::simd::approx::sin_cos;
 use crate::math::{INV_PI, INV_TWO_PI, Vec2, Vec3, warp};
 
 /// Probability of the uniform-hemisphere component of the sampling mixture (the defensive part).

@@ -157,7 +157,7 @@ pub struct DirectionInterp {
     pub(super) cands: Vec<[u16; CANDS]>,
     /// Number of directions in the set.
     n_dirs: usize,
-    /// This CPU has AVX-512F (detected at construction): `locate16` runs its gather kernel.
+    /// `simd::isa()` is AVX-512 (so this CPU has AVX-512F): `locate16` runs its gather kernel.
     pub(super) avx512: bool,
 }
 
@@ -230,10 +230,7 @@ impl DirectionInterp {
             cell_tris,
             cands,
             n_dirs: set.len(),
-            #[cfg(target_arch = "x86_64")]
-            avx512: is_x86_feature_detected!("avx512f"),
-            #[cfg(not(target_arch = "x86_64"))]
-            avx512: false,
+            avx512: crate::math::simd::isa().level() == crate::math::simd::Level::Avx512,
         })
     }
 

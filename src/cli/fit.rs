@@ -4,7 +4,7 @@ use anyhow::Context;
 use btfpt::btf;
 use btfpt::btf::tiling;
 use btfpt::fit::pipeline::{self, ClusterOn, FitOptions, Stage};
-use btfpt::fit::views::ViewSelection;
+use btfpt::fit::view_selection::ViewSelection;
 use btfpt::model::ModelKind;
 use btfpt::model::codec;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -229,7 +229,7 @@ pub fn run(args: FitArgs) -> anyhow::Result<()> {
             println!(
                 "{} of {views} views still missing: {}",
                 done.missing.len(),
-                btfpt::fit::views::describe(&done.missing)
+                btfpt::fit::view_selection::describe(&done.missing)
             );
         }
         return Ok(());

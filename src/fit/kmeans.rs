@@ -94,19 +94,14 @@ fn neighbours(
 /// features never seed two clusters, so constant data give one cluster and `k > n` is fine.
 /// Empty clusters during iteration are re-seeded at the points farthest from their centres.
 pub fn kmeans(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the running CPU supports AVX2 (checked just above).
-        return unsafe { kmeans_avx2(data, dim, k, seed, max_iter) };
-    }
-    kmeans_impl(data, dim, k, seed, max_iter)
+    kmeans_isa(crate::math::simd::isa(), data, dim, k, seed, max_iter)
 }
 
-/// [`kmeans`] compiled for AVX2 (8-lane distance loops).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn kmeans_avx2(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans {
-    kmeans_impl(data, dim, k, seed, max_iter)
+crate::isa_dispatch! {
+    /// [`kmeans`] built for `isa` (wider distance loops; no fused multiply-adds, so the same
+    /// clusters on every build).
+    fn kmeans_isa(data: &[f32], dim: usize, k: usize, seed: u64, max_iter: usize) -> KMeans =
+        kmeans_impl;
 }
 
 #[inline(always)]

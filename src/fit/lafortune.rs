@@ -6,7 +6,7 @@
 //! (which also makes averaging parameters of several texels meaningful).
 
 use crate::math::Vec3;
-use crate::math::simd::{Isa, isa};
+use crate::math::simd::{Isa, approx, isa};
 use crate::model::lobe::{Lobe, ZERO_LOBE};
 
 /// Lower bound of the exponent n (below it b^n has an unbounded derivative at b → 0).
@@ -60,37 +60,6 @@ struct Normal {
     sse: f64,
     jtj: [[f64; 5]; 5],
     jtr: [f64; 5],
-}
-
-/// ln x for normal positive f32 x, branch-free (vectorises); |error| < 2e-7 absolute.
-#[inline(always)]
-fn fast_ln(x: f32) -> f32 {
-    let bits = x.to_bits();
-    let mut e = ((bits >> 23) & 0xff) as i32 - 127;
-    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
-    // Move m from [1, 2) into [√½, √2) so the series argument stays small.
-    let big = m > std::f32::consts::SQRT_2;
-    let m = if big { 0.5 * m } else { m };
-    e += big as i32;
-    let s = (m - 1.0) / (m + 1.0);
-    let s2 = s * s;
-    let series = 1.0 + s2 * (1.0 / 3.0 + s2 * (1.0 / 5.0 + s2 * (1.0 / 7.0 + s2 * (1.0 / 9.0))));
-    e as f32 * std::f32::consts::LN_2 + 2.0 * s * series
-}
-
-/// eᵡ for x ∈ [-87, 88] (clamped), branch-free (vectorises); relative error < 4e-7 + |x|·1.2e-7.
-#[inline(always)]
-fn fast_exp(x: f32) -> f32 {
-    const MAGIC: f32 = 12_582_912.0; // 1.5·2²³: adding it rounds to an integer in the low bits
-    let t = x.clamp(-87.0, 88.0) * std::f32::consts::LOG2_E;
-    let shifted = t + MAGIC;
-    let i = shifted.to_bits() as i32 - MAGIC.to_bits() as i32;
-    let f = (t - (shifted - MAGIC)) * std::f32::consts::LN_2; // in [-ln2/2, ln2/2]
-    let p = 1.0
-        + f * (1.0
-            + f * (0.5
-                + f * (1.0 / 6.0 + f * (1.0 / 24.0 + f * (1.0 / 120.0 + f * (1.0 / 720.0))))));
-    p * f32::from_bits(((i + 127) as u32) << 23)
 }
 
 impl LobeFitter {
@@ -217,8 +186,8 @@ impl LobeFitter {
                 let b = dx * ux[i] + dy * uy[i] + dz * uz[i];
                 let valid = b > 1e-30;
                 let bs = if valid { b } else { 1.0 };
-                let lb = fast_ln(bs);
-                let bn = if valid { fast_exp(n * lb) } else { 0.0 };
+                let lb = approx::ln(bs);
+                let bn = if valid { approx::exp(n * lb) } else { 0.0 };
                 let f = rho * bn;
                 let dd = rho * n * bn / bs;
                 j[0][i] = bn;
@@ -484,23 +453,6 @@ mod tests {
         assert!(flat.sse < 81.0 * 0.3 * 0.3);
         let neg = f.fit(&[-1.0; 81]);
         assert!(neg.lobe.iter().all(|v| v.is_finite()) && neg.lobe[0] >= 0.0);
-    }
-
-    #[test]
-    fn fast_ln_and_exp_are_accurate() {
-        let mut x = 1e-30f32;
-        while x < 1e30 {
-            let e = (fast_ln(x) as f64 - (x as f64).ln()).abs();
-            assert!(e < 3e-7 * (x as f64).ln().abs().max(1.0), "ln {x}: {e}");
-            x *= 1.37;
-        }
-        let mut t = -87.0f32;
-        while t < 88.0 {
-            let r = (fast_exp(t) as f64 / (t as f64).exp() - 1.0).abs();
-            // f32 rounding of t·log2(e) alone costs |t|·6e-8 relative.
-            assert!(r < 4e-7 + 1.2e-7 * t.abs() as f64, "exp {t}: {r}");
-            t += 0.0173;
-        }
     }
 
     #[test]

@@ -17,5 +17,5 @@ pub mod plot;
 pub mod refine;
 pub mod report;
 pub mod select;
-pub mod view;
-pub mod views;
+pub mod view_fit;
+pub mod view_selection;

@@ -11,15 +11,15 @@
 //! model space ([`refine`], `FitOptions::refine_iters`, 0 = off) and the mapping regression
 //! minimises the absolute error (see [`fit_polys`]).
 //!
-//! Files: `options.rs` (settings), `view.rs` (one view's LM → PLM → PLM-C), `parts.rs` (part
+//! Files: `options.rs` (settings), `view_fit.rs` (one view's LM → PLM → PLM-C), `parts.rs` (part
 //! files), this file (the whole model: fingerprints, resumption, assembly).
 
 pub use super::options::{ClusterOn, FitOptions, Stage, value_space};
-pub use super::view::{ViewFit, ViewStats, fit_view};
+pub use super::view_fit::{ViewFit, ViewStats, fit_view};
 
 use super::lafortune::LobeFitter;
 use super::parts;
-use super::views::ViewSelection;
+use super::view_selection::ViewSelection;
 use crate::btf::{BtfSource, DirectionSet};
 use crate::model::polynomial::Poly;
 use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams};

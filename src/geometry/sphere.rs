@@ -3,7 +3,7 @@
 //! cone of directions toward the sphere from outside, uniform area from inside), so that a
 //! sphere costs one quadratic per ray instead of 65k triangles and matches Mitsuba exactly.
 
-use crate::math::simd::lane::sin_cos;
+use crate::math::simd::approx::sin_cos;
 use crate::math::{Frame, INV_PI, INV_TWO_PI, Mat3, Mat4, PI, Vec2, Vec3, warp};
 
 /// An analytic sphere in world space (Mitsuba `sphere`: centre, radius and the orientation of

@@ -2,7 +2,7 @@
 //! sampled by alias tables over the cells of the bilinear interpolant.
 //!
 //! Mapping (local frame, +y up): direction d ↔ uv = (atan2(d.x, −d.z)/2π, acos(d.y)/π), both
-//! evaluated as atan2 by [`crate::math::fastmath`] (no normalisation needed); the image
+//! evaluated as atan2 by [`crate::math::simd::approx`] (no normalisation needed); the image
 //! is looked up bilinearly with texel centres at u = (i + ½)/W (periodic in u) and rows at
 //! v = j/(H − 1), exactly as Mitsuba's `eval_spectrum`. The sampling cells are the W × (H − 1)
 //! patches between four neighbouring texels; each cell is chosen with probability ∝ mean corner
@@ -19,9 +19,8 @@ use super::{LightSample, LightSampleX};
 use crate::io::RgbImage;
 use crate::math::alias::AliasTable;
 use crate::math::color::luminance;
-use crate::math::fastmath::{self, atan2_x, floor_small_x};
 use crate::math::simd::WIDTH;
-use crate::math::simd::lane::sin_cos;
+use crate::math::simd::approx::{self, atan2_x, floor_small_x, sin_cos};
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x, lanes};
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
@@ -161,8 +160,8 @@ impl EnvMapLight {
         }
         let r = (v.x * v.x + v.z * v.z).sqrt();
         Vec2::new(
-            fastmath::atan2(v.x, -v.z) * (0.5 / PI),
-            fastmath::atan2(r, v.y) * (1.0 / PI),
+            approx::atan2(v.x, -v.z) * (0.5 / PI),
+            approx::atan2(r, v.y) * (1.0 / PI),
         )
     }
 
@@ -184,7 +183,7 @@ impl EnvMapLight {
     fn column(&self, u: f32) -> (usize, f32) {
         let w = self.width;
         let mut u = u - 0.5 / w as f32;
-        u -= fastmath::floor_small(u);
+        u -= approx::floor_small(u);
         let x = u * w as f32;
         let ix = (x as usize).min(w - 1);
         (ix, x - ix as f32)
@@ -206,7 +205,7 @@ impl EnvMapLight {
     #[inline]
     fn lookup(&self, (ix, fx): (usize, f32), v: f32) -> Spectrum {
         let (w, h) = (self.width, self.height);
-        let v = v - fastmath::floor_small(v);
+        let v = v - approx::floor_small(v);
         let y = v * (h - 1) as f32;
         let iy = (y as usize).min(h - 2);
         let fy = y - iy as f32;
@@ -278,7 +277,7 @@ impl EnvMapLight {
         }
         // The radiance at the sampled lat-long point itself: the cell's column and fraction,
         // and the polar angle of (sin θ, cos θ).
-        let v = fastmath::atan2(sin_t, cos_t) * (1.0 / PI);
+        let v = approx::atan2(sin_t, cos_t) * (1.0 / PI);
         Some((d, self.lookup((i, ux), v), pdf))
     }
 
@@ -303,7 +302,7 @@ impl EnvMapLight {
         let sin_t = (1.0 - cos_t * cos_t).max(Fx::splat(0.0)).sqrt();
         let fi = Fx(lanes(|l| i[l] as f32));
         let u_lat = (fi + ux) / w as f32 + 0.5 / w as f32;
-        let (sp, cp) = (2.0 * PI * u_lat).sin_cos();
+        let (sp, cp) = approx::sin_cos_x(2.0 * PI * u_lat);
         let local = V3x::new(sin_t * sp, cos_t, -sin_t * cp);
         let d = local.transform(&self.to_world).normalize_or_zero();
         let ok = pdf

@@ -4,7 +4,7 @@
 //! normalisation). `box` of radius ½ is the special case where each sample lands in exactly one
 //! pixel with weight 1; the film keeps its exact per-pixel path for it.
 
-use crate::math::simd::lane::exp2;
+use crate::math::simd::approx::exp2;
 use crate::{Error, Result};
 
 /// Largest filter radius accepted, in pixels (keeps the per-sample weight tables on the stack).

@@ -4,7 +4,6 @@ pub mod alias;
 pub mod cie1931;
 pub mod color;
 pub mod distribution;
-pub mod fastmath;
 pub mod filter;
 pub mod frame;
 pub mod quad;

@@ -1,7 +1,7 @@
 //! Warps from the unit square to sampling domains, with their pdfs (Mitsuba 3 `warp` conventions).
 
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
-use crate::math::simd::lane::sin_cos;
+use crate::math::simd::approx::sin_cos;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::simd::wide::{Fx, V2x, V3x};
 use glam::{Vec2, Vec3};

@@ -62,14 +62,34 @@ fn kind_of(path: &Path) -> Option<ModelKind> {
     codec::read_header(path).ok().map(|h| h.kind)
 }
 
-/// The file holding `model` of the material named by `filename` (a raw BTF or a `.plmc` model),
-/// and the model it holds. `None` renders what the file itself holds: the model of a `.plmc`
-/// file, raw data otherwise. A file of the requested kind itself is always used as is.
-pub fn resolve_model_file(filename: &Path, model: Option<BtfModel>) -> Result<(PathBuf, BtfModel)> {
+/// A BTF file resolved by [`resolve_model_file`]: which reader takes it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum BtfFile {
+    /// Raw measured data (a UBO2003 folder, a UBO2014 `.btf` or a `.btfc` cache).
+    Raw(PathBuf),
+    /// A `.plmc` model file; which model it holds is learned by reading it.
+    Model(PathBuf),
+}
+
+impl BtfFile {
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        match self {
+            BtfFile::Raw(p) | BtfFile::Model(p) => p,
+        }
+    }
+}
+
+/// The file holding `model` of the material named by `filename` (a raw BTF or a `.plmc` model).
+/// `None` renders what the file itself holds: a `.plmc` file is returned as is, unread (its
+/// reader learns the model, so the file is read once), anything else as raw data. A requested
+/// fitted kind is found among the candidate `.plmc` files by their headers (the named file
+/// first, used as is when it holds that kind or cannot be read).
+pub fn resolve_model_file(filename: &Path, model: Option<BtfModel>) -> Result<BtfFile> {
     let is_plmc = is_model_file(filename);
     let model = match model {
         Some(m) => m,
-        None if is_plmc => BtfModel::Fitted(codec::read_header(filename)?.kind),
+        None if is_plmc => return Ok(BtfFile::Model(filename.to_path_buf())),
         None => BtfModel::Raw,
     };
     let name = filename.to_string_lossy();
@@ -94,12 +114,12 @@ pub fn resolve_model_file(filename: &Path, model: Option<BtfModel>) -> Result<(P
     match model {
         BtfModel::Raw => {
             if !is_plmc {
-                return Ok((filename.to_path_buf(), model));
+                return Ok(BtfFile::Raw(filename.to_path_buf()));
             }
             for c in [stem.clone(), format!("{stem}.btfc"), format!("{stem}.btf")] {
                 let p = PathBuf::from(&c);
                 if p.exists() {
-                    return Ok((p, model));
+                    return Ok(BtfFile::Raw(p));
                 }
                 tried.push(c);
             }
@@ -108,14 +128,14 @@ pub fn resolve_model_file(filename: &Path, model: Option<BtfModel>) -> Result<(P
             // The named model file itself, if it is of that kind, or unreadable (the reader will
             // say precisely what is wrong with it).
             if is_plmc && kind_of(filename).is_none_or(|k| k == kind) {
-                return Ok((filename.to_path_buf(), model));
+                return Ok(BtfFile::Model(filename.to_path_buf()));
             }
             let own = format!("{stem}.{}.plmc", kind.name());
             let plain = format!("{stem}.plmc");
             for c in [name.to_string(), own, plain] {
                 let p = PathBuf::from(&c);
                 if is_model_file(&p) && kind_of(&p) == Some(kind) {
-                    return Ok((p, model));
+                    return Ok(BtfFile::Model(p));
                 }
                 if !tried.contains(&c) {
                     tried.push(c);

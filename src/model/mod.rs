@@ -13,7 +13,7 @@ pub mod plmc;
 pub mod polynomial;
 pub mod value_space;
 
-pub use files::{BtfModel, resolve_model_file};
+pub use files::{BtfFile, BtfModel, resolve_model_file};
 pub use kind::ModelKind;
 pub use lobe::{Lobe, PackedLobe};
 pub use plmc::{PlmcModel, ViewParams};

@@ -1,4 +1,4 @@
-//! What the integrators share: their resolved settings ([`PathTracer`]), trace counters, the
+//! What the integrators share: their resolved settings ([`Integrator`]), trace counters, the
 //! camera's first hit, shadow segments and the MIS power heuristic, each with the `_x` twin
 //! the packet kernel runs. The integrators themselves are peers that trace a tile's samples:
 //! the scalar path tracer ([`super::path`], the test oracle), Mitsuba's `direct`
@@ -24,9 +24,11 @@ pub struct TraceStats {
     pub rays: u64,
 }
 
-/// Integrator parameters resolved from [`IntegratorSettings`].
+/// The scene's integrator with its parameters resolved from [`IntegratorSettings`]: Mitsuba's
+/// `path` ([`super::path`]) or, with [`Integrator::direct`] set, its `direct` ([`super::direct`]);
+/// the packet kernel runs the `path` one lane by lane.
 #[derive(Clone, Copy, Debug)]
-pub struct PathTracer {
+pub struct Integrator {
     /// Longest path in vertices; `u32::MAX` for unbounded.
     pub max_depth: u32,
     pub rr_depth: u32,
@@ -37,9 +39,9 @@ pub struct PathTracer {
     pub direct: Option<DirectSettings>,
 }
 
-impl PathTracer {
+impl Integrator {
     /// Validates Mitsuba's settings.
-    pub fn new(s: &IntegratorSettings) -> Result<PathTracer> {
+    pub fn new(s: &IntegratorSettings) -> Result<Integrator> {
         if s.max_depth < -1 {
             return Err(Error::Invalid(format!(
                 "integrator max_depth = {} (must be ≥ −1)",
@@ -52,7 +54,7 @@ impl PathTracer {
                 s.rr_depth
             )));
         }
-        Ok(PathTracer {
+        Ok(Integrator {
             max_depth: if s.max_depth < 0 {
                 u32::MAX
             } else {

@@ -19,7 +19,7 @@ use crate::light::LightSet;
 use crate::scene::Scene;
 use crate::{Error, Result};
 use camera::PerspectiveCamera;
-use integrator::PathTracer;
+use integrator::Integrator;
 
 pub use film::{RenderSettings, RenderState};
 
@@ -27,7 +27,7 @@ pub use film::{RenderSettings, RenderState};
 /// test oracle of the packet one).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum IntegratorKind {
-    /// One path per thread at a time ([`PathTracer::li`]).
+    /// One path per thread at a time ([`Integrator::li`]).
     Scalar,
     /// A per-thread pool of paths run 16 lanes at a time with lane refill ([`packet`]): the
     /// render core.
@@ -46,7 +46,7 @@ pub struct RenderScene {
     pub accel: Accel,
     pub lights: LightSet,
     pub camera: PerspectiveCamera,
-    pub integrator: PathTracer,
+    pub integrator: Integrator,
     /// The integrator asked for (packet unless chosen otherwise; see [`Self::integrator_kind`]).
     pub kind: IntegratorKind,
     /// Lane utilisation of the packet integrator, summed over the render.
@@ -95,7 +95,7 @@ impl RenderScene {
         let bvh_secs = t0.elapsed().as_secs_f64();
         let lights = LightSet::new(&scene, accel.bounds())?;
         let camera = PerspectiveCamera::new(&scene.camera)?;
-        let integrator = PathTracer::new(&scene.integrator)?;
+        let integrator = Integrator::new(&scene.integrator)?;
         Ok(RenderScene {
             scene,
             accel,

@@ -11,7 +11,7 @@
 use super::RenderScene;
 use super::film::{RenderSettings, Tile};
 use super::integrator::{
-    PathTracer, TraceStats, camera_hit, film_sample_start, mis_weight, occluded,
+    Integrator, TraceStats, camera_hit, film_sample_start, mis_weight, occluded,
 };
 use crate::bsdf::BsdfFlags;
 use crate::geometry::accel::offset_origin;
@@ -20,7 +20,7 @@ use crate::math::filter::Filter;
 use crate::math::{Pcg32, Spectrum, Vec2, Vec3};
 use std::sync::atomic::{AtomicBool, Ordering};
 
-impl PathTracer {
+impl Integrator {
     /// Adds samples `tile.done..end` (relative to `s.spp_begin`) to `tile`, one path at a time
     /// in (sample, row, column) order; stops at a sample boundary once `interrupt` is set and
     /// reports each completed sample index (pixel-samples, rays) to `progress`.
@@ -71,7 +71,7 @@ impl PathTracer {
         self.li_observed(rs, o, d, tmax, rng, stats, &mut |_| {})
     }
 
-    /// [`PathTracer::li`] (the same value and random numbers) that reports every BSDF sample
+    /// [`Integrator::li`] (the same value and random numbers) that reports every BSDF sample
     /// and every radiance contribution of the path to `observe`, for tools that ask where an
     /// estimate's large values come from (the Mitsuba `direct` integrator reports nothing).
     #[allow(clippy::too_many_arguments)]
@@ -212,7 +212,7 @@ impl PathTracer {
     }
 }
 
-/// One step of a path as [`PathTracer::li_observed`] reports it (directions in the vertex's
+/// One step of a path as [`Integrator::li_observed`] reports it (directions in the vertex's
 /// local shading frame, `depth` = the vertex's index along the path, 0 at the camera hit).
 #[derive(Clone, Copy, Debug)]
 pub enum PathEvent {

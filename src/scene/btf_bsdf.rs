@@ -16,7 +16,7 @@ use crate::btf::BtfSource;
 pub use crate::btf::synth::SynthSpec;
 use crate::btf::synth::{SynthOrigin, disk_cache};
 use crate::io::shared::{SharedCache, shared_by_path};
-use crate::model::{BtfModel, resolve_model_file};
+use crate::model::{BtfFile, BtfModel, resolve_model_file};
 use crate::{Error, Result};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -68,24 +68,29 @@ pub fn build_btf(
     }
     let path = resolve(filename);
     // The message names the BTF source and the problem; the scene error adds where it is used.
-    let (source, model) =
-        resolve_model_file(&path, model).map_err(|e| scene_error(format!("btf: {e}")))?;
-    let bsdf = match model {
-        BtfModel::Raw => shared_raw_material(&source)
+    let source = resolve_model_file(&path, model).map_err(|e| scene_error(format!("btf: {e}")))?;
+    let bsdf = match &source {
+        BtfFile::Raw(p) => shared_raw_material(p)
             .and_then(|m| BtfBsdf::new(m, uv_scale))
             .map(Bsdf::Btf),
-        BtfModel::Fitted(_) => plmc::shared_material(&source)
+        BtfFile::Model(p) => plmc::shared_material(p)
             .and_then(|m| PlmcBsdf::new(m, uv_scale, false))
             .map(Bsdf::Plmc),
     }
     .map_err(|e| scene_error(format!("btf: {e}")))?;
-    let texels = match &bsdf {
-        Bsdf::Btf(b) => (b.material().btf().width(), b.material().btf().height()),
-        Bsdf::Plmc(b) => (b.material().width(), b.material().height()),
-        _ => (0, 0),
+    let (texels, model) = match &bsdf {
+        Bsdf::Btf(b) => (
+            (b.material().btf().width(), b.material().btf().height()),
+            BtfModel::Raw,
+        ),
+        Bsdf::Plmc(b) => (
+            (b.material().width(), b.material().height()),
+            BtfModel::Fitted(b.material().kind()),
+        ),
+        _ => ((0, 0), BtfModel::Raw),
     };
     let used = BtfUse {
-        file: source,
+        file: source.path().to_path_buf(),
         model,
         texels,
         seconds: t0.elapsed().as_secs_f64(),

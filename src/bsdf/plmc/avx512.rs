@@ -2,7 +2,8 @@
 //! registers: the 3 views × (R, G, B, pad) are lanes `4 a + c` of one register (lanes 12..15
 //! unused), so every stage of the dependent chain (Lafortune base, log2, exp2, polynomial,
 //! decode) is one instruction for all 9 values instead of three (SSE/AVX2 4-wide), and
-//! AVX-512F's `vgetexp`/`vgetmant`/`vscalef` replace the integer bit tricks of `f4.rs`.
+//! AVX-512F's `vgetexp`/`vgetmant`/`vscalef` replace the integer bit tricks of the F4 exp2 and
+//! log2 (`math::simd::approx`: `fused_exp2_16`, `fused_log2_16`).
 //!
 //! Same arithmetic as the AVX2+FMA build of the generic kernel, operation by operation (same
 //! series, same evaluation order, fused multiply-adds at the same places; `vgetmant`/`vgetexp`
@@ -13,21 +14,8 @@
 //! spills and bounds checks of the 4-wide lanes).
 
 use super::{FLUSH, LobeRec, PolyRow};
+use crate::math::simd::approx::{fused_exp2_16, fused_log2_16};
 use core::arch::x86_64::*;
-
-/// Proof that this CPU has AVX-512F, AVX2 and FMA: only [`Avx512::detect`] makes one.
-#[derive(Clone, Copy, Debug)]
-pub struct Avx512(());
-
-impl Avx512 {
-    /// The token if this CPU supports AVX-512F, AVX2 and FMA (runtime detection, cached by std).
-    pub fn detect() -> Option<Self> {
-        (is_x86_feature_detected!("avx512f")
-            && is_x86_feature_detected!("avx2")
-            && is_x86_feature_detected!("fma"))
-        .then_some(Avx512(()))
-    }
-}
 
 /// The tables of a PLM-C material with u8 indices (see `Params::Clustered8` and the
 /// `PlmcMaterial` fields of the same names).
@@ -78,45 +66,6 @@ pub(super) fn splat(x: f32) -> __m512 {
     _mm512_set1_ps(x)
 }
 
-/// log2 of positive normal lanes: exponent + 2/ln 2 · atanh((m−1)/(m+1)) to t⁹ with
-/// m ∈ [√½, √2) (the series of `f4::log2_series`, same evaluation order).
-#[target_feature(enable = "avx512f,avx2,fma")]
-#[inline]
-pub(super) fn log2(x: __m512) -> __m512 {
-    let m = _mm512_getmant_ps::<_MM_MANT_NORM_1_2, _MM_MANT_SIGN_SRC>(x);
-    let e = _mm512_getexp_ps(x);
-    let big = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(m, splat(std::f32::consts::SQRT_2));
-    let m = _mm512_mask_mul_ps(m, big, m, splat(0.5));
-    let e = _mm512_mask_add_ps(e, big, e, splat(1.0));
-    let one = splat(1.0);
-    let t = _mm512_div_ps(_mm512_sub_ps(m, one), _mm512_add_ps(m, one));
-    let t2 = _mm512_mul_ps(t, t);
-    const C: f32 = 2.0 / std::f32::consts::LN_2;
-    let t4 = _mm512_mul_ps(t2, t2);
-    let lo = _mm512_fmadd_ps(splat(C / 3.0), t2, splat(C));
-    let hi = _mm512_fmadd_ps(splat(C / 7.0), t2, splat(C / 5.0));
-    let hi = _mm512_fmadd_ps(splat(C / 9.0), t4, hi);
-    _mm512_fmadd_ps(_mm512_fmadd_ps(hi, t4, lo), t, e)
-}
-
-/// 2^x, x clamped to [−125, 127]: nearest-integer split and the degree-6 series of
-/// `f4::exp2_poly` (same order), scaled by `vscalef` (exact: the result is a normal float).
-#[target_feature(enable = "avx512f,avx2,fma")]
-#[inline]
-pub(super) fn exp2(x: __m512) -> __m512 {
-    let x = _mm512_min_ps(_mm512_max_ps(x, splat(-125.0)), splat(127.0));
-    let r = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(x);
-    let f = _mm512_sub_ps(x, r);
-    let c = super::f4::EXP2_COEFFS;
-    let f2 = _mm512_mul_ps(f, f);
-    let p01 = _mm512_fmadd_ps(splat(c[0]), f, splat(1.0));
-    let p23 = _mm512_fmadd_ps(splat(c[2]), f, splat(c[1]));
-    let p45 = _mm512_fmadd_ps(splat(c[4]), f, splat(c[3]));
-    let q = _mm512_fmadd_ps(splat(c[5]), f2, p45);
-    let q = _mm512_fmadd_ps(q, f2, p23);
-    _mm512_scalef_ps(_mm512_fmadd_ps(q, f2, p01), r)
-}
-
 /// The lobes `[ρ, Dx, Dy, Dz, n]` at the light direction `w` (x, y, z lanes): Y = ρ · b^n with
 /// b = D·w, 0 where b ≤ 0 or Y < FLUSH (see `eval_views`). Shared by the single-query and the
 /// 16-query kernel, so their lanes agree to the bit.
@@ -125,8 +74,8 @@ pub(super) fn exp2(x: __m512) -> __m512 {
 pub(super) fn lobe_value(l: [__m512; 5], w: [__m512; 3]) -> __m512 {
     let [rho, dx, dy, dz, n] = l;
     let b = _mm512_fmadd_ps(dz, w[2], _mm512_fmadd_ps(dy, w[1], _mm512_mul_ps(dx, w[0])));
-    let lg = log2(_mm512_max_ps(b, splat(1e-30)));
-    let pw = exp2(_mm512_max_ps(_mm512_mul_ps(n, lg), splat(-100.0)));
+    let lg = fused_log2_16(_mm512_max_ps(b, splat(1e-30)));
+    let pw = fused_exp2_16(_mm512_max_ps(_mm512_mul_ps(n, lg), splat(-100.0)));
     let y = _mm512_mul_ps(rho, pw);
     let zero = _mm512_setzero_ps();
     let keep = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(b, zero)
@@ -159,7 +108,7 @@ pub(super) fn map_decode(
             _mm512_mul_ps(_mm512_add_ps(v, splat(0.055)), splat(1.0 / 1.055)),
             splat(1e-30),
         );
-        let pow = exp2(_mm512_mul_ps(splat(2.4), log2(base)));
+        let pow = fused_exp2_16(_mm512_mul_ps(splat(2.4), fused_log2_16(base)));
         let small = _mm512_cmp_ps_mask::<_CMP_LE_OS>(v, splat(0.04045));
         _mm512_mask_blend_ps(small, pow, lin)
     } else {
@@ -192,7 +141,6 @@ unsafe fn blocks3(p: [*const f32; 3]) -> __m512 {
 #[target_feature(enable = "avx512f,avx2,fma")]
 #[allow(clippy::too_many_arguments)]
 pub fn eval(
-    _token: Avx512,
     t: &Tables,
     vi: [u32; 3],
     vw: [f32; 3],

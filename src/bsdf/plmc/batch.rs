@@ -16,7 +16,7 @@
 //! the same order, the same clamps with the same operand order, its log2/exp2): each lane's
 //! result is the single-query kernel's to the last bit (tested in `tests.rs`).
 
-use super::avx512::{Avx512, Tables, lobe_value, map_decode, splat};
+use super::avx512::{Tables, lobe_value, map_decode, splat};
 use crate::math::simd::transpose::transpose16;
 use core::arch::x86_64::*;
 use core::mem::MaybeUninit;
@@ -42,7 +42,7 @@ pub fn fits(t: &Tables) -> bool {
 /// (`out.len() == q.len()`). Panics if a view, light or texel is out of range or the tables do
 /// not [`fit`] 32-bit offsets.
 #[target_feature(enable = "avx512f,avx2,fma")]
-pub fn eval(_token: Avx512, t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
+pub fn eval(t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     let n = q.len();
     assert!(n <= BATCH && out.len() == n);
     if n == 0 {

@@ -1,13 +1,17 @@
-//! The generic PLM-C / PLM / LM evaluation kernel (4 lanes per view: R, G, B, pad) for SSE2 and
-//! AVX2+FMA, its data layout, and the dispatch to the AVX-512 kernel where it applies.
+//! Every evaluation of a [`PlmcMaterial`] (the material itself, its layout and construction are
+//! `material.rs`): the generic PLM-C / PLM / LM kernel (4 lanes per view: R, G, B, pad) for
+//! SSE2 and AVX2+FMA, and the dispatch to the AVX-512 kernels where they apply.
 //!
 //! The lane kernels index several arrays with one loop variable; iterator rewrites obscure them.
 #![allow(clippy::needless_range_loop)]
 
-use super::f4::{self, F4, Isa, Sse2};
 use super::material::{LobeRec, Params, PlmcMaterial};
 use super::query::{BATCH, BatchQuery};
 use crate::math::Vec3;
+#[cfg(target_arch = "x86_64")]
+use crate::math::simd::Level;
+use crate::math::simd::approx::{fused_exp2_f4, fused_log2_f4};
+use crate::math::simd::f4::F4;
 use crate::model::ValueSpace;
 
 /// Lobe values Y below this are 0 in the kernel (keeps the arithmetic free of denormals).
@@ -65,6 +69,28 @@ pub(super) struct ViewPoly {
 }
 
 impl PlmcMaterial {
+    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
+    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
+    #[inline]
+    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
+        let (vi, vw) = self.view_lookup(wi);
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
+    }
+
+    /// B blended over `texels` (texel index, weight) with the view lookup already done.
+    #[inline]
+    pub fn eval_b_with_views(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        wo: Vec3,
+        texels: &[(usize, f32)],
+    ) -> [f32; 3] {
+        let (li, lw) = self.light_lookup(wo);
+        self.eval_b_with(vi, vw, li, lw, wo, texels)
+    }
+
     /// B blended over `texels` with both direction lookups done (views `vi`/`vw`, lights
     /// `li`/`lw` around `wo`).
     #[inline]
@@ -78,42 +104,38 @@ impl PlmcMaterial {
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
         #[cfg(target_arch = "x86_64")]
-        if let ([(texel, tw)], Some((token, t))) = (texels, self.avx512_tables()) {
-            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
-            let b = unsafe {
-                super::avx512::eval(token, &t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel)
-            };
+        if let ([(texel, tw)], Some(t)) = (texels, self.avx512_tables()) {
+            // SAFETY: `avx512_tables` is Some only at `Level::Avx512`, which `simd::isa()`
+            // gives only on CPUs with AVX-512F, AVX2 and FMA.
+            let b = unsafe { super::avx512::eval(&t, vi, vw, li, lw, [wo.x, wo.y, wo.z], *texel) };
             return b.map(|x| x * tw);
         }
         #[cfg(target_arch = "x86_64")]
-        if let Some(isa) = self.avx2 {
-            // SAFETY: the token exists only if this CPU has AVX2 and FMA.
-            return unsafe { self.eval_b_avx2(isa, vi, vw, (li, lw), wo, texels) };
+        if self.isa.level() >= Level::Avx2 {
+            // SAFETY: `simd::isa()` gives these levels only on CPUs with AVX2 and FMA.
+            return unsafe { self.eval_b_avx2(vi, vw, (li, lw), wo, texels) };
         }
-        self.eval_b_isa(Sse2, vi, vw, (li, lw), wo, texels)
+        self.eval_b_lanes(vi, vw, (li, lw), wo, texels)
     }
 
     /// The tables of the 16-lane kernels, if this material runs them: PLM-C with u8 indices and
     /// polynomials on an AVX-512 CPU (nearest texel; the caller checks that).
     #[cfg(target_arch = "x86_64")]
     #[inline]
-    fn avx512_tables(&self) -> Option<(super::avx512::Avx512, super::avx512::Tables<'_>)> {
-        match (self.avx512, &self.params) {
-            (Some(token), Params::Clustered8 { k, records, index }) if !self.polys.is_empty() => {
-                Some((
-                    token,
-                    super::avx512::Tables {
-                        k: *k,
-                        n_views: self.n_views,
-                        n_lights: self.n_lights,
-                        records,
-                        index,
-                        polys: &self.polys,
-                        y_max: &self.y_max,
-                        out_max: &self.out_max,
-                        srgb: self.space == ValueSpace::Srgb,
-                    },
-                ))
+    fn avx512_tables(&self) -> Option<super::avx512::Tables<'_>> {
+        match (self.isa.level(), &self.params) {
+            (Level::Avx512, Params::Clustered8 { k, records, index }) if !self.polys.is_empty() => {
+                Some(super::avx512::Tables {
+                    k: *k,
+                    n_views: self.n_views,
+                    n_lights: self.n_lights,
+                    records,
+                    index,
+                    polys: &self.polys,
+                    y_max: &self.y_max,
+                    out_max: &self.out_max,
+                    srgb: self.space == ValueSpace::Srgb,
+                })
             }
             _ => None,
         }
@@ -123,7 +145,7 @@ impl PlmcMaterial {
     /// queries one by one).
     pub fn batches(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if let Some((_, t)) = self.avx512_tables() {
+        if let Some(t) = self.avx512_tables() {
             return super::batch::fits(&t);
         }
         false
@@ -135,11 +157,12 @@ impl PlmcMaterial {
     pub fn eval_b_batch(&self, q: &[BatchQuery], out: &mut [[f32; 3]]) {
         assert!(q.len() <= BATCH && out.len() == q.len());
         #[cfg(target_arch = "x86_64")]
-        if let Some((token, t)) = self.avx512_tables()
+        if let Some(t) = self.avx512_tables()
             && super::batch::fits(&t)
         {
-            // SAFETY: the token exists only if this CPU has AVX-512F, AVX2 and FMA.
-            unsafe { super::batch::eval(token, &t, q, out) };
+            // SAFETY: `avx512_tables` is Some only at `Level::Avx512`, which `simd::isa()`
+            // gives only on CPUs with AVX-512F, AVX2 and FMA.
+            unsafe { super::batch::eval(&t, q, out) };
             return;
         }
         for (o, q) in out.iter_mut().zip(q) {
@@ -153,21 +176,20 @@ impl PlmcMaterial {
     #[target_feature(enable = "avx2,fma")]
     fn eval_b_avx2(
         &self,
-        isa: f4::Avx2Fma,
         vi: [u32; 3],
         vw: [f32; 3],
         lights: ([u32; 3], [f32; 3]),
         wo: Vec3,
         texels: &[(usize, f32)],
     ) -> [f32; 3] {
-        self.eval_b_isa(isa, vi, vw, lights, wo, texels)
+        self.eval_b_lanes(vi, vw, lights, wo, texels)
     }
 
-    /// The kernel for the instruction set `isa`, dispatched on the index layout.
+    /// The kernel (for the instruction set of the caller's build), dispatched on the index
+    /// layout.
     #[inline(always)]
-    fn eval_b_isa<I: Isa>(
+    fn eval_b_lanes(
         &self,
-        isa: I,
         vi: [u32; 3],
         vw: [f32; 3],
         (li, lw): ([u32; 3], [f32; 3]),
@@ -177,15 +199,12 @@ impl PlmcMaterial {
         let texel_count = self.width * self.height;
         match &self.params {
             Params::Clustered8 { k, records, index } => self.eval_texels(
-                (
-                    &Clustered {
-                        k: *k,
-                        views: self.n_views,
-                        records,
-                        index,
-                    },
-                    isa,
-                ),
+                &Clustered {
+                    k: *k,
+                    views: self.n_views,
+                    records,
+                    index,
+                },
                 vi,
                 vw,
                 (li, lw),
@@ -193,15 +212,12 @@ impl PlmcMaterial {
                 texels,
             ),
             Params::Clustered16 { k, records, index } => self.eval_texels(
-                (
-                    &Clustered {
-                        k: *k,
-                        views: self.n_views,
-                        records,
-                        index,
-                    },
-                    isa,
-                ),
+                &Clustered {
+                    k: *k,
+                    views: self.n_views,
+                    records,
+                    index,
+                },
                 vi,
                 vw,
                 (li, lw),
@@ -209,13 +225,10 @@ impl PlmcMaterial {
                 texels,
             ),
             Params::Texel { lobes } => self.eval_texels(
-                (
-                    &PerTexel {
-                        texels: texel_count,
-                        lobes,
-                    },
-                    isa,
-                ),
+                &PerTexel {
+                    texels: texel_count,
+                    lobes,
+                },
                 vi,
                 vw,
                 (li, lw),
@@ -227,7 +240,7 @@ impl PlmcMaterial {
 
     /// The light-interpolated polynomial and clamps of view `v` (lights `li` with weights `lw`).
     #[inline(always)]
-    fn view_poly<I: Isa>(&self, isa: I, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
+    fn view_poly(&self, v: usize, li: [u32; 3], lw: [f32; 3]) -> ViewPoly {
         let base = v * self.n_lights;
         let r = each3(|b| &self.polys[base + li[b] as usize].0);
         let m = each3(|b| F4::load(&self.out_max[base + li[b] as usize]));
@@ -236,10 +249,9 @@ impl PlmcMaterial {
         let win = |row: &[f32; 16], j: usize| F4::load(&row[3 * j..]);
         ViewPoly {
             a: each5(|j| {
-                isa.fma(
-                    w[2],
+                w[2].mul_add(
                     win(r[2], j),
-                    isa.fma(w[1], win(r[1], j), w[0] * win(r[0], j)),
+                    w[1].mul_add(win(r[1], j), w[0] * win(r[0], j)),
                 )
             }),
             y_max: F4::load(&self.y_max[v]),
@@ -250,24 +262,18 @@ impl PlmcMaterial {
     /// [`PlmcMaterial::view_poly`] of the 3 views (no closure: too big for the inliner, it
     /// stays an out-of-line call per view).
     #[inline(always)]
-    fn view_polys<I: Isa>(
-        &self,
-        isa: I,
-        vi: [usize; 3],
-        li: [u32; 3],
-        lw: [f32; 3],
-    ) -> [ViewPoly; 3] {
+    fn view_polys(&self, vi: [usize; 3], li: [u32; 3], lw: [f32; 3]) -> [ViewPoly; 3] {
         [
-            self.view_poly(isa, vi[0], li, lw),
-            self.view_poly(isa, vi[1], li, lw),
-            self.view_poly(isa, vi[2], li, lw),
+            self.view_poly(vi[0], li, lw),
+            self.view_poly(vi[1], li, lw),
+            self.view_poly(vi[2], li, lw),
         ]
     }
 
     #[inline(always)]
-    fn eval_texels<P: LobeAt, I: Isa>(
+    fn eval_texels<P: LobeAt>(
         &self,
-        (p, isa): (&P, I),
+        p: &P,
         vi: [u32; 3],
         vw: [f32; 3],
         (li, lw): ([u32; 3], [f32; 3]),
@@ -280,18 +286,18 @@ impl PlmcMaterial {
         // Light interpolation of the polynomial rows: once per evaluation when several texels
         // share it (bilinear); for one texel after the gathers, so that their cache misses are
         // issued first and the rows need not stay live across them.
-        let shared = (has_polys && texels.len() > 1).then(|| self.view_polys(isa, vi, li, lw));
+        let shared = (has_polys && texels.len() > 1).then(|| self.view_polys(vi, li, lw));
         for &(t, tw) in texels {
             // All 9 lobes first: their cache misses overlap instead of stalling view by view.
             let lobes = [p.lobes(vi[0], t), p.lobes(vi[1], t), p.lobes(vi[2], t)];
             let vp = match shared {
                 Some(s) => Some(s),
-                None if has_polys => Some(self.view_polys(isa, vi, li, lw)),
+                None if has_polys => Some(self.view_polys(vi, li, lw)),
                 None => None,
             };
-            let y = self.eval_views(isa, &lobes, vp.as_ref(), wo);
+            let y = self.eval_views(&lobes, vp.as_ref(), wo);
             for a in 0..3 {
-                out = isa.fma(F4::splat(tw * vw[a]), y[a], out);
+                out = F4::splat(tw * vw[a]).mul_add(y[a], out);
             }
         }
         let o = out.to_array();
@@ -302,22 +308,16 @@ impl PlmcMaterial {
     /// over the views, so their independent dependency chains (log2 → exp2 → polynomial →
     /// decode) are interleaved in the instruction stream rather than run one after the other.
     #[inline(always)]
-    fn eval_views<I: Isa>(
-        &self,
-        isa: I,
-        l: &[LaneLobes; 3],
-        vp: Option<&[ViewPoly; 3]>,
-        wo: Vec3,
-    ) -> [F4; 3] {
+    fn eval_views(&self, l: &[LaneLobes; 3], vp: Option<&[ViewPoly; 3]>, wo: Vec3) -> [F4; 3] {
         let zero = F4::splat(0.0);
         let (wx, wy, wz) = (F4::splat(wo.x), F4::splat(wo.y), F4::splat(wo.z));
-        let b: [F4; 3] = each3(|a| isa.fma(l[a][3], wz, isa.fma(l[a][2], wy, l[a][1] * wx)));
+        let b: [F4; 3] = each3(|a| l[a][3].mul_add(wz, l[a][2].mul_add(wy, l[a][1] * wx)));
         // b^n = 2^(n log2 b), 0 where b ≤ 0 (the clamp keeps log2 finite). No denormals
         // anywhere: each one costs a ~150-cycle microcode assist on x86, and random directions
         // make many (lanes with b ≤ 0, steep lobes). So the exponent is clamped at −100 and
         // Y < FLUSH (a value no measurement resolves) is flushed to 0 before the polynomial.
-        let lg: [F4; 3] = each3(|a| b[a].max(F4::splat(1e-30)).log2(isa));
-        let pw: [F4; 3] = each3(|a| (l[a][4] * lg[a]).max(F4::splat(-100.0)).exp2(isa));
+        let lg: [F4; 3] = each3(|a| fused_log2_f4(b[a].max(F4::splat(1e-30))));
+        let pw: [F4; 3] = each3(|a| fused_exp2_f4((l[a][4] * lg[a]).max(F4::splat(-100.0))));
         let mut y: [F4; 3] = each3(|a| {
             let y = l[a][0] * pw[a];
             b[a].gt_or_zero(zero, y.gt_or_zero(F4::splat(FLUSH), y))
@@ -328,15 +328,15 @@ impl PlmcMaterial {
                 let c = &vp[a].a;
                 // Estrin: (a0 + a1 x) + x² ((a2 + a3 x) + x² a4): 3 dependent steps, not 4.
                 let x2 = x * x;
-                let lo = isa.fma(c[1], x, c[0]);
-                let hi = isa.fma(c[4], x2, isa.fma(c[3], x, c[2]));
-                isa.fma(hi, x2, lo).min(vp[a].out_max)
+                let lo = c[1].mul_add(x, c[0]);
+                let hi = c[4].mul_add(x2, c[3].mul_add(x, c[2]));
+                hi.mul_add(x2, lo).min(vp[a].out_max)
             });
         }
         match self.space {
             // As maxps: NaN → 0, like `f32::max(v, 0.0)`.
             ValueSpace::Linear => each3(|a| y[a].max(zero)),
-            ValueSpace::Srgb => each3(|a| srgb_to_linear_f4(isa, y[a])),
+            ValueSpace::Srgb => each3(|a| srgb_to_linear_f4(y[a])),
         }
     }
 }
@@ -356,11 +356,11 @@ fn each5<T>(mut f: impl FnMut(usize) -> T) -> [T; 5] {
 
 /// `srgb_to_linear(max(0, v))` lane-wise, branch-free.
 #[inline(always)]
-pub(super) fn srgb_to_linear_f4<I: Isa>(isa: I, y: F4) -> F4 {
+pub(super) fn srgb_to_linear_f4(y: F4) -> F4 {
     let v = y.max(F4::splat(0.0));
     let lo = v * F4::splat(1.0 / 12.92);
     let base = ((v + F4::splat(0.055)) * F4::splat(1.0 / 1.055)).max(F4::splat(1e-30));
-    let hi = (F4::splat(2.4) * base.log2(isa)).exp2(isa);
+    let hi = fused_exp2_f4(F4::splat(2.4) * fused_log2_f4(base));
     v.le_select(F4::splat(0.04045), lo, hi)
 }
 
@@ -368,6 +368,6 @@ pub(super) fn srgb_to_linear_f4<I: Isa>(isa: I, y: F4) -> F4 {
 /// 2^−100 (never a denormal, see `eval_view`).
 #[cfg(test)]
 #[inline(always)]
-pub(super) fn pow_f4<I: Isa>(isa: I, b: F4, n: F4) -> F4 {
-    (n * b.log2(isa)).max(F4::splat(-100.0)).exp2(isa)
+pub(super) fn pow_f4(b: F4, n: F4) -> F4 {
+    fused_exp2_f4((n * fused_log2_f4(b)).max(F4::splat(-100.0)))
 }

@@ -15,11 +15,13 @@
 //! kept lobes' share of the 9 lobes' weight for the lobes, the rest for the sampler; its `pdf`
 //! is the mixture's exact density. Plain scalar
 //! arithmetic without fused multiply-adds and with the branch-free `exp2`/`log2` of
-//! `math::simd::lane`, so every CPU and both integrators get the same bits.
+//! `math::simd::approx`, so every CPU and both integrators get the same bits.
 
+use super::material::{Params, PlmcMaterial};
 use crate::math::frame::Frame;
-use crate::math::simd::lane::{exp2, log2, sin_cos};
+use crate::math::simd::approx::{exp2, log2, sin_cos};
 use crate::math::{INV_TWO_PI, Vec2, Vec3};
+use crate::model::ValueSpace;
 
 /// Probability of the lobe part of the sampling mixture (when a hit has lobes; the rest goes to
 /// the tabulated sampler with its uniform defensive part).
@@ -186,7 +188,7 @@ impl HitLobes {
     }
 }
 
-/// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::lane`: the same bits on every CPU).
+/// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::approx`: the same bits on every CPU).
 #[inline(always)]
 fn pow(c: f32, n: f32) -> f32 {
     exp2(n * log2(c))
@@ -235,13 +237,9 @@ pub fn srgb_decode(v: f32) -> f32 {
     }
 }
 
-use super::material::Params;
-
 /// The pad slot of a cluster record (`LobeRec`, `[ρ, Dx, Dy, Dz, n, pad…]`) that holds the
 /// lobe's albedo after the mapping.
 pub(super) const ALBEDO_SLOT: usize = 5;
-use super::material::PlmcMaterial;
-use crate::model::ValueSpace;
 
 impl PlmcMaterial {
     /// Writes [`lobe_albedo`] into slot [`ALBEDO_SLOT`] of every cluster record (a pad slot the

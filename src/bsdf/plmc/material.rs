@@ -1,10 +1,10 @@
 //! A fitted model in its evaluation layout: SoA lobe records, index planes, polynomial rows, the
 //! range clamps, the direction interpolators and the light sampler.
 
-use super::f4;
 use crate::bsdf::btf_sampler::BtfLightSampler;
 use crate::btf::directions::DirectionInterp;
 use crate::math::color::luminance;
+use crate::math::simd::{self, Isa};
 use crate::math::{Spectrum, Vec3};
 use crate::model::{ModelKind, PlmcModel, ValueSpace, ViewParams, codec};
 use crate::{Error, Result};
@@ -73,13 +73,10 @@ pub struct PlmcMaterial {
     /// Per view: true if some lobe of it is sharp enough to be sampled (`lobes.rs`); hits whose
     /// 3 views have none skip gathering their lobes.
     pub(super) sharp_views: Vec<bool>,
-    /// Set if this CPU has AVX2 + FMA (detected once here): the kernel runs its fused build.
-    #[cfg(target_arch = "x86_64")]
-    pub(super) avx2: Option<f4::Avx2Fma>,
-    /// Set if this CPU has AVX-512F (and AVX2 + FMA): PLM-C with u8 indices, nearest texel,
-    /// runs the 16-lane kernel of `avx512.rs`.
-    #[cfg(target_arch = "x86_64")]
-    pub(super) avx512: Option<super::avx512::Avx512>,
+    /// The instruction set the kernels run at (`simd::isa()`): AVX2 + FMA runs the generic
+    /// kernel's AVX2 build, AVX-512 also the 16-lane kernels of `avx512.rs` and `batch.rs` for
+    /// PLM-C with u8 indices and the nearest texel; every build returns the same bits.
+    pub(super) isa: Isa,
 }
 
 impl PlmcMaterial {
@@ -192,10 +189,7 @@ impl PlmcMaterial {
             views,
             sampler,
             sharp_views: Vec::new(),
-            #[cfg(target_arch = "x86_64")]
-            avx2: f4::Avx2Fma::detect(),
-            #[cfg(target_arch = "x86_64")]
-            avx512: super::avx512::Avx512::detect(),
+            isa: simd::isa(),
         };
         // (The lobe sampling weights: `lobes.rs`.)
         material.store_lobe_albedos(&model.lights.dirs);
@@ -207,11 +201,7 @@ impl PlmcMaterial {
     /// compare the two builds; results agree to float rounding).
     #[cfg(any(test, feature = "test-support"))]
     pub fn without_avx2(mut self) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.avx2 = None;
-            self.avx512 = None;
-        }
+        self.isa = Isa::PORTABLE;
         self
     }
 
@@ -219,29 +209,20 @@ impl PlmcMaterial {
     /// the CPU has it): to compare the builds; results agree to float rounding.
     #[cfg(any(test, feature = "test-support"))]
     pub fn without_avx512(mut self) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.avx512 = None;
-        }
+        self.isa = self.isa.at_most(simd::Level::Avx2);
         self
     }
 
     /// True if evaluations run the AVX2+FMA build of the kernel.
     #[cfg(test)]
     pub fn uses_avx2(&self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        return self.avx2.is_some();
-        #[cfg(not(target_arch = "x86_64"))]
-        false
+        self.isa.level() >= simd::Level::Avx2
     }
 
     /// True if PLM-C evaluations (u8 indices, nearest texel) run the AVX-512 kernel.
     #[cfg(test)]
     pub fn uses_avx512(&self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        return self.avx512.is_some() && matches!(self.params, Params::Clustered8 { .. });
-        #[cfg(not(target_arch = "x86_64"))]
-        false
+        self.isa.level() == simd::Level::Avx512 && matches!(self.params, Params::Clustered8 { .. })
     }
 
     /// Reads a `.plmc` file and builds the material; errors name the file.
@@ -324,28 +305,6 @@ impl PlmcMaterial {
     #[inline]
     pub fn light_lookup(&self, wo: Vec3) -> ([u32; 3], [f32; 3]) {
         self.sampler.light_interp().lookup(wo)
-    }
-
-    /// B(view `wi`, light `wo`, texel) (cosine-baked, linear RGB) of the nearest texel
-    /// (column `x`, row `y`); both directions must be in the upper hemisphere.
-    #[inline]
-    pub fn eval_b(&self, wi: Vec3, wo: Vec3, x: usize, y: usize) -> [f32; 3] {
-        let (vi, vw) = self.view_lookup(wi);
-        let (li, lw) = self.light_lookup(wo);
-        self.eval_b_with(vi, vw, li, lw, wo, &[(y * self.width + x, 1.0)])
-    }
-
-    /// B blended over `texels` (texel index, weight) with the view lookup already done.
-    #[inline]
-    pub fn eval_b_with_views(
-        &self,
-        vi: [u32; 3],
-        vw: [f32; 3],
-        wo: Vec3,
-        texels: &[(usize, f32)],
-    ) -> [f32; 3] {
-        let (li, lw) = self.light_lookup(wo);
-        self.eval_b_with(vi, vw, li, lw, wo, texels)
     }
 }
 

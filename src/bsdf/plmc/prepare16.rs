@@ -36,11 +36,13 @@ impl PlmcBsdf {
         // Nearest texels of all 16 lanes at once where the CPU has AVX-512 (lanes not in
         // `lanes` are computed too: plain arithmetic on whatever they hold).
         #[cfg(target_arch = "x86_64")]
-        let near = (!self.bilinear && m.avx512.is_some() && nearest16_fits(m.width, m.height))
-            .then(|| {
-                // SAFETY: the material's AVX-512 token exists only if this CPU has AVX-512F.
-                unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
-            });
+        let near = (!self.bilinear
+            && m.isa.level() == crate::math::simd::Level::Avx512
+            && nearest16_fits(m.width, m.height))
+        .then(|| {
+            // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
+            unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
+        });
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
         let span = m.index_span();

@@ -5,11 +5,11 @@
 //! A PLM-C model needs every cluster's lobe at every measured light of every view, mapped by that
 //! image's polynomial: views × lights × 3 × K terms (5 M for 81 × 81 directions and K = 256).
 //! They run 16 lobes per step in SoA with the branch-free `exp2`/`log2` of
-//! [`crate::math::simd::lane`] (no fused multiply-adds: the same bits on every ISA), the same
+//! [`crate::math::simd::approx`] (no fused multiply-adds: the same bits on every ISA), the same
 //! kind of arithmetic the evaluation kernels use, instead of two libm `powf` calls per term (the
 //! Lafortune power and the sRGB decode), whose cost would otherwise dominate a material's load.
 
-use crate::math::simd::lane;
+use crate::math::simd::approx;
 use crate::model::{PlmcModel, ValueSpace, ViewParams, lobe, polynomial};
 use rayon::prelude::*;
 
@@ -83,12 +83,12 @@ fn light_sums_body(
             for i in 0..W {
                 let b = dx[i] * u.x + dy[i] * u.y + dz[i] * u.z;
                 // b^n = 2^(n log2 b); b ≤ 0 gives 0 (the select keeps log2's NaN out).
-                let p = lane::exp2(n[i] * lane::log2(b.max(1e-30)));
+                let p = approx::exp2(n[i] * approx::log2(b.max(1e-30)));
                 let y = if b > 0.0 { rho[i] * p } else { 0.0 };
                 let m = polynomial::eval(a, y);
                 let lin = if srgb {
                     let v = m.max(0.0);
-                    let hi = lane::exp2(2.4 * lane::log2(((v + 0.055) / 1.055).max(1e-30)));
+                    let hi = approx::exp2(2.4 * approx::log2(((v + 0.055) / 1.055).max(1e-30)));
                     if v <= 0.04045 { v / 12.92 } else { hi }
                 } else {
                     m.max(0.0)

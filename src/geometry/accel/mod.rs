@@ -4,7 +4,7 @@
 //! ([`node`], [`flatten`]; leaves of one node share 8-lane packets) and traverse that by hand ([`traverse`]): one 8-lane slab test per
 //! node, front-to-back child order for closest hits, 8-triangle Möller–Trumbore leaf packets
 //! ([`tri`]), and the hit's barycentrics returned so shading does not intersect the triangle
-//! again. The traversal is compiled twice, for AVX2 ([`lanes`]: one ymm register per 8-lane
+//! again. The traversal is compiled twice, for AVX2 ([`crate::math::simd::f8`]: one ymm register per 8-lane
 //! step, also used on AVX-512 CPUs) and for the baseline (two SSE halves), and picked at runtime
 //! by `simd::isa()`, so a baseline (SSE2) binary still runs 8-wide code on AVX2 machines. Both
 //! builds return the same bits (no fused multiply-adds).
@@ -15,7 +15,6 @@
 
 mod build;
 mod flatten;
-mod lanes;
 mod node;
 mod stack;
 mod traverse;

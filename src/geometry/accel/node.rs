@@ -1,8 +1,8 @@
 //! The 8-wide BVH node (SoA f32 child bounds) and its 8-lane slab test, generic over the lane
 //! type ([`F8`]): one ymm operation per step in the AVX2 traversal, two SSE ones in the baseline.
 
-use super::lanes::F8;
 use crate::math::Vec3;
+use crate::math::simd::f8::F8;
 
 /// Child slots per node.
 pub(super) const WIDTH: usize = 8;

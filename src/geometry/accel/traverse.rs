@@ -6,13 +6,13 @@
 //! Not `isa_dispatch!`: that macro compiles one body for every ISA, while here the body's
 //! lane type differs per build (explicit AVX intrinsics only exist in the AVX2 one).
 
-#[cfg(target_arch = "x86_64")]
-use super::lanes::Avx8;
-use super::lanes::{F8, Sse8};
 use super::node::{Node8, RayBox, WIDTH};
 use super::stack::{Entry, Stack};
 use super::tri::{LANES, TriPack};
 use crate::math::Vec3;
+#[cfg(target_arch = "x86_64")]
+use crate::math::simd::f8::Avx8;
+use crate::math::simd::f8::{F8, Sse8};
 use crate::math::simd::{Isa, Level};
 
 /// A traversal result: the triangle slot (packet · LANES + lane; [`SlotHit::NONE`] if nothing

@@ -1,8 +1,8 @@
 //! Leaf triangle packets: `LANES` triangles in SoA, tested at once generic over the lane type
 //! ([`F8`]: one ymm operation per step in the AVX2 traversal), plus the scalar reference.
 
-use super::lanes::F8;
 use crate::math::Vec3;
+use crate::math::simd::f8::F8;
 #[cfg(test)]
 use glam::Vec3A;
 

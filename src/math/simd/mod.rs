@@ -1,12 +1,23 @@
-//! 16-lane f32 transcendental functions for the packet kernels (sin/cos, exp2, log2) instead of
-//! libm on the hot path. Each is a branch-free polynomial written once for one lane
-//! ([`lane`]) and run over a `[f32; 16]` in a loop that LLVM vectorises inside a
-//! `#[target_feature]` function: AVX-512 (one zmm per array), AVX2 (two ymm), or the baseline
-//! SSE2 build, chosen once per process at runtime ([`isa`]). No fused multiply-adds are used, so
-//! the three paths return the same bits (the image does not depend on the CPU it ran on).
-//! `cargo bench --bench simd_math` compares them with libm.
+//! The SIMD vocabulary of the crate, in one place:
+//!
+//! - [`Isa`]: the one feature token. The CPU's instruction set is detected once per process
+//!   ([`isa`]) and every kernel that has builds for several instruction sets picks its build from
+//!   this token (through [`crate::isa_dispatch`] or a `match` on [`Isa::level`]); nothing else
+//!   asks the CPU for features.
+//! - The lane types, side by side: [`f4::F4`] (4 f32, one SSE register: the PLM-C evaluation
+//!   kernel), [`f8::F8`] (8 f32, one AVX register or two SSE ones: the BVH traversal) and
+//!   [`wide::Fx`] (16 f32 with its mask and vectors: the packet integrator's straight-line
+//!   code), with [`real::Real`] for helpers written once over `f32` and `Fx`.
+//! - [`approx`]: every polynomial approximation of a transcendental function (sin/cos, exp2,
+//!   log2, exp, ln, atan2), each written once, with its error bound and which kernels use it.
+//! - [`transpose`]: the AVX-512 16 × 16 transpose.
+//!
+//! No fused multiply-adds outside the PLM-C kernel's fused approximations: code built for any of
+//! the levels returns the same bits (the image does not depend on the CPU it ran on).
 
-pub mod lane;
+pub mod approx;
+pub mod f4;
+pub mod f8;
 pub mod real;
 #[cfg(target_arch = "x86_64")]
 pub mod transpose;
@@ -20,15 +31,16 @@ pub const WIDTH: usize = 16;
 /// Sixteen f32 lanes.
 pub type F32x16 = [f32; WIDTH];
 
-/// An instruction-set level a kernel is built for (what dispatch matches on).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// An instruction-set level a kernel is built for (what dispatch matches on), lowest first:
+/// each level includes the ones below it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Level {
-    /// AVX-512F (+ AVX2, FMA available but unused): one instruction per 16 lanes.
-    Avx512,
-    /// AVX2: two 8-lane halves.
-    Avx2,
     /// The baseline build (SSE2 on x86-64, or whatever the target has).
     Portable,
+    /// AVX2 and FMA: two 8-lane halves per 16 lanes (FMA only where a kernel fuses on purpose).
+    Avx2,
+    /// AVX-512F (with AVX2 and FMA): one instruction per 16 lanes.
+    Avx512,
 }
 
 /// An instruction set this CPU runs. Made only by [`isa`] and [`Isa::available`] (and the
@@ -47,6 +59,12 @@ impl Isa {
         self.0
     }
 
+    /// This level or `level`, whichever is lower (to compare builds: a lower level always runs).
+    #[inline]
+    pub fn at_most(self, level: Level) -> Isa {
+        Isa(self.0.min(level))
+    }
+
     /// Every instruction set this CPU runs, the portable one first (to compare the builds).
     pub fn available() -> Vec<Isa> {
         match isa().0 {
@@ -57,7 +75,7 @@ impl Isa {
     }
 }
 
-/// The best instruction set of this CPU, detected once.
+/// The best instruction set of this CPU, detected once (the crate's only feature detection).
 pub fn isa() -> Isa {
     static ISA: OnceLock<Isa> = OnceLock::new();
     *ISA.get_or_init(detect)
@@ -66,66 +84,15 @@ pub fn isa() -> Isa {
 fn detect() -> Isa {
     #[cfg(target_arch = "x86_64")]
     {
-        if is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx2") {
+        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+        if avx2 && is_x86_feature_detected!("avx512f") {
             return Isa(Level::Avx512);
         }
-        if is_x86_feature_detected!("avx2") {
+        if avx2 {
             return Isa(Level::Avx2);
         }
     }
     Isa::PORTABLE
-}
-
-/// Defines a public 16-lane function `$name(isa, x) -> ($out)` from a one-lane body, with an
-/// AVX-512, an AVX2 and a portable instantiation of the same loop.
-macro_rules! lanes16 {
-    ($kind:ident, $(#[$doc:meta])* $name:ident, $lane:path, $out:ty, $zero:expr) => {
-        $(#[$doc])*
-        #[inline]
-        pub fn $name(isa: Isa, x: &F32x16) -> $out {
-            #[inline(always)]
-            fn body(x: &F32x16) -> $out {
-                let mut out: $out = $zero;
-                run(x, &mut out);
-                out
-            }
-            #[inline(always)]
-            fn run(x: &F32x16, out: &mut $out) {
-                lanes16!(@$kind x, out, $lane);
-            }
-            #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx512f,avx2")]
-            fn avx512(x: &F32x16) -> $out {
-                body(x)
-            }
-            #[cfg(target_arch = "x86_64")]
-            #[target_feature(enable = "avx2")]
-            fn avx2(x: &F32x16) -> $out {
-                body(x)
-            }
-            match isa.level() {
-                // SAFETY: an `Isa` of these levels is made only by `detect` / `Isa::available`,
-                // which checked the features on this CPU.
-                #[cfg(target_arch = "x86_64")]
-                Level::Avx512 => unsafe { avx512(x) },
-                #[cfg(target_arch = "x86_64")]
-                Level::Avx2 => unsafe { avx2(x) },
-                _ => body(x),
-            }
-        }
-    };
-    (@pair $x:ident, $out:ident, $lane:path) => {
-        for i in 0..WIDTH {
-            let (s, c) = $lane($x[i]);
-            $out.0[i] = s;
-            $out.1[i] = c;
-        }
-    };
-    (@single $x:ident, $out:ident, $lane:path) => {
-        for i in 0..WIDTH {
-            $out[i] = $lane($x[i]);
-        }
-    };
 }
 
 /// Defines `$name(isa, args…)`: the `#[inline(always)]` function `$body` run in a build for
@@ -160,35 +127,3 @@ macro_rules! isa_dispatch {
         }
     };
 }
-
-lanes16!(
-    pair,
-    /// (sin x, cos x) per lane, |x| ≤ 8192 (error ≤ 2e-7 absolute; see [`lane::sin_cos`]).
-    sin_cos,
-    lane::sin_cos,
-    (F32x16, F32x16),
-    ([0.0; WIDTH], [0.0; WIDTH])
-);
-
-lanes16!(
-    single,
-    /// 2^x per lane (relative error < 3e-7 for normal results; 0 below −127, ∞ from 128, NaN
-    /// stays NaN).
-    exp2,
-    lane::exp2,
-    F32x16,
-    [0.0; WIDTH]
-);
-
-lanes16!(
-    single,
-    /// log2 x per lane (absolute error < 3e-7 near 1, relative < 2e-7 elsewhere; −∞ at 0,
-    /// NaN below 0, subnormals exact).
-    log2,
-    lane::log2,
-    F32x16,
-    [0.0; WIDTH]
-);
-
-#[cfg(test)]
-mod tests;

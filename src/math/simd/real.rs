@@ -105,7 +105,7 @@ pub trait Real:
     fn tan(self) -> Self;
     /// `self · a + b` with one rounding (`f32::mul_add`), lane by lane.
     fn mul_add(self, a: Self, b: Self) -> Self;
-    /// (sin, cos) by [`super::lane::sin_cos`].
+    /// (sin, cos) by [`super::approx::sin_cos`].
     fn sin_cos(self) -> (Self, Self);
     /// `f(x)` of a scalar function, lane by lane.
     fn map(self, f: impl Fn(f32) -> f32) -> Self;
@@ -193,7 +193,7 @@ impl Real for f32 {
     }
     #[inline(always)]
     fn sin_cos(self) -> (f32, f32) {
-        super::lane::sin_cos(self)
+        super::approx::sin_cos(self)
     }
     #[inline(always)]
     fn map(self, f: impl Fn(f32) -> f32) -> f32 {
@@ -285,7 +285,7 @@ impl Real for Fx {
     }
     #[inline(always)]
     fn sin_cos(self) -> (Fx, Fx) {
-        Fx::sin_cos(self)
+        super::approx::sin_cos_x(self)
     }
     #[inline(always)]
     fn map(self, f: impl Fn(f32) -> f32) -> Fx {

@@ -137,17 +137,6 @@ impl Fx {
     pub fn sign_of(self) -> Fx {
         map(|i| 1.0f32.copysign(self.0[i]))
     }
-
-    /// (sin x, cos x) per lane by [`super::lane::sin_cos`].
-    #[inline(always)]
-    pub fn sin_cos(self) -> (Fx, Fx) {
-        let mut s = [0.0; W];
-        let mut c = [0.0; W];
-        for i in 0..W {
-            (s[i], c[i]) = super::lane::sin_cos(self.0[i]);
-        }
-        (Fx(s), Fx(c))
-    }
 }
 
 macro_rules! fx_op {

@@ -4,7 +4,7 @@
 //! environment map's lat-long mapping, texel lookups and pdfs per lane in registers); the
 //! paths end. Each lane computes the scalar integrator's bits.
 
-use super::lanes::LANES;
+use super::lane_stats::LANES;
 use super::pool::PathPool;
 use crate::math::simd::wide::{Fx, Mx, V3x};
 use crate::render::RenderScene;

@@ -6,7 +6,7 @@
 //! rays lane by lane → one any-hit pass over all pending shadow rays → write finished radiance and
 //! free those lanes.
 //!
-//! A lane does exactly what the scalar [`crate::render::integrator::PathTracer::li`] does for the same (pixel, sample), in
+//! A lane does exactly what the scalar [`crate::render::integrator::Integrator::li`] does for the same (pixel, sample), in
 //! the same order on the same random stream, so the two integrators agree sample by sample.
 
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
@@ -14,7 +14,7 @@
 
 use super::chunk::{Chunk, FilmSample};
 use super::escaped::shade_escaped;
-use super::lanes::{LANES, LaneStats};
+use super::lane_stats::{LANES, LaneStats};
 use super::pool::{FREE, PathPool, Shadow, group, group_mut};
 use super::refill::{Refill, start_paths};
 use super::shade::shade_hits;

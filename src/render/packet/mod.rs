@@ -8,13 +8,13 @@
 
 pub mod chunk;
 pub mod escaped;
-pub mod lanes;
+pub mod lane_stats;
 pub mod megakernel;
 pub mod pool;
 pub mod refill;
 pub mod shade;
 
-pub use lanes::{LANES, LaneCounters, LaneStats};
+pub use lane_stats::{LANES, LaneCounters, LaneStats};
 pub use megakernel::PacketOptions;
 
 use super::RenderScene;
@@ -31,7 +31,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 const CHUNK_SAMPLES: u32 = 8;
 
 /// Adds samples `tile.done..end` (relative to `s.spp_begin`) to `tile` through `filter`, as the
-/// scalar integrator's tile loop does ([`super::integrator::PathTracer::render_tile`]): stops at
+/// scalar integrator's tile loop does ([`super::integrator::Integrator::render_tile`]): stops at
 /// a sample boundary once `interrupt` is set, and reports each completed sample to `progress`.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tile(

@@ -2,7 +2,7 @@
 //! contiguous array so the per-BSDF kernels read and write whole 16-lane rows. Allocated once
 //! per tile pass; a few hundred slots keep the whole pool (≈ 50 KB) in L2.
 
-use super::lanes::LANES;
+use super::lane_stats::LANES;
 use crate::geometry::accel::Hit;
 use crate::math::{Pcg32, Spectrum, Vec3};
 

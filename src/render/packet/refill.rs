@@ -2,10 +2,10 @@
 //! collected with their work items, and their random streams (seeded from (seed, pixel,
 //! sample)), film positions (written to the chunk's output for the film's filter) and camera rays are computed in SoA by the twins of the scalar
 //! code ([`Pcg32x::for_samples`], [`PerspectiveCamera::ray_x`](crate::render::camera::PerspectiveCamera::ray_x)),
-//! so each lane starts with the bits [`crate::render::integrator::PathTracer::li`]'s path does.
+//! so each lane starts with the bits [`crate::render::integrator::Integrator::li`]'s path does.
 
 use super::chunk::{Chunk, FilmSample};
-use super::lanes::LANES;
+use super::lane_stats::LANES;
 use super::pool::PathPool;
 use crate::math::Pcg32x;
 use crate::math::simd::wide::Fx;

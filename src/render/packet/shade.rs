@@ -21,7 +21,7 @@
 // `!(x > 0.0)` deliberately also rejects NaN, as in the scalar integrator.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use super::lanes::LANES;
+use super::lane_stats::LANES;
 use super::pool::{PathPool, Shadow};
 use crate::bsdf::Bsdf;
 use crate::bsdf::batch::BsdfBatch;

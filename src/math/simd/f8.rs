@@ -1,6 +1,6 @@
-//! Eight f32 lanes for the node slab test and the triangle packets, written once against the
-//! [`F8`] trait: [`Avx8`] is one AVX ymm register (used only inside the traversal compiled for
-//! AVX2), [`Sse8`] two glam `Vec4`s (SSE2 on x86-64, scalar elsewhere) for the baseline build.
+//! Eight f32 lanes for the BVH traversal's node slab test and triangle packets, written once
+//! against the [`F8`] trait: [`Avx8`] is one AVX ymm register (used only inside code compiled
+//! for AVX2), [`Sse8`] two glam `Vec4`s (SSE2 on x86-64, scalar elsewhere) for the baseline build.
 //!
 //! Explicit vectors rather than lane loops over `[f32; 8]`: LLVM's SLP vectoriser split those
 //! loops into a mix of ymm, xmm and scalar inserts (the far-plane mins and the hit mask came out
@@ -13,7 +13,7 @@
 use glam::{BVec4A, Vec4};
 
 /// Eight f32 lanes and the operations the traversal needs.
-pub(super) trait F8: Copy {
+pub trait F8: Copy {
     /// Per-lane comparison results.
     type M: Copy + std::ops::BitAnd<Output = Self::M>;
     /// Loads eight lanes from a 32-byte aligned row.
@@ -51,11 +51,11 @@ pub(super) trait F8: Copy {
 
 /// Two SSE `Vec4` halves: the baseline build's eight lanes.
 #[derive(Clone, Copy)]
-pub(super) struct Sse8(Vec4, Vec4);
+pub struct Sse8(Vec4, Vec4);
 
 /// Comparison result of [`Sse8`].
 #[derive(Clone, Copy)]
-pub(super) struct SseM(BVec4A, BVec4A);
+pub struct SseM(BVec4A, BVec4A);
 
 impl std::ops::BitAnd for SseM {
     type Output = SseM;
@@ -137,23 +137,23 @@ impl F8 for Sse8 {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub(super) use avx::Avx8;
+pub use avx::{Avx8, AvxM};
 
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use super::F8;
     use std::arch::x86_64::*;
 
-    /// One AVX ymm register. Only ever created inside functions compiled with
-    /// `#[target_feature(enable = "avx2")]` that run after `simd::isa()` detected AVX2 (see
-    /// `traverse`), which is what makes the intrinsic calls below sound; there its
-    /// `#[inline(always)]` methods inline into AVX2 code.
+    /// One AVX ymm register. Create and use it only inside functions compiled with
+    /// `#[target_feature(enable = "avx2")]` that run after [`crate::math::simd::isa`] reported
+    /// AVX2 (as `geometry::accel::traverse` does), which is what makes the intrinsic calls below
+    /// sound; there its `#[inline(always)]` methods inline into AVX2 code.
     #[derive(Clone, Copy)]
-    pub(in super::super) struct Avx8(__m256);
+    pub struct Avx8(__m256);
 
     /// Comparison result of [`Avx8`] (all-ones lanes for true).
     #[derive(Clone, Copy)]
-    pub(in super::super) struct AvxM(__m256);
+    pub struct AvxM(__m256);
 
     impl std::ops::BitAnd for AvxM {
         type Output = AvxM;
