@@ -2,7 +2,7 @@
 //! maps onto it): f = (1 − w) f₀ + w f₁ with a texturable weight w ∈ [0, 1], sampled by choosing
 //! a component with probability w and weighting by the mixture's eval / pdf.
 
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -21,9 +21,18 @@ impl BlendBsdf {
     fn w(&self, uv: Vec2) -> f32 {
         luminance(self.weight.eval(uv)).clamp(0.0, 1.0)
     }
+}
+
+impl Bxdf for BlendBsdf {
+    /// Prefetches for the nested models.
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        self.bsdfs[0].prefetch(si);
+        self.bsdfs[1].prefetch(si);
+    }
 
     /// Union of the nested models' lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = self.bsdfs[0].flags() | self.bsdfs[1].flags();
         if self.weight.is_spatially_varying() {
             f | BsdfFlags::SPATIALLY_VARYING
@@ -33,19 +42,19 @@ impl BlendBsdf {
     }
 
     /// (1 − w) f₀ + w f₁.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         let w = self.w(si.uv);
         self.bsdfs[0].eval(si, wo) * (1.0 - w) + self.bsdfs[1].eval(si, wo) * w
     }
 
     /// (1 − w) p₀ + w p₁.
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         let w = self.w(si.uv);
         self.bsdfs[0].pdf(si, wo) * (1.0 - w) + self.bsdfs[1].pdf(si, wo) * w
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         let w = self.w(si.uv);
         let (v0, p0) = self.bsdfs[0].eval_pdf(si, wo);
         let (v1, p1) = self.bsdfs[1].eval_pdf(si, wo);
@@ -54,7 +63,7 @@ impl BlendBsdf {
 
     /// Samples component 1 if `sample1` ≤ w (else 0) with `sample1` rescaled; the weight and
     /// pdf are those of the mixture (Mitsuba's one-sample MIS over the two components).
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

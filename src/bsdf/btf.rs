@@ -12,7 +12,7 @@
 use super::btf_sampler::BtfLightSampler;
 #[cfg(test)]
 use super::btf_sampler::DEFENSIVE_FRACTION;
-use super::{BsdfFlags, BsdfSample};
+use super::{BsdfFlags, Bxdf, BsdfSample};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
@@ -199,14 +199,21 @@ impl BtfBsdf {
         (idx(uv.x, btf.width()), idx(uv.y, btf.height()))
     }
 
+    #[inline]
+    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        self.material.sampler.pdf(vi, vw, wo)
+    }
+}
+
+impl Bxdf for BtfBsdf {
     /// Lobes: measured reflection, glossy in general, varying over the surface.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
     #[inline]
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
@@ -216,7 +223,7 @@ impl BtfBsdf {
 
     /// Solid-angle pdf of [`BtfBsdf::sample`].
     #[inline]
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
@@ -226,7 +233,7 @@ impl BtfBsdf {
 
     /// `(eval, pdf)` sharing the view lookup (what emitter sampling with MIS needs).
     #[inline]
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
@@ -237,13 +244,8 @@ impl BtfBsdf {
         (f, self.pdf_with_views(vi, vw, wo))
     }
 
-    #[inline]
-    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.material.sampler.pdf(vi, vw, wo)
-    }
-
     /// Samples a light direction from the mixture; weight = eval / pdf.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

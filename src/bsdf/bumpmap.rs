@@ -4,7 +4,7 @@
 //! normal; the evaluation in that frame is [`Perturbed`]'s, as for [`super::NormalMap`].
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -49,29 +49,31 @@ impl BumpMap {
         };
         Perturbed::new(&self.nested, si, local, self.use_shadowing_function)
     }
+}
 
+impl Bxdf for BumpMap {
     /// The nested model's lobes, spatially varying.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         self.nested.flags() | BsdfFlags::SPATIALLY_VARYING
     }
 
     /// Nested eval in the perturbed frame, times the shadowing term.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         self.eval_pdf(si, wo).0
     }
 
     /// Nested pdf in the perturbed frame (rotations keep solid angle).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         self.perturb(si).pdf(wo)
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         self.perturb(si).eval_pdf(wo)
     }
 
     /// Samples the nested model in the perturbed frame and rotates the direction back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

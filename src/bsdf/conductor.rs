@@ -1,7 +1,7 @@
 //! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
 
 use super::fresnel::{fresnel_conductor_rgb_t, reflect};
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -19,8 +19,18 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// The weight of [`Self::sample`], F(cos θ_i) · specular_reflectance at `uv`, for one lane
+    /// or sixteen.
+    #[inline(always)]
+    pub fn weight_t<T: Real>(&self, cos_theta_i: T, uv: V2<T>) -> V3<T> {
+        let f = fresnel_conductor_rgb_t(cos_theta_i, self.eta.eval_t(uv), self.k.eval_t(uv));
+        self.specular_reflectance.eval_t(uv).mul(f)
+    }
+}
+
+impl Bxdf for Conductor {
     /// Delta reflection only.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION;
         if self.specular_reflectance.is_spatially_varying()
             || self.eta.is_spatially_varying()
@@ -33,17 +43,17 @@ impl Conductor {
     }
 
     /// Always 0: a delta lobe has no density that `eval` could see.
-    pub fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
+    fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
         Spectrum::ZERO
     }
 
     /// Always 0 (delta lobe).
-    pub fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
+    fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
         0.0
     }
 
     /// The mirror direction with weight F(cos θ_i) · specular_reflectance; None from below.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         _sample1: f32,
@@ -59,13 +69,5 @@ impl Conductor {
             sampled: BsdfFlags::DELTA_REFLECTION,
         };
         Some((bs, self.weight_t(si.wi.z, si.uv.into()).into()))
-    }
-
-    /// The weight of [`Self::sample`], F(cos θ_i) · specular_reflectance at `uv`, for one lane
-    /// or sixteen.
-    #[inline(always)]
-    pub fn weight_t<T: Real>(&self, cos_theta_i: T, uv: V2<T>) -> V3<T> {
-        let f = fresnel_conductor_rgb_t(cos_theta_i, self.eta.eval_t(uv), self.k.eval_t(uv));
-        self.specular_reflectance.eval_t(uv).mul(f)
     }
 }

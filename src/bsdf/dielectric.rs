@@ -2,7 +2,7 @@
 //! sides, lobe chosen with probability F, radiance transport (η² scaling on refraction).
 
 use super::fresnel::fresnel_dielectric_t;
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -19,52 +19,6 @@ pub struct Dielectric {
 }
 
 impl Dielectric {
-    /// Delta reflection and delta transmission.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DELTA_TRANSMISSION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.specular_transmittance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
-    }
-
-    /// Always 0 (delta lobes).
-    pub fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
-        Spectrum::ZERO
-    }
-
-    /// Always 0 (delta lobes).
-    pub fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
-        0.0
-    }
-
-    /// Reflects with probability F (pdf = F, weight = specular_reflectance), else refracts
-    /// (pdf = 1 − F, weight = specular_transmittance · (η_t→i)², `eta` = η_i→t). Works from both
-    /// sides of the surface, exactly as Mitsuba in radiance mode.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        _sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        let (wo, pdf, weight, eta, reflected) = self.sample_t(si.wi.into(), si.uv.into(), sample1);
-        let sampled = if reflected {
-            BsdfFlags::DELTA_REFLECTION
-        } else {
-            BsdfFlags::DELTA_TRANSMISSION
-        };
-        let bs = BsdfSample {
-            wo: wo.into(),
-            pdf,
-            eta,
-            sampled,
-        };
-        Some((bs, weight.into()))
-    }
-
     /// [`Self::sample`] for one lane or sixteen: (wo, pdf, weight, eta, reflected).
     #[inline(always)]
     pub fn sample_t<T: Real>(
@@ -91,5 +45,53 @@ impl Dielectric {
             T::select(reflected, T::splat(1.0), fr.eta_it),
             reflected,
         )
+    }
+}
+
+impl Bxdf for Dielectric {
+    /// Delta reflection and delta transmission.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DELTA_TRANSMISSION;
+        if self.specular_reflectance.is_spatially_varying()
+            || self.specular_transmittance.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// Always 0 (delta lobes).
+    fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
+        Spectrum::ZERO
+    }
+
+    /// Always 0 (delta lobes).
+    fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
+        0.0
+    }
+
+    /// Reflects with probability F (pdf = F, weight = specular_reflectance), else refracts
+    /// (pdf = 1 − F, weight = specular_transmittance · (η_t→i)², `eta` = η_i→t). Works from both
+    /// sides of the surface, exactly as Mitsuba in radiance mode.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        _sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        let (wo, pdf, weight, eta, reflected) = self.sample_t(si.wi.into(), si.uv.into(), sample1);
+        let sampled = if reflected {
+            BsdfFlags::DELTA_REFLECTION
+        } else {
+            BsdfFlags::DELTA_TRANSMISSION
+        };
+        let bs = BsdfSample {
+            wo: wo.into(),
+            pdf,
+            eta,
+            sampled,
+        };
+        Some((bs, weight.into()))
     }
 }

@@ -3,7 +3,7 @@
 //! the shading normal); the evaluation in that frame is [`Perturbed`]'s.
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -37,9 +37,11 @@ impl NormalMap {
         };
         Perturbed::new(&self.nested, si, local, self.use_shadowing_function)
     }
+}
 
+impl Bxdf for NormalMap {
     /// The nested model's lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = self.nested.flags();
         if self.normalmap.is_spatially_varying() {
             f | BsdfFlags::SPATIALLY_VARYING
@@ -49,22 +51,22 @@ impl NormalMap {
     }
 
     /// Nested eval in the perturbed frame, times the shadowing term.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         self.eval_pdf(si, wo).0
     }
 
     /// Nested pdf in the perturbed frame (rotations keep solid angle).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         self.perturb(si).pdf(wo)
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         self.perturb(si).eval_pdf(wo)
     }
 
     /// Samples the nested model in the perturbed frame and rotates the direction back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

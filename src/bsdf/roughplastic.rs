@@ -8,7 +8,7 @@
 use super::fresnel::{fresnel_dielectric, fresnel_dielectric_t, reflect_about, refract_about};
 use super::microfacet::{Microfacet, MicrofacetType};
 use super::plastic::base_under_coating;
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
 use crate::geometry::SurfaceInteraction;
 use crate::math::quad::gauss_legendre;
 use crate::math::simd::real::{Cond, Real, V2, V3};
@@ -95,60 +95,6 @@ impl RoughPlastic {
             self.external_transmittance[i + 1],
         );
         v0 + (v1 - v0) * (x - i as f32)
-    }
-
-    /// Glossy and diffuse reflection.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
-        if self.diffuse_reflectance.is_spatially_varying()
-            || self.specular_reflectance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
-    }
-
-    /// Both lobes; 0 unless wi and wo are above the surface.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        let (cos_i, cos_o) = (si.wi.z, wo.z);
-        if !(cos_i > 0.0 && cos_o > 0.0) {
-            return Spectrum::ZERO;
-        }
-        let (spec, base) = self.at(si.uv.into());
-        self.eval_t(spec, base, si.wi.into(), wo.into()).into()
-    }
-
-    /// Mixture of the glossy lobe's density and the cosine hemisphere.
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        self.pdf_t(si.wi.into(), wo.into())
-    }
-
-    /// Chooses a lobe by `sample1`, samples it, and weights by eval / pdf of the mixture.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        if !(si.wi.z > 0.0) {
-            return None;
-        }
-        let (spec, base) = self.at(si.uv.into());
-        let (wo, pdf, weight, glossy, ok) =
-            self.sample_t(spec, base, si.wi.into(), sample1, sample2.into());
-        let sampled = if glossy {
-            BsdfFlags::GLOSSY_REFLECTION
-        } else {
-            BsdfFlags::DIFFUSE_REFLECTION
-        };
-        let bs = BsdfSample {
-            wo: wo.into(),
-            pdf,
-            eta: 1.0,
-            sampled,
-        };
-        ok.then_some((bs, weight.into()))
     }
 
     /// (specular reflectance, the base's albedo over what the coating keeps in) at `uv`, for
@@ -244,6 +190,62 @@ impl RoughPlastic {
             glossy,
             ok,
         )
+    }
+}
+
+impl Bxdf for RoughPlastic {
+    /// Glossy and diffuse reflection.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
+        if self.diffuse_reflectance.is_spatially_varying()
+            || self.specular_reflectance.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// Both lobes; 0 unless wi and wo are above the surface.
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        let (cos_i, cos_o) = (si.wi.z, wo.z);
+        if !(cos_i > 0.0 && cos_o > 0.0) {
+            return Spectrum::ZERO;
+        }
+        let (spec, base) = self.at(si.uv.into());
+        self.eval_t(spec, base, si.wi.into(), wo.into()).into()
+    }
+
+    /// Mixture of the glossy lobe's density and the cosine hemisphere.
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        self.pdf_t(si.wi.into(), wo.into())
+    }
+
+    /// Chooses a lobe by `sample1`, samples it, and weights by eval / pdf of the mixture.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if !(si.wi.z > 0.0) {
+            return None;
+        }
+        let (spec, base) = self.at(si.uv.into());
+        let (wo, pdf, weight, glossy, ok) =
+            self.sample_t(spec, base, si.wi.into(), sample1, sample2.into());
+        let sampled = if glossy {
+            BsdfFlags::GLOSSY_REFLECTION
+        } else {
+            BsdfFlags::DIFFUSE_REFLECTION
+        };
+        let bs = BsdfSample {
+            wo: wo.into(),
+            pdf,
+            eta: 1.0,
+            sampled,
+        };
+        ok.then_some((bs, weight.into()))
     }
 }
 

@@ -1,7 +1,7 @@
 //! Two-sided adapter (Mitsuba `twosided`): a one-sided reflectance model seen from the back is
 //! evaluated with both directions mirrored through the surface (z → −z).
 
-use super::{Bsdf, BsdfFlags, BsdfSample};
+use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -35,14 +35,23 @@ impl TwoSided {
             back: Box::new(back),
         })
     }
+}
+
+impl Bxdf for TwoSided {
+    /// Prefetches for the nested models.
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        self.front.prefetch(si);
+        self.back.prefetch(si);
+    }
 
     /// Union of the nested models' lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         self.front.flags() | self.back.flags()
     }
 
     /// `front` if cos θ_i > 0, `back` on mirrored directions if cos θ_i < 0, else 0.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         if si.wi.z > 0.0 {
             self.front.eval(si, wo)
         } else if si.wi.z < 0.0 {
@@ -55,7 +64,7 @@ impl TwoSided {
     }
 
     /// Density matching [`TwoSided::sample`].
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         if si.wi.z > 0.0 {
             self.front.pdf(si, wo)
         } else if si.wi.z < 0.0 {
@@ -68,7 +77,7 @@ impl TwoSided {
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z > 0.0 {
             self.front.eval_pdf(si, wo)
         } else if si.wi.z < 0.0 {
@@ -81,7 +90,7 @@ impl TwoSided {
     }
 
     /// Samples the side's model; from below the sampled direction is mirrored back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,
