@@ -2,7 +2,9 @@
 //! maps onto it): f = (1 − w) f₀ + w f₁ with a texturable weight w ∈ [0, 1], sampled by choosing
 //! a component with probability w and weighting by the mixture's eval / pdf.
 
-use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, check_unit_interval};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -14,6 +16,71 @@ pub struct BlendBsdf {
     pub weight: Texture,
     /// The two nested models.
     pub bsdfs: Box<[Bsdf; 2]>,
+}
+
+impl BlendBsdf {
+    /// Mitsuba's `blendbsdf`: two nested BSDFs and the `weight` (0..1, float or texture) of
+    /// the second.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        two_nested(p)?;
+        if !p.has("weight") {
+            return Err(p.err("the blend \"weight\" (0..1, a float or texture) is required"));
+        }
+        let weight = p.texture("weight", Vec3::splat(0.5))?;
+        check_unit_interval(p, "weight", &weight)?;
+        BlendBsdf::with_nested(p, weight)
+    }
+
+    /// Mitsuba 0.6's `mixturebsdf` of two components: `weights` "w0, w1" summing to 1 (or
+    /// more, renormalised).
+    pub fn mixture_from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        two_nested(p)?;
+        let text = p.string_req("weights")?;
+        let ws = text
+            .split([',', ' '])
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse::<f32>().ok().filter(|v| v.is_finite() && *v >= 0.0))
+            .collect::<Option<Vec<f32>>>()
+            .ok_or_else(|| {
+                p.err(&format!(
+                    "\"weights\" must be non-negative numbers, got \"{text}\""
+                ))
+            })?;
+        if ws.len() != 2 {
+            return Err(p.err(&format!("{} weights for 2 nested bsdfs", ws.len())));
+        }
+        let sum = ws[0] + ws[1];
+        // Mitsuba 0.6 renormalises weights summing to more than 1; a sum below 1 (an
+        // absorbing mixture) has no blendbsdf equivalent.
+        if !(sum >= 1.0 - 1e-3) {
+            return Err(p.err(&format!(
+                "\"weights\" sum to {sum} < 1: only mixtures whose weights sum to 1 \
+                 (or more, renormalised) are supported"
+            )));
+        }
+        BlendBsdf::with_nested(p, Texture::Constant(Spectrum::splat(ws[1] / sum)))
+    }
+
+    /// The blend of the two nested BSDFs with `weight`.
+    fn with_nested(p: &mut dyn BsdfProperties, weight: Texture) -> Result<Self> {
+        let a = p.nested_bsdf(0)?;
+        let b = p.nested_bsdf(1)?;
+        Ok(BlendBsdf {
+            weight,
+            bsdfs: Box::new([a, b]),
+        })
+    }
+}
+
+/// A blend takes exactly two nested BSDFs.
+fn two_nested(p: &mut dyn BsdfProperties) -> Result<()> {
+    match p.nested_bsdf_count() {
+        2 => Ok(()),
+        n => Err(p.err(&format!(
+            "needs exactly two nested bsdfs, found {n} (a mixture of more than two \
+             components is not supported)"
+        ))),
+    }
 }
 
 impl BlendBsdf {

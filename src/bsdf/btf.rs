@@ -9,10 +9,12 @@
 //! file (the material holds an `Arc`) and can live in a memory-mapped cache file (`.btfc`) behind the
 //! same accessor. Building the tables reads at most 64 × 64 texels per image.
 
+use super::Bsdf;
 use super::btf_sampler::BtfLightSampler;
 #[cfg(test)]
 use super::btf_sampler::DEFENSIVE_FRACTION;
-use super::{BsdfFlags, Bxdf, BsdfSample};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
@@ -20,6 +22,7 @@ use crate::math::color::luminance;
 #[cfg(test)]
 use crate::math::warp;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
+use crate::model::BtfModel;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::Path;
@@ -164,6 +167,24 @@ pub struct BtfBsdf {
     material: Arc<BtfMaterial>,
     /// Texture-space repetitions per unit of uv.
     uv_scale: f32,
+}
+
+/// Mitsuba's `btf` plugin (btfpt's own): the measured material `filename` (a file or a
+/// `synth:` source), `uv_scale` (texture repeats per unit uv), `model` (raw, lm, plm, plmc, …):
+/// a raw [`BtfBsdf`] or a fitted [`super::PlmcBsdf`], as the scene format loads it.
+pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Bsdf> {
+    let file = p.string_req("filename")?;
+    let uv_scale = p.float("uv_scale", 1.0)?;
+    let model = p
+        .string_opt("model")?
+        .map(|m| BtfModel::parse(&m).map_err(|e| p.err(&e.to_string())))
+        .transpose()?;
+    // Every property checked before a possibly large file is read.
+    p.finish()?;
+    if uv_scale <= 0.0 {
+        return Err(p.err("\"uv_scale\" must be positive"));
+    }
+    p.measured(&file, uv_scale, model)
 }
 
 impl BtfBsdf {

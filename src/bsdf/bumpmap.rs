@@ -4,7 +4,9 @@
 //! normal; the evaluation in that frame is [`Perturbed`]'s, as for [`super::NormalMap`].
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, single_nested_bsdf};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -21,6 +23,37 @@ pub struct BumpMap {
     pub flip_invalid_normals: bool,
     /// Apply the shadowing term (Mitsuba `use_shadowing_function`, default true).
     pub use_shadowing_function: bool,
+}
+
+impl BumpMap {
+    /// Mitsuba's `bumpmap`: one nested BSDF, one nested height texture whatever its name (a
+    /// bitmap: Mitsuba differentiates only bitmaps), `scale`, `flip_invalid_normals`,
+    /// `use_shadowing_function`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        single_nested_bsdf(
+            p,
+            "exactly one nested bsdf must be specified",
+            "only a single nested bsdf can be specified",
+        )?;
+        let height = match p.nested_texture_count() {
+            1 => p.nested_texture(0)?,
+            0 => return Err(p.err("exactly one nested height texture must be specified")),
+            _ => return Err(p.err("only a single nested texture can be specified")),
+        };
+        if !height.has_gradient() {
+            return Err(
+                p.err("the height texture must be a bitmap (Mitsuba differentiates only bitmaps)")
+            );
+        }
+        Ok(BumpMap {
+            height,
+            // NaN/Inf are refused by the property parser.
+            scale: p.float("scale", 1.0)?,
+            flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+            use_shadowing_function: p.bool("use_shadowing_function", true)?,
+            nested: Box::new(p.nested_bsdf(0)?),
+        })
+    }
 }
 
 impl BumpMap {

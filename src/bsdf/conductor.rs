@@ -1,8 +1,11 @@
 //! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
 
 use super::fresnel::{fresnel_conductor_rgb_t, reflect};
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
+use crate::math::cie1931::SpectrumUse;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -16,6 +19,39 @@ pub struct Conductor {
     pub k: Texture,
     /// Multiplier on the reflectance (Mitsuba default 1).
     pub specular_reflectance: Texture,
+}
+
+impl Conductor {
+    /// Mitsuba's `conductor`: `material` "none" or `eta`/`k`, `specular_reflectance`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, k) = conductor_ior(p)?;
+        Ok(Conductor {
+            eta,
+            k,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+        })
+    }
+}
+
+/// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta
+/// 0, k 1) with optional explicit `eta`/`k`, colours or textures (Mitsuba's unbounded
+/// textures). Named metals need Mitsuba's spectral data: error.
+pub(super) fn conductor_ior(p: &mut dyn BsdfProperties) -> Result<(Texture, Texture)> {
+    const U: SpectrumUse = SpectrumUse::Unbounded;
+    let material = p.string("material", "none")?;
+    if material != "none" {
+        if p.has("eta") || p.has("k") {
+            return Err(p.err("should specify either (eta, k) or material, not both"));
+        }
+        return Err(p.err(&format!(
+            "named conductor material \"{material}\" is not supported (its spectral IOR tables \
+             ship with Mitsuba, not btfpt): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+        )));
+    }
+    Ok((
+        p.texture_as("eta", Vec3::ZERO, U)?,
+        p.texture_as("k", Vec3::ONE, U)?,
+    ))
 }
 
 impl Conductor {

@@ -2,7 +2,10 @@
 //! sides, lobe chosen with probability F, radiance transport (η² scaling on refraction).
 
 use super::fresnel::fresnel_dielectric_t;
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::ior::ior;
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -16,6 +19,36 @@ pub struct Dielectric {
     pub specular_reflectance: Texture,
     /// Multiplier on transmission (Mitsuba default 1; not physical unless 1).
     pub specular_transmittance: Texture,
+}
+
+impl Dielectric {
+    /// Mitsuba's `dielectric`: `int_ior`, `ext_ior`, `specular_reflectance`,
+    /// `specular_transmittance`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, specular_reflectance, specular_transmittance) = smooth_interface(p)?;
+        Ok(Dielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+        })
+    }
+}
+
+/// The parameters of a smooth interface (`dielectric`, `thindielectric`): eta = int_ior /
+/// ext_ior and the reflectance and transmittance scales.
+pub(super) fn smooth_interface(p: &mut dyn BsdfProperties) -> Result<(f32, Texture, Texture)> {
+    let int_ior = ior(p, "int_ior", "bk7")?;
+    let ext_ior = ior(p, "ext_ior", "air")?;
+    if int_ior < 0.0 || ext_ior < 0.0 {
+        return Err(p.err("the interior and exterior indices of refraction must be positive"));
+    }
+    let specular_reflectance = p.texture("specular_reflectance", Vec3::ONE)?;
+    let specular_transmittance = p.texture("specular_transmittance", Vec3::ONE)?;
+    Ok((
+        int_ior / ext_ior,
+        specular_reflectance,
+        specular_transmittance,
+    ))
 }
 
 impl Dielectric {

@@ -1,6 +1,8 @@
 //! Lambertian reflection (Mitsuba `diffuse`): one-sided, black when seen from below.
 
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
@@ -9,6 +11,15 @@ use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
 #[derive(Clone, Debug)]
 pub struct Diffuse {
     pub reflectance: Texture,
+}
+
+impl Diffuse {
+    /// Mitsuba's `diffuse`: `reflectance` (colour or texture, 0.5).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        Ok(Diffuse {
+            reflectance: p.texture("reflectance", Vec3::splat(0.5))?,
+        })
+    }
 }
 
 impl Bxdf for Diffuse {

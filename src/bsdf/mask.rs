@@ -2,7 +2,9 @@
 //! the surface (a null interaction: direction −wi, weight 1, reported as a delta transmission so
 //! integrators skip MIS for it, as Mitsuba's `Null` lobe); otherwise the nested BSDF scatters.
 
-use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, check_unit_interval, single_nested_bsdf};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -14,6 +16,23 @@ pub struct Mask {
     pub opacity: Texture,
     /// The model seen where the surface is opaque.
     pub nested: Box<Bsdf>,
+}
+
+impl Mask {
+    /// Mitsuba's `mask`: one nested BSDF and the `opacity` (0..1, float or texture).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        single_nested_bsdf(
+            p,
+            "needs a nested bsdf",
+            "cannot have more than one nested bsdf",
+        )?;
+        let opacity = p.texture("opacity", Vec3::splat(0.5))?;
+        check_unit_interval(p, "opacity", &opacity)?;
+        Ok(Mask {
+            opacity,
+            nested: Box::new(p.nested_bsdf(0)?),
+        })
+    }
 }
 
 impl Mask {

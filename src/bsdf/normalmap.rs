@@ -3,7 +3,9 @@
 //! the shading normal); the evaluation in that frame is [`Perturbed`]'s.
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, single_nested_bsdf};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -18,6 +20,27 @@ pub struct NormalMap {
     pub flip_invalid_normals: bool,
     /// Apply the shadowing term (Mitsuba `use_shadowing_function`, default true).
     pub use_shadowing_function: bool,
+}
+
+impl NormalMap {
+    /// Mitsuba's `normalmap`: one nested BSDF, the `normalmap` texture (required),
+    /// `flip_invalid_normals`, `use_shadowing_function`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        single_nested_bsdf(
+            p,
+            "needs a nested bsdf",
+            "cannot have more than one nested bsdf",
+        )?;
+        if !p.has("normalmap") {
+            return Err(p.err("the \"normalmap\" texture is required"));
+        }
+        Ok(NormalMap {
+            normalmap: p.texture("normalmap", Vec3::new(0.5, 0.5, 1.0))?,
+            flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+            use_shadowing_function: p.bool("use_shadowing_function", true)?,
+            nested: Box::new(p.nested_bsdf(0)?),
+        })
+    }
 }
 
 impl NormalMap {

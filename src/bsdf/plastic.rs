@@ -6,7 +6,10 @@
 use super::fresnel::{
     fresnel_dielectric, fresnel_dielectric_t, fresnel_diffuse_reflectance, reflect,
 };
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::ior::ior;
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
@@ -41,6 +44,48 @@ pub struct Plastic {
     fdr_int: f32,
     /// Share of samples steered to the specular lobe before the Fresnel term.
     specular_sampling_weight: f32,
+}
+
+impl Plastic {
+    /// Mitsuba's `plastic`: `int_ior`, `ext_ior`, `diffuse_reflectance`,
+    /// `specular_reflectance`, `nonlinear`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let c = Coating::from_props(p, false)?;
+        Ok(Plastic::new(
+            c.eta,
+            c.diffuse_reflectance,
+            c.specular_reflectance,
+            c.nonlinear,
+        ))
+    }
+}
+
+/// What `plastic` and `roughplastic` both read: a diffuse base under a dielectric coating.
+pub(super) struct Coating {
+    /// int_ior / ext_ior.
+    pub eta: f32,
+    pub diffuse_reflectance: Texture,
+    pub specular_reflectance: Texture,
+    pub nonlinear: bool,
+}
+
+impl Coating {
+    /// The coating's parameters; a `rough` one also needs the two indices to differ.
+    pub fn from_props(p: &mut dyn BsdfProperties, rough: bool) -> Result<Self> {
+        let int_ior = ior(p, "int_ior", "polypropylene")?;
+        let ext_ior = ior(p, "ext_ior", "air")?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || (rough && int_ior == ext_ior) {
+            return Err(p.err(
+                "the interior and exterior indices of refraction must be positive and differ",
+            ));
+        }
+        Ok(Coating {
+            diffuse_reflectance: p.texture("diffuse_reflectance", Vec3::splat(0.5))?,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+            nonlinear: p.bool("nonlinear", false)?,
+            eta: int_ior / ext_ior,
+        })
+    }
 }
 
 impl Plastic {

@@ -2,9 +2,13 @@
 //! distribution, Smith masking and complex-IOR Fresnel. One-sided. Roughness and IOR are
 //! textures evaluated at the hit, as in Mitsuba 3.9.1 (`alpha_u->eval_1(si)`, `eta->eval(si)`).
 
+use super::conductor::conductor_ior;
 use super::fresnel::fresnel_conductor_rgb_t;
+use super::microfacet::roughness;
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -27,6 +31,26 @@ pub struct RoughConductor {
     pub specular_reflectance: Texture,
     /// Sample visible normals (Mitsuba default true).
     pub sample_visible: bool,
+}
+
+impl RoughConductor {
+    /// Mitsuba's `roughconductor`: the conductor's IOR and `specular_reflectance`,
+    /// `distribution`, `alpha` or `alpha_u`/`alpha_v`, `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, k) = conductor_ior(p)?;
+        let specular_reflectance = p.texture("specular_reflectance", Vec3::ONE)?;
+        let distribution = MicrofacetType::from_props(p)?;
+        let (alpha_u, alpha_v) = roughness(p)?;
+        Ok(RoughConductor {
+            distribution,
+            alpha_u,
+            alpha_v,
+            eta,
+            k,
+            specular_reflectance,
+            sample_visible: p.bool("sample_visible", true)?,
+        })
+    }
 }
 
 impl RoughConductor {

@@ -3,8 +3,12 @@
 //! transport (1/η² on refraction), optional texture-driven anisotropic roughness.
 
 use super::fresnel::fresnel_dielectric_t;
+use super::ior::ior;
+use super::microfacet::roughness;
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -26,6 +30,32 @@ pub struct RoughDielectric {
     pub specular_transmittance: Texture,
     /// Sample visible normals (Mitsuba default true); otherwise Walter's widened D(m) cos θ_m.
     pub sample_visible: bool,
+}
+
+impl RoughDielectric {
+    /// Mitsuba's `roughdielectric`: `int_ior`, `ext_ior` (different), `distribution`, `alpha`
+    /// or `alpha_u`/`alpha_v`, `specular_reflectance`, `specular_transmittance`,
+    /// `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let int_ior = ior(p, "int_ior", "bk7")?;
+        let ext_ior = ior(p, "ext_ior", "air")?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+            return Err(p.err(
+                "the interior and exterior indices of refraction must be positive and differ",
+            ));
+        }
+        let distribution = MicrofacetType::from_props(p)?;
+        let (alpha_u, alpha_v) = roughness(p)?;
+        Ok(RoughDielectric {
+            distribution,
+            alpha_u,
+            alpha_v,
+            eta: int_ior / ext_ior,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+            specular_transmittance: p.texture("specular_transmittance", Vec3::ONE)?,
+            sample_visible: p.bool("sample_visible", true)?,
+        })
+    }
 }
 
 /// −v if `s` < 0 (Mitsuba `mulsign`, with +0 and −0 distinguished as there).

@@ -6,9 +6,13 @@
 //! does. Isotropic, one-sided.
 
 use super::fresnel::{fresnel_dielectric, fresnel_dielectric_t, reflect_about, refract_about};
+use super::microfacet::check_alpha;
 use super::microfacet::{Microfacet, MicrofacetType};
+use super::plastic::Coating;
 use super::plastic::base_under_coating;
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::quad::gauss_legendre;
 use crate::math::simd::real::{Cond, Real, V2, V3};
@@ -35,6 +39,31 @@ pub struct RoughPlastic {
     external_transmittance: Box<[f32; TRANSMITTANCE_RES]>,
     /// Diffuse reflectance of the coating seen from inside.
     internal_reflectance: f32,
+}
+
+impl RoughPlastic {
+    /// Mitsuba's `roughplastic`: the parameters of `plastic`, `distribution`, an isotropic
+    /// `alpha` and `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let c = Coating::from_props(p, true)?;
+        let distribution = MicrofacetType::from_props(p)?;
+        if p.has("alpha_u") || p.has("alpha_v") {
+            return Err(p.err(
+                "roughplastic does not support anisotropic roughness (as Mitsuba): use \"alpha\"",
+            ));
+        }
+        let alpha = p.float("alpha", 0.1)?;
+        check_alpha(p, "alpha", alpha)?;
+        Ok(RoughPlastic::new(
+            distribution,
+            alpha,
+            c.eta,
+            c.diffuse_reflectance,
+            c.specular_reflectance,
+            c.nonlinear,
+            p.bool("sample_visible", true)?,
+        ))
+    }
 }
 
 impl RoughPlastic {

@@ -1,8 +1,11 @@
 //! Thin dielectric sheet (Mitsuba `thindielectric`): a slab whose inter-reflections are summed in
 //! closed form; transmission passes straight through (no refraction, no η² scaling).
 
+use super::dielectric::smooth_interface;
 use super::fresnel::{fresnel_dielectric, reflect};
-use super::{BsdfFlags, Bxdf, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -15,6 +18,18 @@ pub struct ThinDielectric {
     pub specular_reflectance: Texture,
     /// Multiplier on transmission (Mitsuba default 1).
     pub specular_transmittance: Texture,
+}
+
+impl ThinDielectric {
+    /// Mitsuba's `thindielectric`: the parameters of `dielectric`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, specular_reflectance, specular_transmittance) = smooth_interface(p)?;
+        Ok(ThinDielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+        })
+    }
 }
 
 impl ThinDielectric {

@@ -1,7 +1,8 @@
 //! Two-sided adapter (Mitsuba `twosided`): a one-sided reflectance model seen from the back is
 //! evaluated with both directions mirrored through the surface (z → −z).
 
-use super::{Bsdf, BsdfFlags, Bxdf, BsdfSample};
+use super::plugin::BsdfProperties;
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -12,6 +13,27 @@ pub struct TwoSided {
     pub front: Box<Bsdf>,
     /// Model used when cos θ_i < 0, evaluated in the z-mirrored frame.
     pub back: Box<Bsdf>,
+}
+
+impl TwoSided {
+    /// Mitsuba's `twosided`: one nested BSDF for both sides, or two (front, back).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> crate::Result<Self> {
+        let (front, back) = match p.nested_bsdf_count() {
+            1 => {
+                let b = p.nested_bsdf(0)?;
+                (b.clone(), b)
+            }
+            2 => (p.nested_bsdf(0)?, p.nested_bsdf(1)?),
+            _ => return Err(p.err("twosided needs one or two nested bsdfs")),
+        };
+        if matches!(front, Bsdf::TwoSided(_)) || matches!(back, Bsdf::TwoSided(_)) {
+            return Err(p.err("a twosided bsdf cannot contain another twosided bsdf"));
+        }
+        Ok(TwoSided {
+            front: Box::new(front),
+            back: Box::new(back),
+        })
+    }
 }
 
 #[inline]

@@ -1,8 +1,8 @@
 //! The scene description: what the Mitsuba-XML and glTF loaders produce and the renderer consumes.
 
-pub mod btf_bsdf;
 pub mod gltf;
 pub mod load_options;
+pub mod measured_material;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
@@ -161,7 +161,7 @@ pub struct Scene {
     pub bsdfs: Vec<Bsdf>,
     pub emitters: Vec<Emitter>,
     /// The file and model each `<bsdf type="btf">` renders, in scene order (for the summary).
-    pub btf_uses: Vec<btf_bsdf::BtfUse>,
+    pub btf_uses: Vec<measured_material::BtfUse>,
     /// Every file the scene reads besides its own (included files, meshes, textures, BTF data
     /// and models), in load order: what a partial render's fingerprint covers.
     pub inputs: Vec<std::path::PathBuf>,

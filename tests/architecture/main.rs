@@ -13,6 +13,7 @@ mod import_cycles;
 const LAYERS: &[(&str, u32)] = &[
     ("math", 0),
     ("io", 1),
+    ("plugin", 1),
     ("geometry", 2),
     ("metrics", 2),
     ("btf", 3),

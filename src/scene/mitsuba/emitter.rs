@@ -8,6 +8,7 @@ use crate::Result;
 use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::transform::xf_point;
+use crate::plugin::Properties;
 use crate::scene::Emitter;
 use std::sync::Arc;
 

@@ -19,7 +19,7 @@ mod transform;
 
 use crate::bsdf::{Bsdf, Texture};
 use crate::model::BtfModel;
-use crate::scene::btf_bsdf::BtfUse;
+use crate::scene::measured_material::BtfUse;
 use crate::scene::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::{Error, Result};
 use document::{Key, Loaded, XmlDoc};

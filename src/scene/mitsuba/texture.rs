@@ -12,6 +12,7 @@ use crate::bsdf::texture::{BitmapTexture, Checkerboard, TexFilter, UvTransform, 
 use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::transform::is_finite;
+use crate::plugin::Properties;
 use std::sync::Arc;
 
 impl<'a, 'x> Builder<'a, 'x> {
