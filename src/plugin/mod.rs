@@ -7,6 +7,7 @@ use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::cie1931::{SpectrumUse, spectrum_list_to_srgb, uniform_emission_rgb};
 use crate::{Error, Result};
+use std::path::PathBuf;
 
 /// A typed property value as written in the scene.
 #[derive(Clone, Debug)]
@@ -63,6 +64,9 @@ pub trait Properties {
 
     /// The tag (bsdf, texture, ...) of the nested object called `name`, marking it read.
     fn nested_tag(&self, name: &str) -> Option<&str>;
+
+    /// The file a `filename` property names, as the scene format resolves relative paths.
+    fn resolve(&self, filename: &str) -> PathBuf;
 
     /// The wrong-type error for property `name` holding `v`.
     fn wrong_type(&self, name: &str, v: &Value, expected: &str) -> Error {

@@ -11,11 +11,10 @@ pub mod shapes;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
-use crate::io::RgbImage;
-use crate::math::{Mat4, Spectrum, Vec3};
+pub use crate::light::Emitter;
+use crate::math::Mat4;
 pub use load_options::LoadOptions;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 /// A perspective pinhole camera with an `hdrfilm` and box reconstruction filter (Mitsuba semantics).
 ///
@@ -118,34 +117,6 @@ impl Default for IntegratorSettings {
             hide_emitters: false,
         }
     }
-}
-
-/// Emitters that are not attached to a shape (area emitters live on [`Mesh::emitter`]).
-#[derive(Clone, Debug)]
-pub enum Emitter {
-    /// Isotropic point light; `intensity` in W/sr.
-    Point { position: Vec3, intensity: Spectrum },
-    /// Spot light shining along +z of `to_world`; angles in degrees (Mitsuba defaults 20 and 0.75·cutoff).
-    Spot {
-        to_world: Mat4,
-        intensity: Spectrum,
-        cutoff_angle: f32,
-        beam_width: f32,
-    },
-    /// Distant light; `direction` is the unit direction of travel (world), `irradiance` in W/m².
-    Directional {
-        direction: Vec3,
-        irradiance: Spectrum,
-    },
-    /// Uniform environment radiance.
-    Constant { radiance: Spectrum },
-    /// Lat-long environment map (Mitsuba `envmap` mapping), radiance = scale · image.
-    EnvMap {
-        image: Arc<RgbImage>,
-        to_world: Mat4,
-        scale: f32,
-        filename: PathBuf,
-    },
 }
 
 /// A complete scene, in world space.

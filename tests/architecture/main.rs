@@ -20,8 +20,8 @@ const LAYERS: &[(&str, u32)] = &[
     ("model", 4),
     ("fit", 5),
     ("bsdf", 5),
-    ("scene", 6),
-    ("light", 7),
+    ("light", 6),
+    ("scene", 7),
     ("render", 8),
     ("cli", 9),
 ];

@@ -191,6 +191,10 @@ impl Properties for Element<'_, '_, '_> {
     fn nested_tag(&self, name: &str) -> Option<&str> {
         self.p.nested_tag(name)
     }
+
+    fn resolve(&self, filename: &str) -> std::path::PathBuf {
+        self.p.resolve(filename)
+    }
 }
 
 impl BsdfProperties for Element<'_, '_, '_> {

@@ -8,6 +8,7 @@ use crate::math::Vec3;
 use crate::plugin::{Properties, Value};
 use roxmltree::Node;
 use std::cell::Cell;
+use std::path::PathBuf;
 
 struct Prop<'a> {
     name: String,
@@ -290,6 +291,10 @@ impl Properties for Props<'_, '_> {
             .find(|c| c.name.as_deref() == Some(name))?;
         c.used.set(true);
         Some(c.tag())
+    }
+
+    fn resolve(&self, filename: &str) -> PathBuf {
+        self.x.resolve(filename)
     }
 }
 
