@@ -19,7 +19,7 @@
 //! work runs on a pool thread, process CPU time.
 
 use btfpt::bsdf::plmc::{BATCH, PlmcHit, PlmcMaterial};
-use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Diffuse, PlmcBsdf, Texture};
+use btfpt::bsdf::{Bsdf, BtfBsdf, BtfMaterial, Bxdf, Diffuse, PlmcBsdf, Texture};
 use btfpt::btf::locate16::LOCATE_LANES;
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
 use btfpt::math::{Pcg32, Spectrum, Vec2, Vec3};

@@ -2,7 +2,7 @@
 //! `eval` (2 lookups + 9 texel fetches) at random uv and directions, on a synthetic 64² × 81 × 81
 //! material (161 MB of f16, built here). Run: `cargo bench --bench btf_lookup`.
 
-use btfpt::bsdf::{BtfBsdf, BtfMaterial};
+use btfpt::bsdf::{BtfBsdf, BtfMaterial, Bxdf};
 use btfpt::btf::{DirectionSet, RawBtf, StoredEncoding};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Pcg32, Vec2, Vec3, warp};

@@ -17,6 +17,7 @@ pub mod light;
 pub mod math;
 pub mod metrics;
 pub mod model;
+pub mod plugin;
 pub mod render;
 pub mod scene;
 

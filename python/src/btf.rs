@@ -11,7 +11,7 @@ use btfpt::bsdf::{BtfBsdf, BtfMaterial, PlmcBsdf};
 use btfpt::btf::BtfSource;
 use btfpt::btf::synth::disk_cache;
 use btfpt::model::{BtfFile, BtfModel, PlmcModel, codec, resolve_model_file};
-use btfpt::scene::btf_bsdf::SynthSpec;
+use btfpt::scene::measured_material::SynthSpec;
 use numpy::ndarray::Array3;
 use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
 use pyo3::prelude::*;

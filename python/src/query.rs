@@ -6,7 +6,7 @@
 //! and call these.
 
 use btfpt::bsdf::plmc::{BATCH, PREPARE_LANES};
-use btfpt::bsdf::{BtfBsdf, PlmcBsdf};
+use btfpt::bsdf::{BtfBsdf, Bxdf, PlmcBsdf};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Vec2, Vec3};
 use rayon::prelude::*;

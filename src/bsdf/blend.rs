@@ -2,7 +2,9 @@
 //! maps onto it): f = (1 − w) f₀ + w f₁ with a texturable weight w ∈ [0, 1], sampled by choosing
 //! a component with probability w and weighting by the mixture's eval / pdf.
 
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, check_unit_interval};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -17,13 +19,87 @@ pub struct BlendBsdf {
 }
 
 impl BlendBsdf {
+    /// Mitsuba's `blendbsdf`: two nested BSDFs and the `weight` (0..1, float or texture) of
+    /// the second.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        two_nested(p)?;
+        if !p.has("weight") {
+            return Err(p.err("the blend \"weight\" (0..1, a float or texture) is required"));
+        }
+        let weight = p.texture("weight", Vec3::splat(0.5))?;
+        check_unit_interval(p, "weight", &weight)?;
+        BlendBsdf::with_nested(p, weight)
+    }
+
+    /// Mitsuba 0.6's `mixturebsdf` of two components: `weights` "w0, w1" summing to 1 (or
+    /// more, renormalised).
+    pub fn mixture_from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        two_nested(p)?;
+        let text = p.string_req("weights")?;
+        let ws = text
+            .split([',', ' '])
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse::<f32>().ok().filter(|v| v.is_finite() && *v >= 0.0))
+            .collect::<Option<Vec<f32>>>()
+            .ok_or_else(|| {
+                p.err(&format!(
+                    "\"weights\" must be non-negative numbers, got \"{text}\""
+                ))
+            })?;
+        if ws.len() != 2 {
+            return Err(p.err(&format!("{} weights for 2 nested bsdfs", ws.len())));
+        }
+        let sum = ws[0] + ws[1];
+        // Mitsuba 0.6 renormalises weights summing to more than 1; a sum below 1 (an
+        // absorbing mixture) has no blendbsdf equivalent.
+        if !(sum >= 1.0 - 1e-3) {
+            return Err(p.err(&format!(
+                "\"weights\" sum to {sum} < 1: only mixtures whose weights sum to 1 \
+                 (or more, renormalised) are supported"
+            )));
+        }
+        BlendBsdf::with_nested(p, Texture::Constant(Spectrum::splat(ws[1] / sum)))
+    }
+
+    /// The blend of the two nested BSDFs with `weight`.
+    fn with_nested(p: &mut dyn BsdfProperties, weight: Texture) -> Result<Self> {
+        let a = p.nested_bsdf(0)?;
+        let b = p.nested_bsdf(1)?;
+        Ok(BlendBsdf {
+            weight,
+            bsdfs: Box::new([a, b]),
+        })
+    }
+}
+
+/// A blend takes exactly two nested BSDFs.
+fn two_nested(p: &mut dyn BsdfProperties) -> Result<()> {
+    match p.nested_bsdf_count() {
+        2 => Ok(()),
+        n => Err(p.err(&format!(
+            "needs exactly two nested bsdfs, found {n} (a mixture of more than two \
+             components is not supported)"
+        ))),
+    }
+}
+
+impl BlendBsdf {
     #[inline]
     fn w(&self, uv: Vec2) -> f32 {
         luminance(self.weight.eval(uv)).clamp(0.0, 1.0)
     }
+}
+
+impl Bxdf for BlendBsdf {
+    /// Prefetches for the nested models.
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        self.bsdfs[0].prefetch(si);
+        self.bsdfs[1].prefetch(si);
+    }
 
     /// Union of the nested models' lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = self.bsdfs[0].flags() | self.bsdfs[1].flags();
         if self.weight.is_spatially_varying() {
             f | BsdfFlags::SPATIALLY_VARYING
@@ -33,19 +109,19 @@ impl BlendBsdf {
     }
 
     /// (1 − w) f₀ + w f₁.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         let w = self.w(si.uv);
         self.bsdfs[0].eval(si, wo) * (1.0 - w) + self.bsdfs[1].eval(si, wo) * w
     }
 
     /// (1 − w) p₀ + w p₁.
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         let w = self.w(si.uv);
         self.bsdfs[0].pdf(si, wo) * (1.0 - w) + self.bsdfs[1].pdf(si, wo) * w
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         let w = self.w(si.uv);
         let (v0, p0) = self.bsdfs[0].eval_pdf(si, wo);
         let (v1, p1) = self.bsdfs[1].eval_pdf(si, wo);
@@ -54,7 +130,7 @@ impl BlendBsdf {
 
     /// Samples component 1 if `sample1` ≤ w (else 0) with `sample1` rescaled; the weight and
     /// pdf are those of the mixture (Mitsuba's one-sample MIS over the two components).
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

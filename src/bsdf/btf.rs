@@ -9,10 +9,12 @@
 //! file (the material holds an `Arc`) and can live in a memory-mapped cache file (`.btfc`) behind the
 //! same accessor. Building the tables reads at most 64 × 64 texels per image.
 
+use super::Bsdf;
 use super::btf_sampler::BtfLightSampler;
 #[cfg(test)]
 use super::btf_sampler::DEFENSIVE_FRACTION;
-use super::{BsdfFlags, BsdfSample};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
@@ -20,6 +22,7 @@ use crate::math::color::luminance;
 #[cfg(test)]
 use crate::math::warp;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
+use crate::model::BtfModel;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::path::Path;
@@ -166,6 +169,24 @@ pub struct BtfBsdf {
     uv_scale: f32,
 }
 
+/// Mitsuba's `btf` plugin (btfpt's own): the measured material `filename` (a file or a
+/// `synth:` source), `uv_scale` (texture repeats per unit uv), `model` (raw, lm, plm, plmc, …):
+/// a raw [`BtfBsdf`] or a fitted [`super::PlmcBsdf`], as the scene format loads it.
+pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Bsdf> {
+    let file = p.string_req("filename")?;
+    let uv_scale = p.float("uv_scale", 1.0)?;
+    let model = p
+        .string_opt("model")?
+        .map(|m| BtfModel::parse(&m).map_err(|e| p.err(&e.to_string())))
+        .transpose()?;
+    // Every property checked before a possibly large file is read.
+    p.finish()?;
+    if uv_scale <= 0.0 {
+        return Err(p.err("\"uv_scale\" must be positive"));
+    }
+    p.measured(&file, uv_scale, model)
+}
+
 impl BtfBsdf {
     /// An instance of `material` tiled `uv_scale` times per unit uv (finite, non-zero).
     pub fn new(material: Arc<BtfMaterial>, uv_scale: f32) -> Result<Self> {
@@ -199,14 +220,21 @@ impl BtfBsdf {
         (idx(uv.x, btf.width()), idx(uv.y, btf.height()))
     }
 
+    #[inline]
+    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        self.material.sampler.pdf(vi, vw, wo)
+    }
+}
+
+impl Bxdf for BtfBsdf {
     /// Lobes: measured reflection, glossy in general, varying over the surface.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::SPATIALLY_VARYING
     }
 
     /// f · cos θ_o = B/π with wi = view (toward the camera), wo = light; 0 below either horizon.
     #[inline]
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return Spectrum::ZERO;
         }
@@ -216,7 +244,7 @@ impl BtfBsdf {
 
     /// Solid-angle pdf of [`BtfBsdf::sample`].
     #[inline]
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
@@ -226,7 +254,7 @@ impl BtfBsdf {
 
     /// `(eval, pdf)` sharing the view lookup (what emitter sampling with MIS needs).
     #[inline]
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return (Spectrum::ZERO, 0.0);
         }
@@ -237,13 +265,8 @@ impl BtfBsdf {
         (f, self.pdf_with_views(vi, vw, wo))
     }
 
-    #[inline]
-    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.material.sampler.pdf(vi, vw, wo)
-    }
-
     /// Samples a light direction from the mixture; weight = eval / pdf.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

@@ -4,7 +4,9 @@
 //! normal; the evaluation in that frame is [`Perturbed`]'s, as for [`super::NormalMap`].
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, single_nested_bsdf};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -21,6 +23,37 @@ pub struct BumpMap {
     pub flip_invalid_normals: bool,
     /// Apply the shadowing term (Mitsuba `use_shadowing_function`, default true).
     pub use_shadowing_function: bool,
+}
+
+impl BumpMap {
+    /// Mitsuba's `bumpmap`: one nested BSDF, one nested height texture whatever its name (a
+    /// bitmap: Mitsuba differentiates only bitmaps), `scale`, `flip_invalid_normals`,
+    /// `use_shadowing_function`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        single_nested_bsdf(
+            p,
+            "exactly one nested bsdf must be specified",
+            "only a single nested bsdf can be specified",
+        )?;
+        let height = match p.nested_texture_count() {
+            1 => p.nested_texture(0)?,
+            0 => return Err(p.err("exactly one nested height texture must be specified")),
+            _ => return Err(p.err("only a single nested texture can be specified")),
+        };
+        if !height.has_gradient() {
+            return Err(
+                p.err("the height texture must be a bitmap (Mitsuba differentiates only bitmaps)")
+            );
+        }
+        Ok(BumpMap {
+            height,
+            // NaN/Inf are refused by the property parser.
+            scale: p.float("scale", 1.0)?,
+            flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+            use_shadowing_function: p.bool("use_shadowing_function", true)?,
+            nested: Box::new(p.nested_bsdf(0)?),
+        })
+    }
 }
 
 impl BumpMap {
@@ -49,29 +82,31 @@ impl BumpMap {
         };
         Perturbed::new(&self.nested, si, local, self.use_shadowing_function)
     }
+}
 
+impl Bxdf for BumpMap {
     /// The nested model's lobes, spatially varying.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         self.nested.flags() | BsdfFlags::SPATIALLY_VARYING
     }
 
     /// Nested eval in the perturbed frame, times the shadowing term.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         self.eval_pdf(si, wo).0
     }
 
     /// Nested pdf in the perturbed frame (rotations keep solid angle).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         self.perturb(si).pdf(wo)
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         self.perturb(si).eval_pdf(wo)
     }
 
     /// Samples the nested model in the perturbed frame and rotates the direction back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

@@ -1,8 +1,11 @@
 //! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
 
 use super::fresnel::{fresnel_conductor_rgb_t, reflect};
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
+use crate::math::cie1931::SpectrumUse;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -19,8 +22,51 @@ pub struct Conductor {
 }
 
 impl Conductor {
+    /// Mitsuba's `conductor`: `material` "none" or `eta`/`k`, `specular_reflectance`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, k) = conductor_ior(p)?;
+        Ok(Conductor {
+            eta,
+            k,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+        })
+    }
+}
+
+/// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta
+/// 0, k 1) with optional explicit `eta`/`k`, colours or textures (Mitsuba's unbounded
+/// textures). Named metals need Mitsuba's spectral data: error.
+pub(super) fn conductor_ior(p: &mut dyn BsdfProperties) -> Result<(Texture, Texture)> {
+    const U: SpectrumUse = SpectrumUse::Unbounded;
+    let material = p.string("material", "none")?;
+    if material != "none" {
+        if p.has("eta") || p.has("k") {
+            return Err(p.err("should specify either (eta, k) or material, not both"));
+        }
+        return Err(p.err(&format!(
+            "named conductor material \"{material}\" is not supported (its spectral IOR tables \
+             ship with Mitsuba, not btfpt): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
+        )));
+    }
+    Ok((
+        p.texture_as("eta", Vec3::ZERO, U)?,
+        p.texture_as("k", Vec3::ONE, U)?,
+    ))
+}
+
+impl Conductor {
+    /// The weight of [`Self::sample`], F(cos θ_i) · specular_reflectance at `uv`, for one lane
+    /// or sixteen.
+    #[inline(always)]
+    pub fn weight_t<T: Real>(&self, cos_theta_i: T, uv: V2<T>) -> V3<T> {
+        let f = fresnel_conductor_rgb_t(cos_theta_i, self.eta.eval_t(uv), self.k.eval_t(uv));
+        self.specular_reflectance.eval_t(uv).mul(f)
+    }
+}
+
+impl Bxdf for Conductor {
     /// Delta reflection only.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION;
         if self.specular_reflectance.is_spatially_varying()
             || self.eta.is_spatially_varying()
@@ -33,17 +79,17 @@ impl Conductor {
     }
 
     /// Always 0: a delta lobe has no density that `eval` could see.
-    pub fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
+    fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
         Spectrum::ZERO
     }
 
     /// Always 0 (delta lobe).
-    pub fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
+    fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
         0.0
     }
 
     /// The mirror direction with weight F(cos θ_i) · specular_reflectance; None from below.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         _sample1: f32,
@@ -59,13 +105,5 @@ impl Conductor {
             sampled: BsdfFlags::DELTA_REFLECTION,
         };
         Some((bs, self.weight_t(si.wi.z, si.uv.into()).into()))
-    }
-
-    /// The weight of [`Self::sample`], F(cos θ_i) · specular_reflectance at `uv`, for one lane
-    /// or sixteen.
-    #[inline(always)]
-    pub fn weight_t<T: Real>(&self, cos_theta_i: T, uv: V2<T>) -> V3<T> {
-        let f = fresnel_conductor_rgb_t(cos_theta_i, self.eta.eval_t(uv), self.k.eval_t(uv));
-        self.specular_reflectance.eval_t(uv).mul(f)
     }
 }

@@ -1,6 +1,8 @@
 //! Lambertian reflection (Mitsuba `diffuse`): one-sided, black when seen from below.
 
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
@@ -12,7 +14,16 @@ pub struct Diffuse {
 }
 
 impl Diffuse {
-    pub fn flags(&self) -> BsdfFlags {
+    /// Mitsuba's `diffuse`: `reflectance` (colour or texture, 0.5).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        Ok(Diffuse {
+            reflectance: p.texture("reflectance", Vec3::splat(0.5))?,
+        })
+    }
+}
+
+impl Bxdf for Diffuse {
+    fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DIFFUSE_REFLECTION;
         if self.reflectance.is_spatially_varying() {
             f | BsdfFlags::SPATIALLY_VARYING
@@ -21,15 +32,15 @@ impl Diffuse {
         }
     }
 
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         eval_local(self.reflectance.eval(si.uv), si.wi, wo)
     }
 
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         pdf_local(si.wi, wo)
     }
 
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         _sample1: f32,

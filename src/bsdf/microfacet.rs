@@ -5,9 +5,13 @@
 //! or sampling D(m) cos θ_m. Written once for one lane or sixteen ([`Real`]); [`Fx`] is the
 //! 16-lane type.
 
+use super::{BsdfProperties, Texture};
+use crate::Result;
+use crate::math::cie1931::SpectrumUse;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::special::{erf, erfinv};
 use crate::math::{PI, Vec2, Vec3, warp};
+use crate::plugin::Properties;
 
 /// Smallest roughness Mitsuba accepts (it clamps, and so do we).
 pub const MIN_ALPHA: f32 = 1e-4;
@@ -32,6 +36,60 @@ impl MicrofacetType {
             "ggx" => Some(MicrofacetType::Ggx),
             _ => None,
         }
+    }
+
+    /// The `distribution` property of a microfacet BSDF: Mitsuba's default `beckmann` when
+    /// none is given.
+    pub fn from_props(p: &dyn Properties) -> Result<MicrofacetType> {
+        match p.string_opt("distribution")? {
+            None => Ok(MicrofacetType::Beckmann),
+            Some(d) => MicrofacetType::from_name(&d).ok_or_else(|| {
+                p.err(&format!(
+                    "invalid distribution \"{d}\": must be \"beckmann\" or \"ggx\""
+                ))
+            }),
+        }
+    }
+}
+
+/// `alpha` or `alpha_u`/`alpha_v` of roughconductor and roughdielectric: floats or textures
+/// (Mitsuba 3.9.1's `get_unbounded_texture`, read with `eval_1` at the hit). A constant must
+/// be finite and non-negative.
+pub fn roughness(p: &mut dyn BsdfProperties) -> Result<(Texture, Texture)> {
+    const U: SpectrumUse = SpectrumUse::Unbounded;
+    let (alpha_u, alpha_v) = if p.has("alpha_u") || p.has("alpha_v") {
+        if p.has("alpha") {
+            return Err(p.err("specify either \"alpha\" or \"alpha_u\"/\"alpha_v\", not both"));
+        }
+        if !(p.has("alpha_u") && p.has("alpha_v")) {
+            return Err(p.err("both \"alpha_u\" and \"alpha_v\" must be specified"));
+        }
+        (
+            p.texture_as("alpha_u", Vec3::splat(0.1), U)?,
+            p.texture_as("alpha_v", Vec3::splat(0.1), U)?,
+        )
+    } else {
+        let a = p.texture_as("alpha", Vec3::splat(0.1), U)?;
+        (a.clone(), a)
+    };
+    for (name, t) in [("alpha_u", &alpha_u), ("alpha_v", &alpha_v)] {
+        if let Texture::Constant(c) = t {
+            for v in [c.x, c.y, c.z] {
+                check_alpha(p, name, v)?;
+            }
+        }
+    }
+    Ok((alpha_u, alpha_v))
+}
+
+/// A roughness must be finite and non-negative (0 is clamped to 1e-4, as Mitsuba).
+pub fn check_alpha(p: &dyn Properties, name: &str, alpha: f32) -> Result<()> {
+    if alpha.is_finite() && alpha >= 0.0 {
+        Ok(())
+    } else {
+        Err(p.err(&format!(
+            "\"{name}\" must be a non-negative roughness, got {alpha}"
+        )))
     }
 }
 

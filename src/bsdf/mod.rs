@@ -3,7 +3,7 @@
 //! Directions are local to the hit's shading frame: `si.wi` points toward the previous vertex (the
 //! camera side), `wo` toward the next one (the light side). `eval` returns f(wi, wo) · |cos θ_o|
 //! (for a measured BTF that is B/π, docs/conventions.md); `sample` returns the sampled direction with the
-//! weight f · |cos θ_o| / pdf. A static enum, not a trait object, keeps the hot path monomorphic.
+//! weight f · |cos θ_o| / pdf. Each model implements [`Bxdf`]; [`Bsdf`] is the enum of them all.
 
 pub mod at;
 pub mod batch;
@@ -17,12 +17,14 @@ pub mod conductor;
 pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;
+pub mod ior;
 pub mod mask;
 pub mod microfacet;
 pub mod normalmap;
 pub mod perturbed;
 pub mod plastic;
 pub mod plmc;
+pub mod plugin;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
@@ -47,6 +49,7 @@ pub use microfacet::MicrofacetType;
 pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
+pub use plugin::BsdfProperties;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -102,9 +105,113 @@ pub struct BsdfSample {
     pub sampled: BsdfFlags,
 }
 
-/// Every scattering model of btfpt.
-#[derive(Clone, Debug)]
-pub enum Bsdf {
+/// What every scattering model answers (pbrt-v4's `BxDF` interface, Mitsuba 3's `BSDF`
+/// methods); [`Bsdf`] forwards each call to the model it holds. Directions are local to the
+/// shading frame (see the module doc).
+pub trait Bxdf {
+    /// The lobes this model has.
+    fn flags(&self) -> BsdfFlags;
+
+    /// f(wi, wo) · |cos θ_o|; zero for delta lobes and for direction pairs the model does not cover.
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum;
+
+    /// Solid-angle pdf with which [`Bxdf::sample`] produces `wo` (0 for delta lobes).
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32;
+
+    /// `(eval, pdf)` in one call (Mitsuba `eval_pdf`): what emitter sampling with MIS needs.
+    /// Models that share work between the two override it.
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        (self.eval(si, wo), self.pdf(si, wo))
+    }
+
+    /// Samples `wo` given one uniform number for lobe selection and two for the direction.
+    /// Returns the sample and its weight f · |cos θ_o| / pdf, or None if sampling failed.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)>;
+
+    /// Hint at a new hit, before light sampling: starts the memory loads the first evaluation
+    /// at `si` will need (a PLM-C texel's index entries, usually a DRAM miss), so they overlap
+    /// with the work in between. No effect on results; a no-op for analytic models.
+    #[inline]
+    fn prefetch(&self, _si: &SurfaceInteraction) {}
+}
+
+/// Declares [`Bsdf`] with one variant per model, `From` each model, and the [`Bxdf`] calls
+/// forwarded to the model: the one place that lists every variant.
+macro_rules! bsdf_enum {
+    ($($(#[$doc:meta])* $variant:ident($model:ty),)*) => {
+        /// Every scattering model of btfpt (a static enum, not a trait object, keeps the hot
+        /// path monomorphic).
+        #[derive(Clone, Debug)]
+        pub enum Bsdf {
+            $($(#[$doc])* $variant($model),)*
+        }
+
+        $(impl From<$model> for Bsdf {
+            fn from(b: $model) -> Bsdf {
+                Bsdf::$variant(b)
+            }
+        })*
+
+        impl Bsdf {
+            /// The lobes this BSDF has.
+            pub fn flags(&self) -> BsdfFlags {
+                match self {
+                    $(Bsdf::$variant(b) => b.flags(),)*
+                }
+            }
+
+            /// [`Bxdf::prefetch`] of the model.
+            #[inline]
+            pub fn prefetch(&self, si: &SurfaceInteraction) {
+                match self {
+                    $(Bsdf::$variant(b) => b.prefetch(si),)*
+                }
+            }
+
+            /// f(wi, wo) · |cos θ_o|; zero for delta lobes and for direction pairs the model does
+            /// not cover.
+            pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+                match self {
+                    $(Bsdf::$variant(b) => b.eval(si, wo),)*
+                }
+            }
+
+            /// Solid-angle pdf with which [`Bsdf::sample`] produces `wo` (0 for delta lobes).
+            pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+                match self {
+                    $(Bsdf::$variant(b) => b.pdf(si, wo),)*
+                }
+            }
+
+            /// `(eval, pdf)` in one call (Mitsuba `eval_pdf`): what emitter sampling with MIS needs.
+            pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+                match self {
+                    $(Bsdf::$variant(b) => b.eval_pdf(si, wo),)*
+                }
+            }
+
+            /// Samples `wo` given one uniform number for lobe selection and two for the direction.
+            /// Returns the sample and its weight f · |cos θ_o| / pdf, or None if sampling failed.
+            pub fn sample(
+                &self,
+                si: &SurfaceInteraction,
+                sample1: f32,
+                sample2: Vec2,
+            ) -> Option<(BsdfSample, Spectrum)> {
+                match self {
+                    $(Bsdf::$variant(b) => b.sample(si, sample1, sample2),)*
+                }
+            }
+        }
+    };
+}
+
+bsdf_enum! {
     Diffuse(Diffuse),
     Conductor(Conductor),
     RoughConductor(RoughConductor),
@@ -131,131 +238,35 @@ pub enum Bsdf {
     Plmc(PlmcBsdf),
 }
 
-impl Bsdf {
-    /// The lobes this BSDF has.
-    pub fn flags(&self) -> BsdfFlags {
-        match self {
-            Bsdf::Diffuse(b) => b.flags(),
-            Bsdf::Conductor(b) => b.flags(),
-            Bsdf::RoughConductor(b) => b.flags(),
-            Bsdf::Dielectric(b) => b.flags(),
-            Bsdf::ThinDielectric(b) => b.flags(),
-            Bsdf::TwoSided(b) => b.flags(),
-            Bsdf::Plastic(b) => b.flags(),
-            Bsdf::RoughPlastic(b) => b.flags(),
-            Bsdf::RoughDielectric(b) => b.flags(),
-            Bsdf::Blend(b) => b.flags(),
-            Bsdf::Mask(b) => b.flags(),
-            Bsdf::NormalMap(b) => b.flags(),
-            Bsdf::BumpMap(b) => b.flags(),
-            Bsdf::Btf(b) => b.flags(),
-            Bsdf::Plmc(b) => b.flags(),
-        }
+/// The fitted model's calls, whose code lives with the rest of the model in `plmc/bsdf.rs`.
+impl Bxdf for PlmcBsdf {
+    fn flags(&self) -> BsdfFlags {
+        PlmcBsdf::flags(self)
     }
 
-    /// Hint at a new hit, before light sampling: starts the memory loads the first evaluation
-    /// at `si` will need (a PLM-C texel's index entries, usually a DRAM miss), so they overlap
-    /// with the work in between. No effect on results; a no-op for analytic BSDFs.
-    #[inline]
-    pub fn prefetch(&self, si: &SurfaceInteraction) {
-        match self {
-            Bsdf::Plmc(b) => b.prefetch(si),
-            Bsdf::TwoSided(b) => {
-                b.front.prefetch(si);
-                b.back.prefetch(si);
-            }
-            Bsdf::Blend(b) => {
-                b.bsdfs[0].prefetch(si);
-                b.bsdfs[1].prefetch(si);
-            }
-            Bsdf::Mask(b) => b.nested.prefetch(si),
-            _ => {}
-        }
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        PlmcBsdf::eval(self, si, wo)
     }
 
-    /// f(wi, wo) · |cos θ_o|; zero for delta lobes and for direction pairs the model does not cover.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        match self {
-            Bsdf::Diffuse(b) => b.eval(si, wo),
-            Bsdf::Conductor(b) => b.eval(si, wo),
-            Bsdf::RoughConductor(b) => b.eval(si, wo),
-            Bsdf::Dielectric(b) => b.eval(si, wo),
-            Bsdf::ThinDielectric(b) => b.eval(si, wo),
-            Bsdf::TwoSided(b) => b.eval(si, wo),
-            Bsdf::Plastic(b) => b.eval(si, wo),
-            Bsdf::RoughPlastic(b) => b.eval(si, wo),
-            Bsdf::RoughDielectric(b) => b.eval(si, wo),
-            Bsdf::Blend(b) => b.eval(si, wo),
-            Bsdf::Mask(b) => b.eval(si, wo),
-            Bsdf::NormalMap(b) => b.eval(si, wo),
-            Bsdf::BumpMap(b) => b.eval(si, wo),
-            Bsdf::Btf(b) => b.eval(si, wo),
-            Bsdf::Plmc(b) => b.eval(si, wo),
-        }
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        PlmcBsdf::pdf(self, si, wo)
     }
 
-    /// Solid-angle pdf with which [`Bsdf::sample`] produces `wo` (0 for delta lobes).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        match self {
-            Bsdf::Diffuse(b) => b.pdf(si, wo),
-            Bsdf::Conductor(b) => b.pdf(si, wo),
-            Bsdf::RoughConductor(b) => b.pdf(si, wo),
-            Bsdf::Dielectric(b) => b.pdf(si, wo),
-            Bsdf::ThinDielectric(b) => b.pdf(si, wo),
-            Bsdf::TwoSided(b) => b.pdf(si, wo),
-            Bsdf::Plastic(b) => b.pdf(si, wo),
-            Bsdf::RoughPlastic(b) => b.pdf(si, wo),
-            Bsdf::RoughDielectric(b) => b.pdf(si, wo),
-            Bsdf::Blend(b) => b.pdf(si, wo),
-            Bsdf::Mask(b) => b.pdf(si, wo),
-            Bsdf::NormalMap(b) => b.pdf(si, wo),
-            Bsdf::BumpMap(b) => b.pdf(si, wo),
-            Bsdf::Btf(b) => b.pdf(si, wo),
-            Bsdf::Plmc(b) => b.pdf(si, wo),
-        }
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        PlmcBsdf::eval_pdf(self, si, wo)
     }
 
-    /// `(eval, pdf)` in one call (Mitsuba `eval_pdf`): what emitter sampling with MIS needs.
-    /// Models that share work between the two override it; the rest call both.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        match self {
-            Bsdf::RoughConductor(b) => b.eval_pdf(si, wo),
-            Bsdf::TwoSided(b) => b.eval_pdf(si, wo),
-            Bsdf::RoughDielectric(b) => b.eval_pdf(si, wo),
-            Bsdf::Blend(b) => b.eval_pdf(si, wo),
-            Bsdf::Mask(b) => b.eval_pdf(si, wo),
-            Bsdf::NormalMap(b) => b.eval_pdf(si, wo),
-            Bsdf::BumpMap(b) => b.eval_pdf(si, wo),
-            Bsdf::Btf(b) => b.eval_pdf(si, wo),
-            Bsdf::Plmc(b) => b.eval_pdf(si, wo),
-            _ => (self.eval(si, wo), self.pdf(si, wo)),
-        }
-    }
-
-    /// Samples `wo` given one uniform number for lobe selection and two for the direction.
-    /// Returns the sample and its weight f · |cos θ_o| / pdf, or None if sampling failed.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        match self {
-            Bsdf::Diffuse(b) => b.sample(si, sample1, sample2),
-            Bsdf::Conductor(b) => b.sample(si, sample1, sample2),
-            Bsdf::RoughConductor(b) => b.sample(si, sample1, sample2),
-            Bsdf::Dielectric(b) => b.sample(si, sample1, sample2),
-            Bsdf::ThinDielectric(b) => b.sample(si, sample1, sample2),
-            Bsdf::TwoSided(b) => b.sample(si, sample1, sample2),
-            Bsdf::Plastic(b) => b.sample(si, sample1, sample2),
-            Bsdf::RoughPlastic(b) => b.sample(si, sample1, sample2),
-            Bsdf::RoughDielectric(b) => b.sample(si, sample1, sample2),
-            Bsdf::Blend(b) => b.sample(si, sample1, sample2),
-            Bsdf::Mask(b) => b.sample(si, sample1, sample2),
-            Bsdf::NormalMap(b) => b.sample(si, sample1, sample2),
-            Bsdf::BumpMap(b) => b.sample(si, sample1, sample2),
-            Bsdf::Btf(b) => b.sample(si, sample1, sample2),
-            Bsdf::Plmc(b) => b.sample(si, sample1, sample2),
-        }
+        PlmcBsdf::sample(self, si, sample1, sample2)
+    }
+
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        PlmcBsdf::prefetch(self, si)
     }
 }

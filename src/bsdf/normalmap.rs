@@ -3,7 +3,9 @@
 //! the shading normal); the evaluation in that frame is [`Perturbed`]'s.
 
 use super::perturbed::Perturbed;
-use super::{Bsdf, BsdfFlags, BsdfSample, Texture};
+use super::plugin::{BsdfProperties, single_nested_bsdf};
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Frame, Spectrum, Vec2, Vec3};
 
@@ -18,6 +20,27 @@ pub struct NormalMap {
     pub flip_invalid_normals: bool,
     /// Apply the shadowing term (Mitsuba `use_shadowing_function`, default true).
     pub use_shadowing_function: bool,
+}
+
+impl NormalMap {
+    /// Mitsuba's `normalmap`: one nested BSDF, the `normalmap` texture (required),
+    /// `flip_invalid_normals`, `use_shadowing_function`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        single_nested_bsdf(
+            p,
+            "needs a nested bsdf",
+            "cannot have more than one nested bsdf",
+        )?;
+        if !p.has("normalmap") {
+            return Err(p.err("the \"normalmap\" texture is required"));
+        }
+        Ok(NormalMap {
+            normalmap: p.texture("normalmap", Vec3::new(0.5, 0.5, 1.0))?,
+            flip_invalid_normals: p.bool("flip_invalid_normals", true)?,
+            use_shadowing_function: p.bool("use_shadowing_function", true)?,
+            nested: Box::new(p.nested_bsdf(0)?),
+        })
+    }
 }
 
 impl NormalMap {
@@ -37,9 +60,11 @@ impl NormalMap {
         };
         Perturbed::new(&self.nested, si, local, self.use_shadowing_function)
     }
+}
 
+impl Bxdf for NormalMap {
     /// The nested model's lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = self.nested.flags();
         if self.normalmap.is_spatially_varying() {
             f | BsdfFlags::SPATIALLY_VARYING
@@ -49,22 +74,22 @@ impl NormalMap {
     }
 
     /// Nested eval in the perturbed frame, times the shadowing term.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         self.eval_pdf(si, wo).0
     }
 
     /// Nested pdf in the perturbed frame (rotations keep solid angle).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         self.perturb(si).pdf(wo)
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         self.perturb(si).eval_pdf(wo)
     }
 
     /// Samples the nested model in the perturbed frame and rotates the direction back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

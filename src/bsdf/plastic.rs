@@ -6,7 +6,10 @@
 use super::fresnel::{
     fresnel_dielectric, fresnel_dielectric_t, fresnel_diffuse_reflectance, reflect,
 };
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::ior::ior;
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
@@ -44,6 +47,48 @@ pub struct Plastic {
 }
 
 impl Plastic {
+    /// Mitsuba's `plastic`: `int_ior`, `ext_ior`, `diffuse_reflectance`,
+    /// `specular_reflectance`, `nonlinear`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let c = Coating::from_props(p, false)?;
+        Ok(Plastic::new(
+            c.eta,
+            c.diffuse_reflectance,
+            c.specular_reflectance,
+            c.nonlinear,
+        ))
+    }
+}
+
+/// What `plastic` and `roughplastic` both read: a diffuse base under a dielectric coating.
+pub(super) struct Coating {
+    /// int_ior / ext_ior.
+    pub eta: f32,
+    pub diffuse_reflectance: Texture,
+    pub specular_reflectance: Texture,
+    pub nonlinear: bool,
+}
+
+impl Coating {
+    /// The coating's parameters; a `rough` one also needs the two indices to differ.
+    pub fn from_props(p: &mut dyn BsdfProperties, rough: bool) -> Result<Self> {
+        let int_ior = ior(p, "int_ior", "polypropylene")?;
+        let ext_ior = ior(p, "ext_ior", "air")?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || (rough && int_ior == ext_ior) {
+            return Err(p.err(
+                "the interior and exterior indices of refraction must be positive and differ",
+            ));
+        }
+        Ok(Coating {
+            diffuse_reflectance: p.texture("diffuse_reflectance", Vec3::splat(0.5))?,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+            nonlinear: p.bool("nonlinear", false)?,
+            eta: int_ior / ext_ior,
+        })
+    }
+}
+
+impl Plastic {
     /// A plastic with relative IOR `eta` = int_ior / ext_ior (must be positive and finite).
     pub fn new(
         eta: f32,
@@ -69,18 +114,6 @@ impl Plastic {
         self.eta
     }
 
-    /// Delta and diffuse reflection.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
-        if self.diffuse_reflectance.is_spatially_varying()
-            || self.specular_reflectance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
-    }
-
     /// The base's albedo divided by what the coating's internal reflections keep in.
     #[inline]
     pub fn base(&self, uv: Vec2) -> Spectrum {
@@ -100,68 +133,6 @@ impl Plastic {
         let ps = f_i * self.specular_sampling_weight;
         let pd = (1.0 - f_i) * (1.0 - self.specular_sampling_weight);
         pd / (ps + pd)
-    }
-
-    /// The diffuse lobe only (the specular one is a delta).
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return Spectrum::ZERO;
-        }
-        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
-        let f_o = fresnel_dielectric(wo.z, self.eta).r;
-        self.base(si.uv)
-            * (warp::square_to_cosine_hemisphere_pdf(wo)
-                * self.inv_eta_2
-                * (1.0 - f_i)
-                * (1.0 - f_o))
-    }
-
-    /// Cosine-hemisphere pdf times the diffuse lobe's selection probability.
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        if si.wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
-        warp::square_to_cosine_hemisphere_pdf(wo) * self.prob_diffuse(f_i)
-    }
-
-    /// Chooses the specular lobe with probability ∝ F_i · w_s, else the diffuse one.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        if si.wi.z <= 0.0 {
-            return None;
-        }
-        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
-        let prob_diffuse = self.prob_diffuse(f_i);
-        let prob_specular = 1.0 - prob_diffuse;
-        if sample1 < prob_specular {
-            let bs = BsdfSample {
-                wo: reflect(si.wi),
-                pdf: prob_specular,
-                eta: 1.0,
-                sampled: BsdfFlags::DELTA_REFLECTION,
-            };
-            let w = self.specular_reflectance.eval(si.uv) * (f_i / prob_specular);
-            return Some((bs, w));
-        }
-        let wo = warp::square_to_cosine_hemisphere(sample2);
-        let pdf = prob_diffuse * warp::square_to_cosine_hemisphere_pdf(wo);
-        if pdf <= 0.0 {
-            return None;
-        }
-        let f_o = fresnel_dielectric(wo.z, self.eta).r;
-        let w = self.base(si.uv) * (self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o) / prob_diffuse);
-        let bs = BsdfSample {
-            wo,
-            pdf,
-            eta: 1.0,
-            sampled: BsdfFlags::DIFFUSE_REFLECTION,
-        };
-        Some((bs, w))
     }
 
     /// [`Self::prob_diffuse`] per lane.
@@ -221,6 +192,82 @@ impl Plastic {
             specular_lobe,
             ok,
         )
+    }
+}
+
+impl Bxdf for Plastic {
+    /// Delta and diffuse reflection.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
+        if self.diffuse_reflectance.is_spatially_varying()
+            || self.specular_reflectance.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// The diffuse lobe only (the specular one is a delta).
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
+        let f_o = fresnel_dielectric(wo.z, self.eta).r;
+        self.base(si.uv)
+            * (warp::square_to_cosine_hemisphere_pdf(wo)
+                * self.inv_eta_2
+                * (1.0 - f_i)
+                * (1.0 - f_o))
+    }
+
+    /// Cosine-hemisphere pdf times the diffuse lobe's selection probability.
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        if si.wi.z <= 0.0 || wo.z <= 0.0 {
+            return 0.0;
+        }
+        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
+        warp::square_to_cosine_hemisphere_pdf(wo) * self.prob_diffuse(f_i)
+    }
+
+    /// Chooses the specular lobe with probability ∝ F_i · w_s, else the diffuse one.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        let f_i = fresnel_dielectric(si.wi.z, self.eta).r;
+        let prob_diffuse = self.prob_diffuse(f_i);
+        let prob_specular = 1.0 - prob_diffuse;
+        if sample1 < prob_specular {
+            let bs = BsdfSample {
+                wo: reflect(si.wi),
+                pdf: prob_specular,
+                eta: 1.0,
+                sampled: BsdfFlags::DELTA_REFLECTION,
+            };
+            let w = self.specular_reflectance.eval(si.uv) * (f_i / prob_specular);
+            return Some((bs, w));
+        }
+        let wo = warp::square_to_cosine_hemisphere(sample2);
+        let pdf = prob_diffuse * warp::square_to_cosine_hemisphere_pdf(wo);
+        if pdf <= 0.0 {
+            return None;
+        }
+        let f_o = fresnel_dielectric(wo.z, self.eta).r;
+        let w = self.base(si.uv) * (self.inv_eta_2 * (1.0 - f_i) * (1.0 - f_o) / prob_diffuse);
+        let bs = BsdfSample {
+            wo,
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::DIFFUSE_REFLECTION,
+        };
+        Some((bs, w))
     }
 }
 

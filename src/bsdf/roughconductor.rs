@@ -2,9 +2,13 @@
 //! distribution, Smith masking and complex-IOR Fresnel. One-sided. Roughness and IOR are
 //! textures evaluated at the hit, as in Mitsuba 3.9.1 (`alpha_u->eval_1(si)`, `eta->eval(si)`).
 
+use super::conductor::conductor_ior;
 use super::fresnel::fresnel_conductor_rgb_t;
+use super::microfacet::roughness;
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -30,63 +34,26 @@ pub struct RoughConductor {
 }
 
 impl RoughConductor {
-    /// Glossy reflection.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::GLOSSY_REFLECTION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.alpha_u.is_spatially_varying()
-            || self.alpha_v.is_spatially_varying()
-            || self.eta.is_spatially_varying()
-            || self.k.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+    /// Mitsuba's `roughconductor`: the conductor's IOR and `specular_reflectance`,
+    /// `distribution`, `alpha` or `alpha_u`/`alpha_v`, `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, k) = conductor_ior(p)?;
+        let specular_reflectance = p.texture("specular_reflectance", Vec3::ONE)?;
+        let distribution = MicrofacetType::from_props(p)?;
+        let (alpha_u, alpha_v) = roughness(p)?;
+        Ok(RoughConductor {
+            distribution,
+            alpha_u,
+            alpha_v,
+            eta,
+            k,
+            specular_reflectance,
+            sample_visible: p.bool("sample_visible", true)?,
+        })
     }
+}
 
-    /// D G F / (4 cos θ_i) (= f · cos θ_o); 0 unless both directions are above the surface.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        self.eval_pdf(si, wo).0
-    }
-
-    /// Density of [`RoughConductor::sample`] (reflection Jacobian 1/(4 wo·m) included).
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        self.eval_pdf(si, wo).1
-    }
-
-    /// `eval` and `pdf` together, sharing the half vector and D (Mitsuba `eval_pdf`).
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        let wi = si.wi;
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return (Spectrum::ZERO, 0.0);
-        }
-        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), wi.into(), wo.into());
-        (v.into(), pdf)
-    }
-
-    /// Samples a microfacet normal and reflects `wi` about it. Weight: G1(wo) F (visible
-    /// sampling) or G F (wi·m) / (cos θ_i cos θ_m); None if the reflection goes below.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        _sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        if si.wi.z <= 0.0 {
-            return None;
-        }
-        let (wo, pdf, weight, ok) =
-            self.sample_t(&self.at(si.uv.into()), si.wi.into(), sample2.into());
-        let bs = BsdfSample {
-            wo: wo.into(),
-            pdf,
-            eta: 1.0,
-            sampled: BsdfFlags::GLOSSY_REFLECTION,
-        };
-        ok.then_some((bs, weight.into()))
-    }
-
+impl RoughConductor {
     /// The textures at `uv`, for one lane or sixteen.
     #[inline(always)]
     pub fn at<T: Real>(&self, uv: V2<T>) -> RoughConductorAt<T> {
@@ -162,6 +129,65 @@ impl RoughConductor {
                 .and(pdf.is_finite())
                 .and(pdf.gt(zero));
         (wo, pdf, at.specular.mul(f).scale(weight), ok)
+    }
+}
+
+impl Bxdf for RoughConductor {
+    /// Glossy reflection.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::GLOSSY_REFLECTION;
+        if self.specular_reflectance.is_spatially_varying()
+            || self.alpha_u.is_spatially_varying()
+            || self.alpha_v.is_spatially_varying()
+            || self.eta.is_spatially_varying()
+            || self.k.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// D G F / (4 cos θ_i) (= f · cos θ_o); 0 unless both directions are above the surface.
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        self.eval_pdf(si, wo).0
+    }
+
+    /// Density of [`RoughConductor::sample`] (reflection Jacobian 1/(4 wo·m) included).
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        self.eval_pdf(si, wo).1
+    }
+
+    /// `eval` and `pdf` together, sharing the half vector and D (Mitsuba `eval_pdf`).
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        let wi = si.wi;
+        if wi.z <= 0.0 || wo.z <= 0.0 {
+            return (Spectrum::ZERO, 0.0);
+        }
+        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), wi.into(), wo.into());
+        (v.into(), pdf)
+    }
+
+    /// Samples a microfacet normal and reflects `wi` about it. Weight: G1(wo) F (visible
+    /// sampling) or G F (wi·m) / (cos θ_i cos θ_m); None if the reflection goes below.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        _sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if si.wi.z <= 0.0 {
+            return None;
+        }
+        let (wo, pdf, weight, ok) =
+            self.sample_t(&self.at(si.uv.into()), si.wi.into(), sample2.into());
+        let bs = BsdfSample {
+            wo: wo.into(),
+            pdf,
+            eta: 1.0,
+            sampled: BsdfFlags::GLOSSY_REFLECTION,
+        };
+        ok.then_some((bs, weight.into()))
     }
 }
 

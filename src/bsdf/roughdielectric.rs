@@ -3,8 +3,12 @@
 //! transport (1/η² on refraction), optional texture-driven anisotropic roughness.
 
 use super::fresnel::fresnel_dielectric_t;
+use super::ior::ior;
+use super::microfacet::roughness;
 use super::microfacet::{Microfacet, MicrofacetType};
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
@@ -26,6 +30,32 @@ pub struct RoughDielectric {
     pub specular_transmittance: Texture,
     /// Sample visible normals (Mitsuba default true); otherwise Walter's widened D(m) cos θ_m.
     pub sample_visible: bool,
+}
+
+impl RoughDielectric {
+    /// Mitsuba's `roughdielectric`: `int_ior`, `ext_ior` (different), `distribution`, `alpha`
+    /// or `alpha_u`/`alpha_v`, `specular_reflectance`, `specular_transmittance`,
+    /// `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let int_ior = ior(p, "int_ior", "bk7")?;
+        let ext_ior = ior(p, "ext_ior", "air")?;
+        if !(int_ior > 0.0 && ext_ior > 0.0) || int_ior == ext_ior {
+            return Err(p.err(
+                "the interior and exterior indices of refraction must be positive and differ",
+            ));
+        }
+        let distribution = MicrofacetType::from_props(p)?;
+        let (alpha_u, alpha_v) = roughness(p)?;
+        Ok(RoughDielectric {
+            distribution,
+            alpha_u,
+            alpha_v,
+            eta: int_ior / ext_ior,
+            specular_reflectance: p.texture("specular_reflectance", Vec3::ONE)?,
+            specular_transmittance: p.texture("specular_transmittance", Vec3::ONE)?,
+            sample_visible: p.bool("sample_visible", true)?,
+        })
+    }
 }
 
 /// −v if `s` < 0 (Mitsuba `mulsign`, with +0 and −0 distinguished as there).
@@ -60,66 +90,6 @@ impl RoughDielectric {
                 sample_visible: false,
             }
         }
-    }
-
-    /// Glossy reflection and transmission.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::GLOSSY_TRANSMISSION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.specular_transmittance.is_spatially_varying()
-            || self.alpha_u.is_spatially_varying()
-            || self.alpha_v.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
-    }
-
-    /// f · |cos θ_o| for reflection or refraction.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        self.eval_pdf(si, wo).0
-    }
-
-    /// Density of [`RoughDielectric::sample`].
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        self.eval_pdf(si, wo).1
-    }
-
-    /// `eval` and `pdf` sharing the generalised half vector (Mitsuba `eval_pdf`).
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), si.wi.into(), wo.into());
-        (v.into(), pdf)
-    }
-
-    /// Samples a microfacet normal, then reflects with probability F or refracts.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        if si.wi.z == 0.0 {
-            return None;
-        }
-        let s = self.sample_t(
-            &self.at(si.uv.into()),
-            si.wi.into(),
-            sample1,
-            sample2.into(),
-        );
-        let sampled = if s.reflected {
-            BsdfFlags::GLOSSY_REFLECTION
-        } else {
-            BsdfFlags::GLOSSY_TRANSMISSION
-        };
-        let bs = BsdfSample {
-            wo: s.wo.into(),
-            pdf: s.pdf,
-            eta: s.eta,
-            sampled,
-        };
-        s.ok.then_some((bs, s.weight.into()))
     }
 
     /// The textures at `uv`, for one lane or sixteen.
@@ -232,6 +202,68 @@ impl RoughDielectric {
             reflected,
             ok,
         }
+    }
+}
+
+impl Bxdf for RoughDielectric {
+    /// Glossy reflection and transmission.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::GLOSSY_TRANSMISSION;
+        if self.specular_reflectance.is_spatially_varying()
+            || self.specular_transmittance.is_spatially_varying()
+            || self.alpha_u.is_spatially_varying()
+            || self.alpha_v.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// f · |cos θ_o| for reflection or refraction.
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        self.eval_pdf(si, wo).0
+    }
+
+    /// Density of [`RoughDielectric::sample`].
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        self.eval_pdf(si, wo).1
+    }
+
+    /// `eval` and `pdf` sharing the generalised half vector (Mitsuba `eval_pdf`).
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        let (v, pdf) = self.eval_pdf_t(&self.at(si.uv.into()), si.wi.into(), wo.into());
+        (v.into(), pdf)
+    }
+
+    /// Samples a microfacet normal, then reflects with probability F or refracts.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if si.wi.z == 0.0 {
+            return None;
+        }
+        let s = self.sample_t(
+            &self.at(si.uv.into()),
+            si.wi.into(),
+            sample1,
+            sample2.into(),
+        );
+        let sampled = if s.reflected {
+            BsdfFlags::GLOSSY_REFLECTION
+        } else {
+            BsdfFlags::GLOSSY_TRANSMISSION
+        };
+        let bs = BsdfSample {
+            wo: s.wo.into(),
+            pdf: s.pdf,
+            eta: s.eta,
+            sampled,
+        };
+        s.ok.then_some((bs, s.weight.into()))
     }
 }
 

@@ -6,9 +6,13 @@
 //! does. Isotropic, one-sided.
 
 use super::fresnel::{fresnel_dielectric, fresnel_dielectric_t, reflect_about, refract_about};
+use super::microfacet::check_alpha;
 use super::microfacet::{Microfacet, MicrofacetType};
+use super::plastic::Coating;
 use super::plastic::base_under_coating;
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::quad::gauss_legendre;
 use crate::math::simd::real::{Cond, Real, V2, V3};
@@ -35,6 +39,31 @@ pub struct RoughPlastic {
     external_transmittance: Box<[f32; TRANSMITTANCE_RES]>,
     /// Diffuse reflectance of the coating seen from inside.
     internal_reflectance: f32,
+}
+
+impl RoughPlastic {
+    /// Mitsuba's `roughplastic`: the parameters of `plastic`, `distribution`, an isotropic
+    /// `alpha` and `sample_visible`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let c = Coating::from_props(p, true)?;
+        let distribution = MicrofacetType::from_props(p)?;
+        if p.has("alpha_u") || p.has("alpha_v") {
+            return Err(p.err(
+                "roughplastic does not support anisotropic roughness (as Mitsuba): use \"alpha\"",
+            ));
+        }
+        let alpha = p.float("alpha", 0.1)?;
+        check_alpha(p, "alpha", alpha)?;
+        Ok(RoughPlastic::new(
+            distribution,
+            alpha,
+            c.eta,
+            c.diffuse_reflectance,
+            c.specular_reflectance,
+            c.nonlinear,
+            p.bool("sample_visible", true)?,
+        ))
+    }
 }
 
 impl RoughPlastic {
@@ -95,60 +124,6 @@ impl RoughPlastic {
             self.external_transmittance[i + 1],
         );
         v0 + (v1 - v0) * (x - i as f32)
-    }
-
-    /// Glossy and diffuse reflection.
-    pub fn flags(&self) -> BsdfFlags {
-        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
-        if self.diffuse_reflectance.is_spatially_varying()
-            || self.specular_reflectance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
-    }
-
-    /// Both lobes; 0 unless wi and wo are above the surface.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        let (cos_i, cos_o) = (si.wi.z, wo.z);
-        if !(cos_i > 0.0 && cos_o > 0.0) {
-            return Spectrum::ZERO;
-        }
-        let (spec, base) = self.at(si.uv.into());
-        self.eval_t(spec, base, si.wi.into(), wo.into()).into()
-    }
-
-    /// Mixture of the glossy lobe's density and the cosine hemisphere.
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        self.pdf_t(si.wi.into(), wo.into())
-    }
-
-    /// Chooses a lobe by `sample1`, samples it, and weights by eval / pdf of the mixture.
-    pub fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        if !(si.wi.z > 0.0) {
-            return None;
-        }
-        let (spec, base) = self.at(si.uv.into());
-        let (wo, pdf, weight, glossy, ok) =
-            self.sample_t(spec, base, si.wi.into(), sample1, sample2.into());
-        let sampled = if glossy {
-            BsdfFlags::GLOSSY_REFLECTION
-        } else {
-            BsdfFlags::DIFFUSE_REFLECTION
-        };
-        let bs = BsdfSample {
-            wo: wo.into(),
-            pdf,
-            eta: 1.0,
-            sampled,
-        };
-        ok.then_some((bs, weight.into()))
     }
 
     /// (specular reflectance, the base's albedo over what the coating keeps in) at `uv`, for
@@ -244,6 +219,62 @@ impl RoughPlastic {
             glossy,
             ok,
         )
+    }
+}
+
+impl Bxdf for RoughPlastic {
+    /// Glossy and diffuse reflection.
+    fn flags(&self) -> BsdfFlags {
+        let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
+        if self.diffuse_reflectance.is_spatially_varying()
+            || self.specular_reflectance.is_spatially_varying()
+        {
+            f | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            f
+        }
+    }
+
+    /// Both lobes; 0 unless wi and wo are above the surface.
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        let (cos_i, cos_o) = (si.wi.z, wo.z);
+        if !(cos_i > 0.0 && cos_o > 0.0) {
+            return Spectrum::ZERO;
+        }
+        let (spec, base) = self.at(si.uv.into());
+        self.eval_t(spec, base, si.wi.into(), wo.into()).into()
+    }
+
+    /// Mixture of the glossy lobe's density and the cosine hemisphere.
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        self.pdf_t(si.wi.into(), wo.into())
+    }
+
+    /// Chooses a lobe by `sample1`, samples it, and weights by eval / pdf of the mixture.
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        if !(si.wi.z > 0.0) {
+            return None;
+        }
+        let (spec, base) = self.at(si.uv.into());
+        let (wo, pdf, weight, glossy, ok) =
+            self.sample_t(spec, base, si.wi.into(), sample1, sample2.into());
+        let sampled = if glossy {
+            BsdfFlags::GLOSSY_REFLECTION
+        } else {
+            BsdfFlags::DIFFUSE_REFLECTION
+        };
+        let bs = BsdfSample {
+            wo: wo.into(),
+            pdf,
+            eta: 1.0,
+            sampled,
+        };
+        ok.then_some((bs, weight.into()))
     }
 }
 

@@ -1,8 +1,11 @@
 //! Thin dielectric sheet (Mitsuba `thindielectric`): a slab whose inter-reflections are summed in
 //! closed form; transmission passes straight through (no refraction, no η² scaling).
 
+use super::dielectric::smooth_interface;
 use super::fresnel::{fresnel_dielectric, reflect};
-use super::{BsdfFlags, BsdfSample, Texture};
+use super::plugin::BsdfProperties;
+use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
+use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -18,9 +21,30 @@ pub struct ThinDielectric {
 }
 
 impl ThinDielectric {
+    /// Mitsuba's `thindielectric`: the parameters of `dielectric`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
+        let (eta, specular_reflectance, specular_transmittance) = smooth_interface(p)?;
+        Ok(ThinDielectric {
+            eta,
+            specular_reflectance,
+            specular_transmittance,
+        })
+    }
+}
+
+impl ThinDielectric {
+    /// Total reflectance of the slab, R' = R + T R T + … = 2R / (1 + R), at the incident angle.
+    #[inline]
+    pub fn slab_reflectance(&self, cos_theta_i: f32) -> f32 {
+        let r = fresnel_dielectric(cos_theta_i.abs(), self.eta).r;
+        r * 2.0 / (1.0 + r)
+    }
+}
+
+impl Bxdf for ThinDielectric {
     /// Delta reflection and delta (straight-through) transmission. Mitsuba tags the latter
     /// `Null`; for a path tracer that is a delta transmission with eta 1.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DELTA_TRANSMISSION;
         if self.specular_reflectance.is_spatially_varying()
             || self.specular_transmittance.is_spatially_varying()
@@ -32,25 +56,18 @@ impl ThinDielectric {
     }
 
     /// Always 0 (delta lobes).
-    pub fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
+    fn eval(&self, _si: &SurfaceInteraction, _wo: Vec3) -> Spectrum {
         Spectrum::ZERO
     }
 
     /// Always 0 (delta lobes).
-    pub fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
+    fn pdf(&self, _si: &SurfaceInteraction, _wo: Vec3) -> f32 {
         0.0
-    }
-
-    /// Total reflectance of the slab, R' = R + T R T + … = 2R / (1 + R), at the incident angle.
-    #[inline]
-    pub fn slab_reflectance(&self, cos_theta_i: f32) -> f32 {
-        let r = fresnel_dielectric(cos_theta_i.abs(), self.eta).r;
-        r * 2.0 / (1.0 + r)
     }
 
     /// Reflects with probability R' (weight specular_reflectance) or continues along −wi with
     /// probability 1 − R' (weight specular_transmittance), from either side.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

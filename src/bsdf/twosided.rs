@@ -1,7 +1,8 @@
 //! Two-sided adapter (Mitsuba `twosided`): a one-sided reflectance model seen from the back is
 //! evaluated with both directions mirrored through the surface (z → −z).
 
-use super::{Bsdf, BsdfFlags, BsdfSample};
+use super::plugin::BsdfProperties;
+use super::{Bsdf, BsdfFlags, BsdfSample, Bxdf};
 use crate::geometry::SurfaceInteraction;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -12,6 +13,27 @@ pub struct TwoSided {
     pub front: Box<Bsdf>,
     /// Model used when cos θ_i < 0, evaluated in the z-mirrored frame.
     pub back: Box<Bsdf>,
+}
+
+impl TwoSided {
+    /// Mitsuba's `twosided`: one nested BSDF for both sides, or two (front, back).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> crate::Result<Self> {
+        let (front, back) = match p.nested_bsdf_count() {
+            1 => {
+                let b = p.nested_bsdf(0)?;
+                (b.clone(), b)
+            }
+            2 => (p.nested_bsdf(0)?, p.nested_bsdf(1)?),
+            _ => return Err(p.err("twosided needs one or two nested bsdfs")),
+        };
+        if matches!(front, Bsdf::TwoSided(_)) || matches!(back, Bsdf::TwoSided(_)) {
+            return Err(p.err("a twosided bsdf cannot contain another twosided bsdf"));
+        }
+        Ok(TwoSided {
+            front: Box::new(front),
+            back: Box::new(back),
+        })
+    }
 }
 
 #[inline]
@@ -35,14 +57,23 @@ impl TwoSided {
             back: Box::new(back),
         })
     }
+}
+
+impl Bxdf for TwoSided {
+    /// Prefetches for the nested models.
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        self.front.prefetch(si);
+        self.back.prefetch(si);
+    }
 
     /// Union of the nested models' lobes.
-    pub fn flags(&self) -> BsdfFlags {
+    fn flags(&self) -> BsdfFlags {
         self.front.flags() | self.back.flags()
     }
 
     /// `front` if cos θ_i > 0, `back` on mirrored directions if cos θ_i < 0, else 0.
-    pub fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
         if si.wi.z > 0.0 {
             self.front.eval(si, wo)
         } else if si.wi.z < 0.0 {
@@ -55,7 +86,7 @@ impl TwoSided {
     }
 
     /// Density matching [`TwoSided::sample`].
-    pub fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
         if si.wi.z > 0.0 {
             self.front.pdf(si, wo)
         } else if si.wi.z < 0.0 {
@@ -68,7 +99,7 @@ impl TwoSided {
     }
 
     /// `eval` and `pdf` together.
-    pub fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
         if si.wi.z > 0.0 {
             self.front.eval_pdf(si, wo)
         } else if si.wi.z < 0.0 {
@@ -81,7 +112,7 @@ impl TwoSided {
     }
 
     /// Samples the side's model; from below the sampled direction is mirrored back.
-    pub fn sample(
+    fn sample(
         &self,
         si: &SurfaceInteraction,
         sample1: f32,

@@ -13,6 +13,23 @@ pub struct RgbImage {
 }
 
 impl RgbImage {
+    /// Refuses images holding NaN or infinite values (they would poison every sample that sees
+    /// them): the message names `path` and the first such pixel.
+    pub fn check_finite(&self, path: &std::path::Path) -> Result<(), String> {
+        match self.data.iter().position(|v| !v.is_finite()) {
+            None => Ok(()),
+            Some(i) => {
+                let px = i / 3;
+                Err(format!(
+                    "{}: pixel ({}, {}) is NaN or infinite; images must hold finite values",
+                    path.display(),
+                    px % self.width.max(1),
+                    px / self.width.max(1)
+                ))
+            }
+        }
+    }
+
     /// A black image.
     pub fn new(width: usize, height: usize) -> Self {
         RgbImage {

@@ -5,15 +5,14 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{
-    AreaLight, ConstantLight, DirectionalLight, EnvMapLight, Light, LightSample, LightSampleX,
-    PointLight, SphereAreaLight, SpotLight,
+    AreaLight, ConstantLight, DirectionalLight, Emitter, EnvMapLight, Light, LightSample,
+    LightSampleX, PointLight, SphereAreaLight, SpotLight,
 };
 use crate::Result;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::simd::WIDTH;
 use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
-use crate::scene::{Emitter, Scene};
 
 /// A light's sample with the selection probability `sel` folded in (pdf × sel, weight / sel).
 #[inline(always)]
@@ -36,11 +35,12 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// Collects the emitters of `scene`; `bounds` are the geometry's (min, max).
-    pub fn new(scene: &Scene, bounds: (Vec3, Vec3)) -> Result<LightSet> {
+    /// The lights of a scene: the area emitters of `meshes` and the `emitters`; `bounds` are
+    /// the geometry's (min, max).
+    pub fn new(meshes: &[Mesh], emitters: &[Emitter], bounds: (Vec3, Vec3)) -> Result<LightSet> {
         let mut lights = Vec::new();
-        let mut mesh_light = vec![None; scene.meshes.len()];
-        for (mi, mesh) in scene.meshes.iter().enumerate() {
+        let mut mesh_light = vec![None; meshes.len()];
+        for (mi, mesh) in meshes.iter().enumerate() {
             let Some(radiance) = mesh.emitter else {
                 continue;
             };
@@ -56,7 +56,7 @@ impl LightSet {
             lights.push(light);
         }
         let mut infinite = Vec::new();
-        for e in &scene.emitters {
+        for e in emitters {
             let l = match e {
                 Emitter::Point {
                     position,

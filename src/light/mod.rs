@@ -1,10 +1,11 @@
 //! Light sources with Mitsuba 3 semantics, one file per type — area (one-sided, on a mesh or an
 //! analytic sphere), point, spot, directional, constant and lat-long environment map — and
-//! uniform emitter selection ([`LightSet`]).
+//! uniform emitter selection ([`LightSet`]); [`Emitter`] is what a scene says about a light.
 
 pub mod area;
 pub mod constant;
 pub mod directional;
+pub mod emitter;
 pub mod envmap;
 pub mod light_set;
 pub mod point;
@@ -16,6 +17,7 @@ use crate::math::{Spectrum, Vec3};
 pub use area::AreaLight;
 pub use constant::ConstantLight;
 pub use directional::DirectionalLight;
+pub use emitter::Emitter;
 pub use envmap::EnvMapLight;
 pub use light_set::LightSet;
 pub use point::PointLight;

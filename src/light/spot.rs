@@ -134,21 +134,19 @@ fn rotation_inverse(m: Mat4, what: &str) -> Result<Mat3> {
 
 #[cfg(test)]
 mod tests {
-    use crate::light::LightSet;
+    use crate::light::{Emitter, LightSet};
     use crate::math::{Mat4, Spectrum, Vec2, Vec3};
-    use crate::scene::Emitter;
 
     #[test]
     fn spot_falloff_matches_mitsuba_profile() {
         let to_world = Mat4::IDENTITY;
-        let scene_emitters = [Emitter::Spot {
+        let emitters = [Emitter::Spot {
             to_world,
             intensity: Spectrum::ONE,
             cutoff_angle: 20.0,
             beam_width: 10.0,
         }];
-        let scene = crate::render::tests_support::empty_scene(scene_emitters.to_vec());
-        let ls = LightSet::new(&scene, (Vec3::ZERO, Vec3::ONE)).unwrap();
+        let ls = LightSet::new(&[], &emitters, (Vec3::ZERO, Vec3::ONE)).unwrap();
         let at = |deg: f32| {
             let t = deg.to_radians();
             let p = Vec3::new(t.sin(), 0.0, t.cos()) * 2.0;

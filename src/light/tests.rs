@@ -7,7 +7,6 @@ use super::*;
 use crate::io::RgbImage;
 use crate::math::simd::wide::{Mx, V2x, V3x};
 use crate::math::{Mat4, Pcg32, Spectrum, Vec2};
-use crate::scene::Emitter;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -54,8 +53,7 @@ fn light_set() -> LightSet {
             filename: PathBuf::from("sky.exr"),
         },
     ];
-    let scene = crate::render::tests_support::empty_scene(emitters);
-    LightSet::new(&scene, (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap()
+    LightSet::new(&[], &emitters, (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap()
 }
 
 #[test]

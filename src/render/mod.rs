@@ -93,7 +93,7 @@ impl RenderScene {
         let t0 = std::time::Instant::now();
         let accel = Accel::build(&scene.meshes);
         let bvh_secs = t0.elapsed().as_secs_f64();
-        let lights = LightSet::new(&scene, accel.bounds())?;
+        let lights = LightSet::new(&scene.meshes, &scene.emitters, accel.bounds())?;
         let camera = PerspectiveCamera::new(&scene.camera)?;
         let integrator = Integrator::new(&scene.integrator)?;
         Ok(RenderScene {
@@ -192,34 +192,4 @@ impl RenderScene {
 /// `bytes` in MiB.
 fn mib(bytes: usize) -> f64 {
     bytes as f64 / (1u64 << 20) as f64
-}
-
-#[cfg(test)]
-pub(crate) mod tests_support {
-    use crate::math::Mat4;
-    use crate::scene::{Camera, Emitter, IntegratorSettings, Scene};
-
-    /// A scene with no geometry, a default camera and the given emitters.
-    pub fn empty_scene(emitters: Vec<Emitter>) -> Scene {
-        Scene {
-            btf_uses: Vec::new(),
-            inputs: Vec::new(),
-            source: "test.xml".into(),
-            camera: Camera {
-                to_world: Mat4::IDENTITY,
-                fov_x_deg: 45.0,
-                near_clip: 0.01,
-                far_clip: 1000.0,
-                width: 4,
-                height: 4,
-                crop: None,
-                filter: crate::math::filter::Filter::BOX,
-            },
-            integrator: IntegratorSettings::default(),
-            spp: 1,
-            meshes: vec![],
-            bsdfs: vec![],
-            emitters,
-        }
-    }
 }

@@ -1,8 +1,8 @@
 //! The scene description: what the Mitsuba-XML and glTF loaders produce and the renderer consumes.
 
-pub mod btf_bsdf;
 pub mod gltf;
 pub mod load_options;
+pub mod measured_material;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
@@ -11,11 +11,10 @@ pub mod shapes;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
-use crate::io::RgbImage;
-use crate::math::{Mat4, Spectrum, Vec3};
+pub use crate::light::Emitter;
+use crate::math::Mat4;
 pub use load_options::LoadOptions;
 use std::path::PathBuf;
-use std::sync::Arc;
 
 /// A perspective pinhole camera with an `hdrfilm` and box reconstruction filter (Mitsuba semantics).
 ///
@@ -120,34 +119,6 @@ impl Default for IntegratorSettings {
     }
 }
 
-/// Emitters that are not attached to a shape (area emitters live on [`Mesh::emitter`]).
-#[derive(Clone, Debug)]
-pub enum Emitter {
-    /// Isotropic point light; `intensity` in W/sr.
-    Point { position: Vec3, intensity: Spectrum },
-    /// Spot light shining along +z of `to_world`; angles in degrees (Mitsuba defaults 20 and 0.75·cutoff).
-    Spot {
-        to_world: Mat4,
-        intensity: Spectrum,
-        cutoff_angle: f32,
-        beam_width: f32,
-    },
-    /// Distant light; `direction` is the unit direction of travel (world), `irradiance` in W/m².
-    Directional {
-        direction: Vec3,
-        irradiance: Spectrum,
-    },
-    /// Uniform environment radiance.
-    Constant { radiance: Spectrum },
-    /// Lat-long environment map (Mitsuba `envmap` mapping), radiance = scale · image.
-    EnvMap {
-        image: Arc<RgbImage>,
-        to_world: Mat4,
-        scale: f32,
-        filename: PathBuf,
-    },
-}
-
 /// A complete scene, in world space.
 #[derive(Clone, Debug)]
 pub struct Scene {
@@ -161,7 +132,7 @@ pub struct Scene {
     pub bsdfs: Vec<Bsdf>,
     pub emitters: Vec<Emitter>,
     /// The file and model each `<bsdf type="btf">` renders, in scene order (for the summary).
-    pub btf_uses: Vec<btf_bsdf::BtfUse>,
+    pub btf_uses: Vec<measured_material::BtfUse>,
     /// Every file the scene reads besides its own (included files, meshes, textures, BTF data
     /// and models), in load order: what a partial render's fingerprint covers.
     pub inputs: Vec<std::path::PathBuf>,

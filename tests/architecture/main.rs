@@ -13,14 +13,15 @@ mod import_cycles;
 const LAYERS: &[(&str, u32)] = &[
     ("math", 0),
     ("io", 1),
+    ("plugin", 1),
     ("geometry", 2),
     ("metrics", 2),
     ("btf", 3),
     ("model", 4),
     ("fit", 5),
     ("bsdf", 5),
-    ("scene", 6),
-    ("light", 7),
+    ("light", 6),
+    ("scene", 7),
     ("render", 8),
     ("cli", 9),
 ];

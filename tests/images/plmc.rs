@@ -41,7 +41,7 @@ use btfpt::fit::pipeline::{FitOptions, fit_model};
 use btfpt::metrics::{Comparison, Criteria};
 use btfpt::model::codec;
 use btfpt::model::{BtfModel, ModelKind, PlmcModel, ViewParams};
-use btfpt::scene::btf_bsdf::SynthSpec;
+use btfpt::scene::measured_material::SynthSpec;
 use btfpt::scene::{self, LoadOptions, Scene};
 use std::path::Path;
 use std::sync::OnceLock;

@@ -325,9 +325,10 @@ fn synth_source_equals_the_cli_exr_folder() {
         .unwrap();
     assert!(status.success());
     let cli = btfpt::btf::load_raw(&out).unwrap();
-    let spec = btfpt::scene::btf_bsdf::SynthSpec::parse("synth:corduroy?size=4&seed=5&strata=1")
-        .unwrap()
-        .unwrap();
+    let spec =
+        btfpt::scene::measured_material::SynthSpec::parse("synth:corduroy?size=4&seed=5&strata=1")
+            .unwrap()
+            .unwrap();
     let mem = spec.generate().unwrap();
     assert_eq!((cli.width(), cli.height()), (4, 4));
     assert!(cli.data() == mem.data(), "values differ");

@@ -1,7 +1,7 @@
 //! Mitsuba XML scenes written by the tests themselves, parsed into the expected `Scene`, plus the
 //! error cases (each message must name the file and the line).
 
-use btfpt::bsdf::{Bsdf, MicrofacetType, Texture};
+use btfpt::bsdf::{Bsdf, Bxdf, MicrofacetType, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
 use btfpt::render::camera::PerspectiveCamera;

@@ -545,7 +545,7 @@ fn model_files_resolve_by_convention_and_errors_name_the_file() {
     );
 
     // Through the scene entry point: model property, override, sharing, errors with the place.
-    use crate::scene::btf_bsdf::build_btf;
+    use crate::scene::measured_material::build_btf;
     let scene = Path::new("scene.xml");
     let mat = d.join("mat.plmc");
     let mat = mat.to_string_lossy().into_owned();

@@ -19,7 +19,7 @@ mod transform;
 
 use crate::bsdf::{Bsdf, Texture};
 use crate::model::BtfModel;
-use crate::scene::btf_bsdf::BtfUse;
+use crate::scene::measured_material::BtfUse;
 use crate::scene::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::{Error, Result};
 use document::{Key, Loaded, XmlDoc};
@@ -187,7 +187,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         area_emitters.push(ch);
                         continue;
                     }
-                    let e = self.emitter(&p)?;
+                    let e = emitter::emitter(&p)?;
                     p.finish()?;
                     self.emitters.push(e);
                 }
@@ -232,24 +232,5 @@ impl<'a, 'x> Builder<'a, 'x> {
             },
             btf_uses: std::mem::take(&mut self.btf_uses),
         })
-    }
-}
-
-/// Rejects images holding NaN or infinite values (they would poison every sample that sees them).
-pub(super) fn check_finite(
-    img: &crate::io::RgbImage,
-    path: &Path,
-) -> std::result::Result<(), String> {
-    match img.data.iter().position(|v| !v.is_finite()) {
-        None => Ok(()),
-        Some(i) => {
-            let px = i / 3;
-            Err(format!(
-                "{}: pixel ({}, {}) is NaN or infinite; images must hold finite values",
-                path.display(),
-                px % img.width.max(1),
-                px / img.width.max(1)
-            ))
-        }
     }
 }

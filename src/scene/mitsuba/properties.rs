@@ -4,45 +4,11 @@
 use super::document::{OBJECT_TAGS, XmlDoc};
 use crate::Error;
 use crate::Result;
-use crate::math::Mat4;
 use crate::math::Vec3;
-use crate::math::cie1931::{SpectrumUse, spectrum_list_to_srgb, uniform_emission_rgb};
+use crate::plugin::{Properties, Value};
 use roxmltree::Node;
 use std::cell::Cell;
-
-/// A typed property value as written in the XML.
-#[derive(Clone, Debug)]
-pub(crate) enum Value {
-    Float(f32),
-    Integer(i64),
-    Boolean(bool),
-    String(String),
-    Rgb(Vec3),
-    /// A constant `<spectrum value="x">`.
-    Spectrum(f32),
-    /// A `<spectrum>` given as wavelength:value pairs (or a `.spd` file): wavelengths in nm,
-    /// strictly increasing, at least two; converted to RGB where it is used.
-    SpectrumList(Vec<f64>, Vec<f64>),
-    Point(Vec3),
-    Vector(Vec3),
-    Transform(Mat4),
-}
-
-impl Value {
-    fn kind(&self) -> &'static str {
-        match self {
-            Value::Float(_) => "float",
-            Value::Integer(_) => "integer",
-            Value::Boolean(_) => "boolean",
-            Value::String(_) => "string",
-            Value::Rgb(_) => "rgb",
-            Value::Spectrum(_) | Value::SpectrumList(..) => "spectrum",
-            Value::Point(_) => "point",
-            Value::Vector(_) => "vector",
-            Value::Transform(_) => "transform",
-        }
-    }
-}
+use std::path::PathBuf;
 
 struct Prop<'a> {
     name: String,
@@ -213,182 +179,11 @@ impl<'a, 'x> Props<'a, 'x> {
         )
     }
 
-    fn err_at(&self, node: Node, msg: impl Into<String>) -> Error {
+    fn err_at_node(&self, node: Node, msg: impl Into<String>) -> Error {
         self.x.err(
             node,
             format!("{} \"{}\": {}", self.tag, self.ty, msg.into()),
         )
-    }
-
-    /// True if a property of that name exists (does not mark it queried).
-    pub fn has(&self, name: &str) -> bool {
-        self.props.iter().any(|p| p.name == name)
-            || self
-                .children
-                .iter()
-                .any(|c| c.name.as_deref() == Some(name))
-    }
-
-    fn get(&self, name: &str) -> Option<&Prop<'a>> {
-        let p = self.props.iter().find(|p| p.name == name)?;
-        p.used.set(true);
-        Some(p)
-    }
-
-    fn wrong_type(&self, p: &Prop, expected: &str) -> Error {
-        self.err_at(
-            p.node,
-            format!(
-                "property \"{}\" has the wrong type (expected {expected}, got {})",
-                p.name,
-                p.value.kind()
-            ),
-        )
-    }
-
-    /// A float (an integer is accepted too).
-    pub fn float_opt(&self, name: &str) -> Result<Option<f32>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.value {
-                Value::Float(v) => Ok(Some(v)),
-                Value::Integer(v) => Ok(Some(v as f32)),
-                _ => Err(self.wrong_type(p, "float")),
-            },
-        }
-    }
-
-    /// A float with a default.
-    pub fn float(&self, name: &str, default: f32) -> Result<f32> {
-        Ok(self.float_opt(name)?.unwrap_or(default))
-    }
-
-    /// An integer with a default.
-    pub fn int(&self, name: &str, default: i64) -> Result<i64> {
-        match self.get(name) {
-            None => Ok(default),
-            Some(p) => match p.value {
-                Value::Integer(v) => Ok(v),
-                _ => Err(self.wrong_type(p, "integer")),
-            },
-        }
-    }
-
-    /// A boolean with a default.
-    pub fn bool(&self, name: &str, default: bool) -> Result<bool> {
-        match self.get(name) {
-            None => Ok(default),
-            Some(p) => match p.value {
-                Value::Boolean(v) => Ok(v),
-                _ => Err(self.wrong_type(p, "boolean")),
-            },
-        }
-    }
-
-    /// A string, if present.
-    pub fn string_opt(&self, name: &str) -> Result<Option<String>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::String(v) => Ok(Some(v.clone())),
-                _ => Err(self.wrong_type(p, "string")),
-            },
-        }
-    }
-
-    /// A string with a default.
-    pub fn string(&self, name: &str, default: &str) -> Result<String> {
-        Ok(self
-            .string_opt(name)?
-            .unwrap_or_else(|| default.to_string()))
-    }
-
-    /// A required string.
-    pub fn string_req(&self, name: &str) -> Result<String> {
-        self.string_opt(name)?
-            .ok_or_else(|| self.err(format!("missing required property \"{name}\"")))
-    }
-
-    /// A float or a string (for named IORs).
-    pub fn float_or_string(&self, name: &str) -> Result<Option<std::result::Result<f32, String>>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match &p.value {
-                Value::Float(v) => Ok(Some(Ok(*v))),
-                Value::Integer(v) => Ok(Some(Ok(*v as f32))),
-                Value::String(s) => Ok(Some(Err(s.clone()))),
-                _ => Err(self.wrong_type(p, "float or string")),
-            },
-        }
-    }
-
-    /// An emitted quantity (radiance, intensity, irradiance) given as `rgb`, `float` or
-    /// `spectrum`: a constant spectrum is that multiple of Mitsuba's white (D65-relative) RGB,
-    /// a wavelength list is converted without the D65 weighting, as Mitsuba's RGB variants do.
-    pub fn emission(&self, name: &str, default: Vec3) -> Result<Vec3> {
-        Ok(self
-            .color_opt_as(name, SpectrumUse::Emission)?
-            .unwrap_or(default))
-    }
-
-    /// A colour given as `rgb`, `float` or `spectrum` (nested textures are not looked at), used
-    /// as `usage`: what a wavelength list or constant spectrum converts to, as in Mitsuba's RGB
-    /// variants.
-    pub fn color_opt_as(&self, name: &str, usage: SpectrumUse) -> Result<Option<Vec3>> {
-        match self.get(name) {
-            None => {
-                if let Some(c) = self
-                    .children
-                    .iter()
-                    .find(|c| c.name.as_deref() == Some(name))
-                {
-                    c.used.set(true);
-                    return Err(self.err_at(
-                        c.at,
-                        format!(
-                            "property \"{name}\" must be a constant (rgb/float), not a nested <{}>",
-                            c.tag()
-                        ),
-                    ));
-                }
-                Ok(None)
-            }
-            Some(p) => match &p.value {
-                Value::Rgb(v) => Ok(Some(*v)),
-                Value::Float(v) => Ok(Some(Vec3::splat(*v))),
-                Value::Spectrum(v) if usage == SpectrumUse::Emission => {
-                    Ok(Some(Vec3::from(uniform_emission_rgb()) * *v))
-                }
-                Value::Spectrum(v) => Ok(Some(Vec3::splat(*v))),
-                Value::SpectrumList(w, v) => {
-                    Ok(Some(Vec3::from(spectrum_list_to_srgb(w, v, usage).0)))
-                }
-                Value::Integer(v) => Ok(Some(Vec3::splat(*v as f32))),
-                _ => Err(self.wrong_type(p, "rgb or float")),
-            },
-        }
-    }
-
-    /// A point or vector.
-    pub fn vec3_opt(&self, name: &str) -> Result<Option<Vec3>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.value {
-                Value::Point(v) | Value::Vector(v) => Ok(Some(v)),
-                _ => Err(self.wrong_type(p, "point or vector")),
-            },
-        }
-    }
-
-    /// A transform, if present.
-    pub fn transform_opt(&self, name: &str) -> Result<Option<Mat4>> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(p) => match p.value {
-                Value::Transform(m) => Ok(Some(m)),
-                _ => Err(self.wrong_type(p, "transform")),
-            },
-        }
     }
 
     /// The nested object named `name` (as a `name` attribute), marking it used.
@@ -414,7 +209,7 @@ impl<'a, 'x> Props<'a, 'x> {
     pub fn single_child(&self, tag: &str) -> Result<Option<&Child<'a>>> {
         let v = self.children_tagged(tag);
         if v.len() > 1 {
-            return Err(self.err_at(v[1].at, format!("more than one nested <{tag}>")));
+            return Err(self.err_at_node(v[1].at, format!("more than one nested <{tag}>")));
         }
         Ok(v.first().copied())
     }
@@ -422,7 +217,7 @@ impl<'a, 'x> Props<'a, 'x> {
     /// Errors on any property or nested object the plugin never looked at (Mitsuba semantics).
     pub fn finish(&self) -> Result<()> {
         if let Some(p) = self.props.iter().find(|p| !p.used.get()) {
-            return Err(self.err_at(
+            return Err(self.err_at_node(
                 p.node,
                 format!(
                     "unreferenced property \"{}\" ({}) in {} plugin of type \"{}\"",
@@ -434,7 +229,7 @@ impl<'a, 'x> Props<'a, 'x> {
             ));
         }
         if let Some(c) = self.children.iter().find(|c| !c.used.get()) {
-            return Err(self.err_at(
+            return Err(self.err_at_node(
                 c.at,
                 format!(
                     "unreferenced nested <{}> in {} plugin of type \"{}\"",
@@ -445,6 +240,61 @@ impl<'a, 'x> Props<'a, 'x> {
             ));
         }
         Ok(())
+    }
+}
+
+/// The XML element as a plugin's [`Properties`]: errors name the file, the line of the
+/// element (or of the property) and the plugin.
+impl Properties for Props<'_, '_> {
+    fn plugin_type(&self) -> &str {
+        &self.ty
+    }
+
+    fn err(&self, msg: &str) -> Error {
+        Props::err(self, msg)
+    }
+
+    fn err_at(&self, name: &str, msg: &str) -> Error {
+        let node = self
+            .props
+            .iter()
+            .find(|p| p.name == name)
+            .map(|p| p.node)
+            .or_else(|| {
+                self.children
+                    .iter()
+                    .find(|c| c.name.as_deref() == Some(name))
+                    .map(|c| c.at)
+            })
+            .unwrap_or(self.node);
+        self.err_at_node(node, msg)
+    }
+
+    fn has(&self, name: &str) -> bool {
+        self.props.iter().any(|p| p.name == name)
+            || self
+                .children
+                .iter()
+                .any(|c| c.name.as_deref() == Some(name))
+    }
+
+    fn value(&self, name: &str) -> Option<&Value> {
+        let p = self.props.iter().find(|p| p.name == name)?;
+        p.used.set(true);
+        Some(&p.value)
+    }
+
+    fn nested_tag(&self, name: &str) -> Option<&str> {
+        let c = self
+            .children
+            .iter()
+            .find(|c| c.name.as_deref() == Some(name))?;
+        c.used.set(true);
+        Some(c.tag())
+    }
+
+    fn resolve(&self, filename: &str) -> PathBuf {
+        self.x.resolve(filename)
     }
 }
 

@@ -6,6 +6,7 @@ use crate::Result;
 use crate::math::Mat3;
 use crate::math::Mat4;
 use crate::math::filter::Filter;
+use crate::plugin::Properties;
 use crate::scene::Camera;
 use crate::scene::{DirectSettings, IntegratorSettings, SamplerType};
 

@@ -12,6 +12,7 @@ use crate::math::Mat3;
 use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::transform::is_finite;
+use crate::plugin::Properties;
 use crate::scene::shapes;
 use crate::scene::shapes::MeshOptions;
 

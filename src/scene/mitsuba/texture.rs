@@ -3,7 +3,6 @@
 //! referenced by id. Mitsuba 0.6 files' `uoffset`/`voffset`/`uscale`/`vscale` become `to_uv`
 //! as Mitsuba 3's upgrade pass does.
 
-use super::check_finite;
 use super::properties::Props;
 use super::{Builder, N};
 use crate::Result;
@@ -12,6 +11,7 @@ use crate::bsdf::texture::{BitmapTexture, Checkerboard, TexFilter, UvTransform, 
 use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::transform::is_finite;
+use crate::plugin::Properties;
 use std::sync::Arc;
 
 impl<'a, 'x> Builder<'a, 'x> {
@@ -79,7 +79,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 if img.width == 0 || img.height == 0 {
                     return Err(p.err(format!("{}: the image is empty", path.display())));
                 }
-                check_finite(&img, &path).map_err(|m| p.err(m))?;
+                img.check_finite(&path).map_err(|m| p.err(m))?;
                 if filter == TexFilter::Bilinear
                     && wrap == Wrap::Repeat
                     && to_uv == UvTransform::IDENTITY
