@@ -101,11 +101,7 @@ impl Bxdf for BlendBsdf {
     /// Union of the nested models' lobes.
     fn flags(&self) -> BsdfFlags {
         let f = self.bsdfs[0].flags() | self.bsdfs[1].flags();
-        if self.weight.is_spatially_varying() {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(self.weight.is_spatially_varying())
     }
 
     /// (1 − w) f₀ + w f₁.

@@ -68,14 +68,11 @@ impl Bxdf for Conductor {
     /// Delta reflection only.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.eta.is_spatially_varying()
-            || self.k.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.specular_reflectance.is_spatially_varying()
+                || self.eta.is_spatially_varying()
+                || self.k.is_spatially_varying(),
+        )
     }
 
     /// Always 0: a delta lobe has no density that `eval` could see.

@@ -85,13 +85,10 @@ impl Bxdf for Dielectric {
     /// Delta reflection and delta transmission.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DELTA_TRANSMISSION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.specular_transmittance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.specular_reflectance.is_spatially_varying()
+                || self.specular_transmittance.is_spatially_varying(),
+        )
     }
 
     /// Always 0 (delta lobes).

@@ -25,11 +25,7 @@ impl Diffuse {
 impl Bxdf for Diffuse {
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DIFFUSE_REFLECTION;
-        if self.reflectance.is_spatially_varying() {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(self.reflectance.is_spatially_varying())
     }
 
     fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {

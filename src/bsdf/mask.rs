@@ -52,11 +52,7 @@ impl Bxdf for Mask {
     /// The nested lobes plus the straight-through (null) one.
     fn flags(&self) -> BsdfFlags {
         let f = self.nested.flags() | BsdfFlags::DELTA_TRANSMISSION;
-        if self.opacity.is_spatially_varying() {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(self.opacity.is_spatially_varying())
     }
 
     /// opacity · nested (the null lobe is a delta).

@@ -83,6 +83,17 @@ impl BsdfFlags {
     pub fn has(self, other: BsdfFlags) -> bool {
         self.0 & other.0 != 0
     }
+
+    /// These flags, plus [`BsdfFlags::SPATIALLY_VARYING`] when `varying` (a model whose
+    /// parameters include a texture).
+    #[inline]
+    pub fn varying_if(self, varying: bool) -> BsdfFlags {
+        if varying {
+            self | BsdfFlags::SPATIALLY_VARYING
+        } else {
+            self
+        }
+    }
 }
 
 impl std::ops::BitOr for BsdfFlags {

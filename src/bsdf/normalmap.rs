@@ -66,11 +66,7 @@ impl Bxdf for NormalMap {
     /// The nested model's lobes.
     fn flags(&self) -> BsdfFlags {
         let f = self.nested.flags();
-        if self.normalmap.is_spatially_varying() {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(self.normalmap.is_spatially_varying())
     }
 
     /// Nested eval in the perturbed frame, times the shadowing term.

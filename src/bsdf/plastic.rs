@@ -199,13 +199,10 @@ impl Bxdf for Plastic {
     /// Delta and diffuse reflection.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::DELTA_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
-        if self.diffuse_reflectance.is_spatially_varying()
-            || self.specular_reflectance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.diffuse_reflectance.is_spatially_varying()
+                || self.specular_reflectance.is_spatially_varying(),
+        )
     }
 
     /// The diffuse lobe only (the specular one is a delta).

@@ -136,16 +136,13 @@ impl Bxdf for RoughConductor {
     /// Glossy reflection.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::GLOSSY_REFLECTION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.alpha_u.is_spatially_varying()
-            || self.alpha_v.is_spatially_varying()
-            || self.eta.is_spatially_varying()
-            || self.k.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.specular_reflectance.is_spatially_varying()
+                || self.alpha_u.is_spatially_varying()
+                || self.alpha_v.is_spatially_varying()
+                || self.eta.is_spatially_varying()
+                || self.k.is_spatially_varying(),
+        )
     }
 
     /// D G F / (4 cos θ_i) (= f · cos θ_o); 0 unless both directions are above the surface.

@@ -209,15 +209,12 @@ impl Bxdf for RoughDielectric {
     /// Glossy reflection and transmission.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::GLOSSY_TRANSMISSION;
-        if self.specular_reflectance.is_spatially_varying()
-            || self.specular_transmittance.is_spatially_varying()
-            || self.alpha_u.is_spatially_varying()
-            || self.alpha_v.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.specular_reflectance.is_spatially_varying()
+                || self.specular_transmittance.is_spatially_varying()
+                || self.alpha_u.is_spatially_varying()
+                || self.alpha_v.is_spatially_varying(),
+        )
     }
 
     /// f · |cos θ_o| for reflection or refraction.

@@ -226,13 +226,10 @@ impl Bxdf for RoughPlastic {
     /// Glossy and diffuse reflection.
     fn flags(&self) -> BsdfFlags {
         let f = BsdfFlags::GLOSSY_REFLECTION | BsdfFlags::DIFFUSE_REFLECTION;
-        if self.diffuse_reflectance.is_spatially_varying()
-            || self.specular_reflectance.is_spatially_varying()
-        {
-            f | BsdfFlags::SPATIALLY_VARYING
-        } else {
-            f
-        }
+        f.varying_if(
+            self.diffuse_reflectance.is_spatially_varying()
+                || self.specular_reflectance.is_spatially_varying(),
+        )
     }
 
     /// Both lobes; 0 unless wi and wo are above the surface.
