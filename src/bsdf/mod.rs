@@ -248,36 +248,3 @@ bsdf_enum! {
     /// Measured BTF as a fitted LM / PLM / PLM-C model (docs/model.md).
     Plmc(PlmcBsdf),
 }
-
-/// The fitted model's calls, whose code lives with the rest of the model in `plmc/bsdf.rs`.
-impl Bxdf for PlmcBsdf {
-    fn flags(&self) -> BsdfFlags {
-        PlmcBsdf::flags(self)
-    }
-
-    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        PlmcBsdf::eval(self, si, wo)
-    }
-
-    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        PlmcBsdf::pdf(self, si, wo)
-    }
-
-    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        PlmcBsdf::eval_pdf(self, si, wo)
-    }
-
-    fn sample(
-        &self,
-        si: &SurfaceInteraction,
-        sample1: f32,
-        sample2: Vec2,
-    ) -> Option<(BsdfSample, Spectrum)> {
-        PlmcBsdf::sample(self, si, sample1, sample2)
-    }
-
-    #[inline]
-    fn prefetch(&self, si: &SurfaceInteraction) {
-        PlmcBsdf::prefetch(self, si)
-    }
-}

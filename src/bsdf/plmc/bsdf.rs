@@ -5,7 +5,7 @@ use super::lobes::HitLobes;
 use super::material::PlmcMaterial;
 use super::query::{BATCH, BatchQuery};
 use crate::bsdf::btf_sampler::SAMPLE_LANES;
-use crate::bsdf::{BsdfFlags, BsdfSample};
+use crate::bsdf::{BsdfFlags, BsdfSample, Bxdf};
 use crate::btf::locate16::LOCATE_LANES;
 use crate::geometry::SurfaceInteraction;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
@@ -534,5 +534,39 @@ pub(super) fn floor_fast(x: f32) -> f32 {
         if t > x { t - 1.0 } else { t }
     } else {
         x.floor()
+    }
+}
+
+/// The `Bsdf` enum's calls, answered by the methods above (which the batched kernel and the
+/// Python module also call directly).
+impl Bxdf for PlmcBsdf {
+    fn flags(&self) -> BsdfFlags {
+        PlmcBsdf::flags(self)
+    }
+
+    fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
+        PlmcBsdf::eval(self, si, wo)
+    }
+
+    fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
+        PlmcBsdf::pdf(self, si, wo)
+    }
+
+    fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
+        PlmcBsdf::eval_pdf(self, si, wo)
+    }
+
+    fn sample(
+        &self,
+        si: &SurfaceInteraction,
+        sample1: f32,
+        sample2: Vec2,
+    ) -> Option<(BsdfSample, Spectrum)> {
+        PlmcBsdf::sample(self, si, sample1, sample2)
+    }
+
+    #[inline]
+    fn prefetch(&self, si: &SurfaceInteraction) {
+        PlmcBsdf::prefetch(self, si)
     }
 }
