@@ -7,7 +7,8 @@
 //! its 3 interpolated views × 3 channels form a mixture, lobe j chosen with probability ∝ view
 //! weight × the channel's luminance weight × the lobe's albedo after the mapping
 //! ([`lobe_albedo`]); lobes broader than [`MIN_EXPONENT`] are left out (the tables resolve
-//! them). Directions drawn below the horizon are rejected (the sample fails), so the density
+//! them), and so are whole views whose sharp lobes carry less than [`MIN_SHARP_SHARE`] of their
+//! albedo. Directions drawn below the horizon are rejected (the sample fails), so the density
 //! of what is drawn on the upper hemisphere is the mixture's density itself.
 //!
 //! [`PlmcBsdf`](super::PlmcBsdf) combines this part with the tabulated light sampler (which
@@ -40,6 +41,10 @@ pub const MIN_EXPONENT: f32 = 8.0;
 /// Exponents above this are sampled and evaluated as this one (a lobe narrower than f32
 /// directions resolve; keeps (n + 1)/(2π) and the powers finite).
 const MAX_EXPONENT: f32 = 1.0e5;
+/// Views whose sharp lobes (exponent ≥ [`MIN_EXPONENT`]) carry less than this share of the
+/// view's albedo are left to the tabulated sampler: a diffuse-like material would give its few
+/// sharp lobes a sliver of the samples for the cost of gathering every hit's lobes.
+pub const MIN_SHARP_SHARE: f32 = 0.05;
 
 /// The lobe mixture of one hit: the lobes with positive selection probability, packed in
 /// front (`count` of them).
@@ -258,33 +263,61 @@ impl PlmcMaterial {
         }
     }
 
-    /// Per view: whether any of its lobes (cluster records, or every texel's) has an exponent
-    /// of at least [`MIN_EXPONENT`], the only ones [`HitLobes`] keeps.
+    /// Per view: whether its lobes of exponent at least [`MIN_EXPONENT`] (the only ones
+    /// [`HitLobes`] keeps) carry at least [`MIN_SHARP_SHARE`] of the view's albedo summed over
+    /// texels and channels (luminance-weighted, as the selection is).
     pub(super) fn find_sharp_views(&self) -> Vec<bool> {
-        let sharp = |l: &[f32]| l[0] > 0.0 && l[4] >= MIN_EXPONENT;
         let nv = self.n_views;
+        let mut sharp = vec![0f64; nv];
+        let mut all = vec![0f64; nv];
+        let mut add = |v: usize, c: usize, l: &[f32], albedo: f32| {
+            let a = f64::from(selection_weight(1.0, c, albedo));
+            if a > 0.0 && a < f64::INFINITY {
+                all[v] += a;
+                if l[0] > 0.0 && l[4] >= MIN_EXPONENT {
+                    sharp[v] += a;
+                }
+            }
+        };
+        let texels = self.width * self.height;
         match &self.params {
-            Params::Clustered8 { records, .. } | Params::Clustered16 { records, .. } => {
-                let per_view = records.len() / nv.max(1);
-                (0..nv)
-                    .map(|v| {
-                        records[v * per_view..(v + 1) * per_view]
-                            .iter()
-                            .any(|r| sharp(&r.0))
-                    })
-                    .collect()
+            Params::Clustered8 { k, records, index } => {
+                for (i, ix) in index.iter().enumerate() {
+                    let v = i % nv;
+                    for (c, &cl) in ix[..3].iter().enumerate() {
+                        let r = &records[(v * 3 + c) * k + cl as usize].0;
+                        add(v, c, r, r[ALBEDO_SLOT]);
+                    }
+                }
+            }
+            Params::Clustered16 { k, records, index } => {
+                for (i, ix) in index.iter().enumerate() {
+                    let v = i % nv;
+                    for (c, &cl) in ix[..3].iter().enumerate() {
+                        let r = &records[(v * 3 + c) * k + cl as usize].0;
+                        add(v, c, r, r[ALBEDO_SLOT]);
+                    }
+                }
             }
             Params::Texel { lobes } => {
-                let per_view = lobes.len() / nv.max(1);
-                (0..nv)
-                    .map(|v| {
-                        lobes[v * per_view..(v + 1) * per_view]
-                            .iter()
-                            .any(|l| sharp(l))
-                    })
-                    .collect()
+                for (i, l) in lobes.iter().enumerate() {
+                    let (v, c) = (i / (3 * texels.max(1)), i % 3);
+                    add(v, c, l, self.texel_lobe_albedo(l));
+                }
             }
         }
+        (0..nv)
+            .map(|v| all[v] > 0.0 && sharp[v] >= f64::from(MIN_SHARP_SHARE) * all[v])
+            .collect()
+    }
+
+    /// [`lobe_albedo`] of a per-texel model's lobe: without the mapping (LM has none; PLM's
+    /// polynomials are per view and light, not known at the peak here), decoded.
+    fn texel_lobe_albedo(&self, l: &[f32; 5]) -> f32 {
+        lobe_albedo(l, |y| match self.space {
+            ValueSpace::Linear => y.max(0.0),
+            ValueSpace::Srgb => srgb_decode(y),
+        })
     }
 
     /// [`lobe_albedo`] of every cluster record (see [`PlmcMaterial::store_lobe_albedos`]).
@@ -365,11 +398,7 @@ impl PlmcMaterial {
                     }
                     Params::Texel { lobes: per_texel } => {
                         let l = per_texel[(v * self.width * self.height + t) * 3 + c];
-                        let albedo = lobe_albedo(&l, |y| match self.space {
-                            ValueSpace::Linear => y.max(0.0),
-                            ValueSpace::Srgb => srgb_decode(y),
-                        });
-                        (l, albedo)
+                        (l, self.texel_lobe_albedo(&l))
                     }
                 };
                 lobes[3 * a + c] = l;
@@ -677,6 +706,21 @@ mod tests {
                 se_table > 2.0 * se_lobes,
                 "view ({th}°, {ph}°): tables {se_table} vs lobes {se_lobes}"
             );
+        }
+    }
+
+    #[test]
+    fn diffuse_like_materials_leave_sampling_to_the_tables() {
+        // Corduroy and leather keep ~98 % of their albedo in lobes broader than MIN_EXPONENT (a
+        // few views excepted); foil and wood hold most of theirs in sharp lobes.
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/showcase/materials");
+        for name in ["wood", "foil", "leather", "corduroy"] {
+            let m = PlmcMaterial::load(&dir.join(format!("{name}.plmc"))).unwrap();
+            let sharp = m.sharp_views.iter().filter(|&&s| s).count();
+            match name {
+                "corduroy" | "leather" => assert!(sharp * 10 < m.n_views, "{name}: {sharp}"),
+                _ => assert!(sharp * 2 > m.n_views, "{name}: {sharp} of {}", m.n_views),
+            }
         }
     }
 }
