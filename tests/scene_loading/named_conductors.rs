@@ -3,7 +3,7 @@
 //! (`reference-images/conductor_golden.txt`), the default is the ideal mirror, and the bad
 //! inputs fail naming the file, the line and the element.
 
-use btfpt::bsdf::{Bsdf, Bxdf, Texture};
+use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Spectrum, Vec2, Vec3};
 use btfpt::scene::{self, LoadOptions, Scene};
@@ -43,7 +43,11 @@ fn agrees(ours: Spectrum, mitsuba: Spectrum) -> bool {
 }
 
 fn v3(f: &[&str]) -> Vec3 {
-    Vec3::new(f[0].parse().unwrap(), f[1].parse().unwrap(), f[2].parse().unwrap())
+    Vec3::new(
+        f[0].parse().unwrap(),
+        f[1].parse().unwrap(),
+        f[2].parse().unwrap(),
+    )
 }
 
 #[test]
@@ -122,7 +126,10 @@ fn expect_err(p: &Path, line: u32, needles: &[&str]) {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("metals.xml"), "no file name in: {e}");
-    assert!(e.contains(&format!(":{line}:")), "expected line {line} in: {e}");
+    assert!(
+        e.contains(&format!(":{line}:")),
+        "expected line {line} in: {e}"
+    );
     for n in needles {
         assert!(e.contains(n), "expected {n:?} in: {e}");
     }
@@ -147,7 +154,18 @@ fn bad_conductor_materials_are_errors_naming_the_line() {
         );
         let msg = format!("unknown conductor material \"{name}\"");
         let element = format!("bsdf \"{plugin}\"");
-        expect_err(&p, 9, &[&msg, &element, "valid: none, Ag, Al,", "Au", "a-C", "d-C_palik"]);
+        expect_err(
+            &p,
+            9,
+            &[
+                &msg,
+                &element,
+                "valid: none, Ag, Al,",
+                "Au",
+                "a-C",
+                "d-C_palik",
+            ],
+        );
     }
     // eta or k beside a named material: Mitsuba throws (eta) or leaves k unreferenced.
     for prop in ["eta", "k"] {
@@ -157,7 +175,11 @@ fn bad_conductor_materials_are_errors_naming_the_line() {
                 "<shape type=\"sphere\">\n<bsdf type=\"roughconductor\">\n<string name=\"material\" value=\"Cu\"/>\n<float name=\"{prop}\" value=\"2\"/>\n</bsdf></shape>"
             ),
         );
-        expect_err(&p, 8, &["either (eta, k) or material", "bsdf \"roughconductor\""]);
+        expect_err(
+            &p,
+            8,
+            &["either (eta, k) or material", "bsdf \"roughconductor\""],
+        );
     }
     // An empty name is not `none`.
     let p = write(

@@ -69,7 +69,10 @@ fn table_is_the_spectral_data_without_d65() {
             let (w, v) = spd(file);
             let (ours, _) = spectrum_list_to_srgb(&w, &v, SpectrumUse::Emission);
             for c in 0..3 {
-                assert!(err(ours[c], want[c]) <= 1e-5, "{name}: {ours:?} vs {want:?}");
+                assert!(
+                    err(ours[c], want[c]) <= 1e-5,
+                    "{name}: {ours:?} vs {want:?}"
+                );
             }
             // Mitsuba's D65-weighted conversion (`Unbounded`) would be another colour.
             let (d65, _) = spectrum_list_to_srgb(&w, &v, SpectrumUse::Unbounded);
