@@ -1,5 +1,6 @@
 //! Smooth conductor (Mitsuba `conductor`): a one-sided mirror with complex-IOR Fresnel.
 
+use super::conductor_materials::{CONDUCTOR_MATERIALS, conductor_material};
 use super::fresnel::{fresnel_conductor_rgb_t, reflect};
 use super::plugin::BsdfProperties;
 use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
@@ -10,7 +11,8 @@ use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// Smooth conductor (Mitsuba `conductor`): Fresnel of complex IOR eta + i·k per RGB channel.
-/// Mitsuba's `material="none"` (ideal mirror) is eta = 0, k = 1.
+/// Mitsuba's `material="none"` (ideal mirror) is eta = 0, k = 1; other names are Mitsuba's
+/// named conductors.
 #[derive(Clone, Debug)]
 pub struct Conductor {
     /// Real part of the relative IOR per channel (a texture, unbounded, as Mitsuba's `eta`).
@@ -22,7 +24,8 @@ pub struct Conductor {
 }
 
 impl Conductor {
-    /// Mitsuba's `conductor`: `material` "none" or `eta`/`k`, `specular_reflectance`.
+    /// Mitsuba's `conductor`: `material` (a named conductor or "none") or `eta`/`k`,
+    /// `specular_reflectance`.
     pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Self> {
         let (eta, k) = conductor_ior(p)?;
         Ok(Conductor {
@@ -33,24 +36,36 @@ impl Conductor {
     }
 }
 
-/// Complex IOR of a conductor: `material="none"` (Mitsuba's default, a perfect mirror: eta
-/// 0, k 1) with optional explicit `eta`/`k`, colours or textures (Mitsuba's unbounded
-/// textures). Named metals need Mitsuba's spectral data: error.
+/// Complex IOR of a conductor as Mitsuba 3.9.1 reads it: explicit `eta`/`k` (colours or
+/// textures, Mitsuba's unbounded textures; defaults eta 0, k 1: `material="none"`, the ideal
+/// mirror) or one of Mitsuba's named conductors (`material="Au"`, ...: the RGB of its spectral
+/// data, [`conductor_material`]). Giving `eta` beside a named material is an error, as in
+/// Mitsuba; so is `k`, which Mitsuba would leave unreferenced.
 pub(super) fn conductor_ior(p: &mut dyn BsdfProperties) -> Result<(Texture, Texture)> {
     const U: SpectrumUse = SpectrumUse::Unbounded;
     let material = p.string("material", "none")?;
-    if material != "none" {
-        if p.has("eta") || p.has("k") {
-            return Err(p.err("should specify either (eta, k) or material, not both"));
-        }
-        return Err(p.err(&format!(
-            "named conductor material \"{material}\" is not supported (its spectral IOR tables \
-             ship with Mitsuba, not btfpt): give <rgb name=\"eta\"> and <rgb name=\"k\"> instead"
-        )));
+    if material == "none" {
+        return Ok((
+            p.texture_as("eta", Vec3::ZERO, U)?,
+            p.texture_as("k", Vec3::ONE, U)?,
+        ));
     }
+    if p.has("eta") || p.has("k") {
+        return Err(p.err("should specify either (eta, k) or material, not both"));
+    }
+    let m = conductor_material(&material).ok_or_else(|| {
+        let names: Vec<&str> = CONDUCTOR_MATERIALS.iter().map(|m| m.name).collect();
+        p.err_at(
+            "material",
+            &format!(
+                "unknown conductor material \"{material}\" (valid: none, {})",
+                names.join(", ")
+            ),
+        )
+    })?;
     Ok((
-        p.texture_as("eta", Vec3::ZERO, U)?,
-        p.texture_as("k", Vec3::ONE, U)?,
+        Texture::Constant(Vec3::from(m.eta)),
+        Texture::Constant(Vec3::from(m.k)),
     ))
 }
 

@@ -14,6 +14,7 @@ pub mod bumpmap;
 #[cfg(test)]
 pub(crate) mod chi2;
 pub mod conductor;
+pub mod conductor_materials;
 pub mod dielectric;
 pub mod diffuse;
 pub mod fresnel;

@@ -5,3 +5,4 @@ mod committed_scenes;
 mod gltf;
 mod mitsuba_constructs;
 mod mitsuba_xml;
+mod named_conductors;

@@ -462,9 +462,9 @@ fn unknown_plugin_property_and_element() {
     expect_err(&p, &[], 7, "must be \"beckmann\" or \"ggx\"");
     let p = scene_with(
         dir.path(),
-        "<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>",
+        "<bsdf type=\"conductor\"><string name=\"material\" value=\"Xx\"/></bsdf>",
     );
-    expect_err(&p, &[], 7, "named conductor material");
+    expect_err(&p, &[], 7, "unknown conductor material");
     let p = scene_with(
         dir.path(),
         "<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"2\"/></transform></shape>",
