@@ -7,9 +7,9 @@
 //! is shared: fits per CPU-second × cores is the throughput on that many idle cores.
 
 use btfpt::btf::DirectionSet;
-use btfpt::fit::kmeans::kmeans;
 use btfpt::fit::lafortune::{LobeFitter, eval_all};
 use btfpt::math::Pcg32;
+use btfpt::math::kmeans::kmeans;
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use rayon::prelude::*;

@@ -6,6 +6,7 @@
 //! histograms with one bin per distinct value; no bin-width choice, ties handled by averaging in
 //! the least-squares fit).
 
+use crate::math::order_key::{key, unkey};
 use crate::math::simd::isa;
 use crate::model::polynomial::{E_RANGE, IDENTITY, Poly, decode, eval, quantise};
 
@@ -51,27 +52,6 @@ impl Scratch {
         }
         (&self.xs, &self.ys)
     }
-}
-
-/// Order-preserving map of f32 bits to u32 (the IEEE total order, as `f32::total_cmp`).
-#[inline]
-pub(super) fn key(v: f32) -> u32 {
-    let b = v.to_bits();
-    if b & 0x8000_0000 != 0 {
-        !b
-    } else {
-        b | 0x8000_0000
-    }
-}
-
-/// The inverse of [`key`].
-#[inline]
-pub(super) fn unkey(k: u32) -> f32 {
-    f32::from_bits(if k & 0x8000_0000 != 0 {
-        k & 0x7fff_ffff
-    } else {
-        !k
-    })
 }
 
 /// Sorts `v` ascending in `f32::total_cmp` order with an LSD radix sort (4 passes of 8 bits;

@@ -6,7 +6,6 @@
 
 pub mod eval_file;
 pub mod evaluate;
-pub mod kmeans;
 pub mod lafortune;
 pub mod mapping;
 pub mod options;

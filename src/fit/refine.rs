@@ -12,8 +12,8 @@
 //! error, so the total never rises.
 
 use super::lafortune::{self, LobeFitter};
-use super::mapping;
 use crate::math::color::linear_to_srgb;
+use crate::math::order_key;
 use crate::math::simd::isa;
 use crate::model::PackedLobe;
 use crate::model::lobe::Lobe;
@@ -264,7 +264,7 @@ pub fn refine(
                 let mut sum = vec![0.0f64; nl];
                 for (i, &t) in mem.iter().enumerate() {
                     for (l, &v) in y[t * nl..(t + 1) * nl].iter().enumerate() {
-                        cols[l * n + i] = mapping::key(v);
+                        cols[l * n + i] = order_key::key(v);
                         sum[l] += v as f64;
                     }
                 }
@@ -272,7 +272,7 @@ pub fn refine(
                     mean[l] = (sum[l] / n as f64) as f32;
                     let mid = n / 2;
                     col.select_nth_unstable(mid);
-                    median[l] = mapping::unkey(col[mid]);
+                    median[l] = order_key::unkey(col[mid]);
                 }
                 let cur = lobes[a];
                 let member_err = |c: &[f32]| mem.iter().map(|&t| l1(row(t), c) as f64).sum::<f64>();

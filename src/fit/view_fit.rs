@@ -1,7 +1,6 @@
 //! Fitting one view: LM per texel, then PLM's per-image mappings, then PLM-C's clusters with the
 //! model-space refinement.
 
-use super::kmeans;
 use super::lafortune::{self, LobeFitter};
 use super::mapping;
 use super::options::{
@@ -11,6 +10,8 @@ use super::refine;
 use super::select;
 use crate::btf::{DirectionSet, StoredEncoding};
 use crate::math::color::linear_to_srgb;
+use crate::math::kmeans;
+use crate::math::order_key;
 use crate::model::lobe::{self, Lobe};
 use crate::model::polynomial::{self, Poly};
 use crate::model::{ModelKind, PackedLobe, ValueSpace, ViewParams};
@@ -480,14 +481,14 @@ fn cluster_pairs<'s>(
     s.order
         .extend((0..vals.len()).filter(|&j| !members.of(j).is_empty()));
     s.order
-        .sort_unstable_by_key(|&j| (mapping::key(vals[j]), j));
+        .sort_unstable_by_key(|&j| (order_key::key(vals[j]), j));
     s.xs.clear();
     s.ys.clear();
     let mut a = 0;
     while a < s.order.len() {
         let v = vals[s.order[a]];
         let mut b = a + 1;
-        while b < s.order.len() && mapping::key(vals[s.order[b]]) == mapping::key(v) {
+        while b < s.order.len() && order_key::key(vals[s.order[b]]) == order_key::key(v) {
             b += 1;
         }
         let run: &[u32] = if b - a == 1 {

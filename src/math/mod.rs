@@ -6,6 +6,8 @@ pub mod color;
 pub mod distribution;
 pub mod filter;
 pub mod frame;
+pub mod kmeans;
+pub mod order_key;
 pub mod quad;
 pub mod rng;
 pub mod simd;

@@ -9,8 +9,8 @@
 //! [`STOP_FRACTION`] of the points change cluster; the result is taken right after that
 //! assignment pass, so every point is still at its nearest centre.
 
-use super::mapping;
 use crate::math::Pcg32;
+use crate::math::order_key::key;
 
 /// Result of a clustering: `centers` is `k × dim`, `assign[i] < k` for every point.
 #[derive(Clone, Debug)]
@@ -75,7 +75,7 @@ fn neighbours(
         keys.extend(
             (0..k)
                 .filter(|&b| b != a)
-                .map(|b| ((mapping::key(dist[b]) as u64) << 32) | b as u64),
+                .map(|b| ((key(dist[b]) as u64) << 32) | b as u64),
         );
         keys.sort_unstable();
         let row = a * (k - 1)..(a + 1) * (k - 1);
