@@ -1,6 +1,7 @@
 //! `<emitter>`: the table from plugin name to the constructor that reads the emitter's
 //! properties ([`Emitter`]'s, in `light/emitter.rs`; area emitters are attached by `shape`).
 
+use super::plugin_constructor;
 use super::properties::Props;
 use crate::Result;
 use crate::light::Emitter;
@@ -20,14 +21,5 @@ const EMITTER_PLUGINS: &[(&str, EmitterConstructor)] = &[
 
 /// The emitter an `<emitter>` element describes (its properties not yet checked for unread ones).
 pub(super) fn emitter(p: &Props) -> Result<Emitter> {
-    match EMITTER_PLUGINS.iter().find(|(name, _)| *name == p.ty) {
-        Some((_, construct)) => construct(p),
-        None => {
-            let names: Vec<&str> = EMITTER_PLUGINS.iter().map(|(name, _)| *name).collect();
-            Err(p.err(format!(
-                "unsupported emitter type (btfpt implements area, {})",
-                names.join(", ")
-            )))
-        }
-    }
+    plugin_constructor(EMITTER_PLUGINS, p, "emitter type", &["area"])?(p)
 }

@@ -112,6 +112,30 @@ pub(super) struct Builder<'a, 'x> {
 }
 
 pub(super) type N<'a> = Node<'a, 'a>;
+
+/// The constructor `table` lists for the element's plugin name, else an error naming `what`
+/// (e.g. "bsdf type") and every name btfpt implements (`also` first: those built elsewhere).
+fn plugin_constructor<'t, C>(
+    table: &'t [(&str, C)],
+    p: &Props,
+    what: &str,
+    also: &[&str],
+) -> Result<&'t C> {
+    match table.iter().find(|(name, _)| *name == p.ty) {
+        Some((_, construct)) => Ok(construct),
+        None => {
+            let names: Vec<&str> = also
+                .iter()
+                .copied()
+                .chain(table.iter().map(|(name, _)| *name))
+                .collect();
+            Err(p.err(format!(
+                "unsupported {what} (btfpt implements {})",
+                names.join(", ")
+            )))
+        }
+    }
+}
 impl<'a, 'x> Builder<'a, 'x> {
     fn scene(&mut self, root: N<'a>) -> Result<Scene> {
         let x = self.x;
