@@ -157,7 +157,9 @@ impl BitmapTexture {
         }
         img.check_finite(&path).map_err(|m| p.err(&m))?;
         Ok(
-            if filter == TexFilter::Bilinear && wrap == Wrap::Repeat && to_uv == UvTransform::IDENTITY
+            if filter == TexFilter::Bilinear
+                && wrap == Wrap::Repeat
+                && to_uv == UvTransform::IDENTITY
             {
                 Texture::Bitmap(Arc::new(img))
             } else {

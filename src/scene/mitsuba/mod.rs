@@ -164,7 +164,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 ));
             }
         }
-        let mut camera: Option<(Camera, u32, crate::scene::SamplerType)> = None;
+        let mut camera: Option<(Camera, crate::scene::sensor::Sampler)> = None;
         let mut integrator: Option<IntegratorSettings> = None;
         if let Some(t) = root
             .children()
@@ -233,15 +233,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                  references this one)",
             ));
         }
-        let (camera, spp, sampler) =
-            camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let (camera, sampler) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
         let mut integrator = integrator.unwrap_or_default();
-        integrator.sampler = sampler;
+        integrator.sampler = sampler.kind;
         Ok(Scene {
             source: x.file.clone(),
             camera,
             integrator,
-            spp,
+            spp: sampler.spp,
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),
             emitters: std::mem::take(&mut self.emitters),
