@@ -1,17 +1,13 @@
 //! `<emitter>`: the table from plugin name to the constructor that reads the emitter's
 //! properties ([`Emitter`]'s, in `light/emitter.rs`; area emitters are attached by `shape`).
 
-use super::plugin_constructor;
 use super::properties::Props;
+use super::{Constructor, plugin_constructor};
 use crate::Result;
 use crate::light::Emitter;
-use crate::plugin::Properties;
-
-/// An emitter plugin's constructor: reads the element's properties.
-type EmitterConstructor = fn(&dyn Properties) -> Result<Emitter>;
 
 /// Every `<emitter>` plugin btfpt implements besides `area`, by Mitsuba plugin name.
-const EMITTER_PLUGINS: &[(&str, EmitterConstructor)] = &[
+const EMITTER_PLUGINS: &[(&str, Constructor<Emitter>)] = &[
     ("point", Emitter::point_from_props),
     ("spot", Emitter::spot_from_props),
     ("directional", Emitter::directional_from_props),

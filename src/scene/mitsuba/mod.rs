@@ -113,6 +113,10 @@ pub(super) struct Builder<'a, 'x> {
 
 pub(super) type N<'a> = Node<'a, 'a>;
 
+/// A plugin's constructor that reads only its own properties (nested objects are passed in or
+/// built on request through a wider trait, as `BsdfProperties`).
+type Constructor<T> = fn(&dyn crate::plugin::Properties) -> Result<T>;
+
 /// The constructor `table` lists for the element's plugin name, else an error naming `what`
 /// (e.g. "bsdf type") and every name btfpt implements (`also` first: those built elsewhere).
 fn plugin_constructor<'t, C>(

@@ -3,15 +3,12 @@
 //! object is built before the one that owns it, as Mitsuba instantiates them.
 
 use super::properties::Props;
-use super::{Builder, N, plugin_constructor};
+use super::{Builder, Constructor, N, plugin_constructor};
 use crate::Result;
 use crate::math::filter::Filter;
 use crate::plugin::Properties;
 use crate::scene::IntegratorSettings;
 use crate::scene::sensor::{Camera, Film, Sampler, SamplerType, rfilter};
-
-/// A plugin's constructor that reads only its own properties.
-type Constructor<T> = fn(&dyn Properties) -> Result<T>;
 
 /// Every `<integrator>` plugin btfpt implements, by Mitsuba plugin name.
 const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
@@ -19,12 +16,16 @@ const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
     ("direct", IntegratorSettings::direct_from_props),
 ];
 
+/// A constructor that also takes the object its plugin owns, built first (a sensor's film, a
+/// film's reconstruction filter), as Mitsuba instantiates nested objects before their owner.
+type OwnerConstructor<T, Owned> = fn(&dyn Properties, Owned) -> Result<T>;
+
 /// Every `<sensor>` plugin btfpt implements, with its film.
-const SENSOR_PLUGINS: &[(&str, fn(&dyn Properties, Film) -> Result<Camera>)] =
+const SENSOR_PLUGINS: &[(&str, OwnerConstructor<Camera, Film>)] =
     &[("perspective", Camera::perspective_from_props)];
 
 /// Every `<film>` plugin btfpt implements, with its reconstruction filter.
-const FILM_PLUGINS: &[(&str, fn(&dyn Properties, Filter) -> Result<Film>)] =
+const FILM_PLUGINS: &[(&str, OwnerConstructor<Film, Filter>)] =
     &[("hdrfilm", Film::hdrfilm_from_props)];
 
 /// Every `<rfilter>` plugin btfpt implements.

@@ -3,7 +3,7 @@
 //! then the shape's bsdf and area emitter.
 
 use super::properties::Props;
-use super::{Builder, N, plugin_constructor};
+use super::{Builder, Constructor, N, plugin_constructor};
 use crate::Result;
 use crate::math::Vec3;
 use crate::math::transform::is_finite;
@@ -11,11 +11,8 @@ use crate::plugin::Properties;
 use crate::scene::shapes::Shape;
 use crate::scene::{obj, ply, serialized};
 
-/// A shape plugin's constructor: reads the element's properties (and the mesh file it names).
-type ShapeConstructor = fn(&dyn Properties) -> Result<Shape>;
-
 /// Every `<shape>` plugin btfpt implements, by Mitsuba plugin name.
-const SHAPE_PLUGINS: &[(&str, ShapeConstructor)] = &[
+const SHAPE_PLUGINS: &[(&str, Constructor<Shape>)] = &[
     ("obj", obj::from_props),
     ("ply", ply::from_props),
     ("serialized", serialized::from_props),
