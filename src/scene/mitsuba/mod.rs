@@ -1,9 +1,10 @@
 //! Mitsuba 3 XML scenes (the subset btfpt renders) → [`Scene`]: the `load` entry and the top
 //! level of the scene builder. Each plugin kind has a file (`sensor`, `shape`, `bsdf`,
 //! `texture`, `emitter`) with its table from plugin name to the constructor in the file of the
-//! concept it builds, which reads the element's [`Props`]; `document` and `properties` are the XML side
-//! (substitution, ids, typed properties, the report-unused check) and `transform` parses
-//! `<transform>`. Model: pbrt-v4's parser.cpp + paramdict.h, Mitsuba 3's xml.cpp + properties.h.
+//! concept it builds, which reads the element's [`Props`]; `document` and `properties` are the
+//! XML side (substitution, ids, typed properties, the report-unused check) and `transform`
+//! parses `<transform>`. Model: pbrt-v4's parser.cpp + paramdict.h, Mitsuba 3's xml.cpp +
+//! properties.h.
 //!
 //! Semantics follow Mitsuba 3's `xml.cpp` and plugins: `<default>`/`$name` substitution with CLI
 //! defines winning, ids unique, `<ref>` to any object with an id, unknown plugins, elements or
