@@ -1,11 +1,15 @@
 //! Spatially varying parameters: a constant, a bitmap or a checkerboard looked up by uv, as
 //! Mitsuba 3.9's `srgb`/`bitmap`/`checkerboard` textures evaluate them in its rgb variants.
 
+use super::plugin::BsdfProperties;
+use crate::Result;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
 use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::simd::wide::{Fx, V2x, V3x};
-use crate::math::{Spectrum, Vec2};
+use crate::math::transform::is_finite;
+use crate::math::{Mat4, Spectrum, Vec2, Vec3};
+use crate::plugin::Properties;
 use std::sync::Arc;
 
 /// A reflectance-like parameter (linear RGB).
@@ -51,9 +55,28 @@ impl UvTransform {
     /// The identity map.
     pub const IDENTITY: UvTransform = UvTransform([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
 
+    /// The `to_uv` property (a `<transform>`, identity by default), or in a Mitsuba 0.6 file the
+    /// `uoffset`, `voffset`, `uscale`, `vscale` floats it replaces (to_uv = scale · translate,
+    /// as Mitsuba 3's upgrade pass writes it).
+    pub fn from_props(p: &dyn Properties) -> Result<UvTransform> {
+        let mut m = p.transform_opt("to_uv")?.unwrap_or(Mat4::IDENTITY);
+        if p.mitsuba_0_6() {
+            let names = ["uoffset", "voffset", "uscale", "vscale"];
+            if names.iter().any(|n| p.has(n)) {
+                let o = Vec3::new(p.float("uoffset", 0.0)?, p.float("voffset", 0.0)?, 0.0);
+                let s = Vec3::new(p.float("uscale", 1.0)?, p.float("vscale", 1.0)?, 1.0);
+                m = Mat4::from_scale(s) * Mat4::from_translation(o);
+            }
+        }
+        if !is_finite(&m) {
+            return Err(p.err("to_uv contains NaN or infinite values"));
+        }
+        Ok(UvTransform::from_mat4(&m))
+    }
+
     /// The upper-left 2×2 block and the first two entries of the last column of a 4×4
     /// transform (what Mitsuba's `props.get<ScalarAffineTransform3f>` does with it).
-    pub fn from_mat4(m: &crate::math::Mat4) -> UvTransform {
+    pub fn from_mat4(m: &Mat4) -> UvTransform {
         // glam is column-major: m.col(j)[i] is row i, column j.
         UvTransform([
             m.x_axis.x, m.y_axis.x, m.w_axis.x, m.x_axis.y, m.y_axis.y, m.w_axis.y,
@@ -93,6 +116,58 @@ pub struct BitmapTexture {
 }
 
 impl BitmapTexture {
+    /// Mitsuba's `bitmap`: `filename` (PNG, JPEG, EXR, .hdr, .pfm; sRGB decoded unless `raw`),
+    /// `filter_type` (bilinear), `wrap_mode` (repeat), `format` (storage precision only: the
+    /// looked-up values are the same) and `to_uv`. The default sampling keeps the plain
+    /// [`Texture::Bitmap`]; the image is read after every property is checked.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Texture> {
+        let to_uv = UvTransform::from_props(p)?;
+        let file = p.string_req("filename")?;
+        let filter = match p.string("filter_type", "bilinear")?.as_str() {
+            "bilinear" => TexFilter::Bilinear,
+            "nearest" => TexFilter::Nearest,
+            f => {
+                return Err(p.err(&format!(
+                    "invalid filter type \"{f}\", must be one of: \"nearest\", or \"bilinear\""
+                )));
+            }
+        };
+        let wrap = match p.string("wrap_mode", "repeat")?.as_str() {
+            "repeat" => Wrap::Repeat,
+            "mirror" => Wrap::Mirror,
+            "clamp" => Wrap::Clamp,
+            w => {
+                return Err(p.err(&format!(
+                    "invalid wrap mode \"{w}\", must be one of: \"repeat\", \"mirror\", or \"clamp\""
+                )));
+            }
+        };
+        let raw = p.bool("raw", false)?;
+        let format = p.string("format", "auto")?;
+        if !["auto", "variant", "float16", "fp16", "uint8"].contains(&format.as_str()) {
+            return Err(p.err(&format!(
+                "invalid format \"{format}\", must be one of: \"auto\", \"variant\", \"float16\", or \"uint8\""
+            )));
+        }
+        p.finish()?;
+        let path = p.resolve(&file);
+        let img = crate::io::read_image_as(&path, !raw).map_err(|e| p.err(&e.to_string()))?;
+        if img.width == 0 || img.height == 0 {
+            return Err(p.err(&format!("{}: the image is empty", path.display())));
+        }
+        img.check_finite(&path).map_err(|m| p.err(&m))?;
+        Ok(
+            if filter == TexFilter::Bilinear
+                && wrap == Wrap::Repeat
+                && to_uv == UvTransform::IDENTITY
+            {
+                Texture::Bitmap(Arc::new(img))
+            } else {
+                Texture::Mapped(Arc::new(BitmapTexture::new(img, filter, wrap, to_uv)))
+            },
+        )
+    }
+
     /// A bitmap texture; `image` must hold at least one texel.
     pub fn new(image: RgbImage, filter: TexFilter, wrap: Wrap, to_uv: UvTransform) -> Self {
         let mean = luminance_mean(&image);
@@ -134,6 +209,18 @@ pub struct Checkerboard {
 }
 
 impl Checkerboard {
+    /// Mitsuba's `checkerboard`: `color0` (colour or texture, 0.4), `color1` (0.2), `to_uv`.
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Texture> {
+        let to_uv = UvTransform::from_props(p)?;
+        let color0 = p.texture("color0", Vec3::splat(0.4))?;
+        let color1 = p.texture("color1", Vec3::splat(0.2))?;
+        Ok(Texture::Checkerboard(Arc::new(Checkerboard {
+            color0,
+            color1,
+            to_uv,
+        })))
+    }
+
     /// True where `color0` shows (per lane for [`Fx`]).
     #[inline(always)]
     fn is_color0<T: Real>(&self, uv: V2<T>) -> T::Mask {

@@ -68,6 +68,10 @@ pub trait Properties {
     /// The file a `filename` property names, as the scene format resolves relative paths.
     fn resolve(&self, filename: &str) -> PathBuf;
 
+    /// True if the plugin was written in a Mitsuba 0.6 file (scene version below 2): its
+    /// constructor then also reads the old parameters that Mitsuba 3's upgrade pass translates.
+    fn mitsuba_0_6(&self) -> bool;
+
     /// The wrong-type error for property `name` holding `v`.
     fn wrong_type(&self, name: &str, v: &Value, expected: &str) -> Error {
         self.err_at(

@@ -6,55 +6,17 @@ pub mod measured_material;
 pub mod mitsuba;
 pub mod obj;
 pub mod ply;
+pub mod sensor;
 pub mod serialized;
 pub mod shapes;
 
 use crate::bsdf::Bsdf;
 use crate::geometry::Mesh;
 pub use crate::light::Emitter;
-use crate::math::Mat4;
+use crate::plugin::Properties;
 pub use load_options::LoadOptions;
+pub use sensor::{Camera, SamplerType};
 use std::path::PathBuf;
-
-/// A perspective pinhole camera with an `hdrfilm` and box reconstruction filter (Mitsuba semantics).
-///
-/// **Image orientation (what the renderer must do to match Mitsuba pixel for pixel).** Camera
-/// space looks along +z with +y up, and — as in Mitsuba's `perspective.cpp`, whose sample-space
-/// transform scales x by −½ — camera-space **+x appears on the LEFT of the image** (Mitsuba's
-/// `lookat` puts +x = up × dir, i.e. to the viewer's left, so the image is not mirrored). For a
-/// film position (fx, fy) in pixels of the full film (x right, y down, pixel (i, j) covering
-/// [i, i+1) × [j, j+1)), with t = tan(fov_x / 2) and aspect = width / height:
-///
-/// d_cam = normalize(((1 − 2 fx / width) · t, (1 − 2 fy / height) · t / aspect, 1)),
-/// ray origin = to_world · (0, 0, 0), direction = linear part of to_world · d_cam,
-/// t_min = near_clip / d_cam.z, t_max = far_clip / d_cam.z. The renderer's
-/// [`crate::render::camera::PerspectiveCamera`] does exactly this. With a crop window, pixel (i, j) of the output is pixel (i + x, j + y) of the full film.
-#[derive(Clone, Debug)]
-pub struct Camera {
-    /// Camera → world (no scale); the camera looks along +z with +y up and +x to the image's left.
-    pub to_world: Mat4,
-    /// Full horizontal field of view in degrees (any `fov_axis` resolved by the loader).
-    pub fov_x_deg: f32,
-    pub near_clip: f32,
-    pub far_clip: f32,
-    /// Film resolution in pixels.
-    pub width: u32,
-    pub height: u32,
-    /// Optional crop window (x, y, w, h) in pixels of the full film.
-    pub crop: Option<[u32; 4]>,
-    /// The film's reconstruction filter (Mitsuba's default: gaussian, σ = 0.5 pixel).
-    pub filter: crate::math::filter::Filter,
-}
-
-impl Camera {
-    /// Size (width, height) in pixels of the image actually rendered (the crop window if any).
-    pub fn image_size(&self) -> (u32, u32) {
-        match self.crop {
-            Some([_, _, w, h]) => (w, h),
-            None => (self.width, self.height),
-        }
-    }
-}
 
 /// Mitsuba's `direct` integrator: emitter and BSDF samples per camera-ray hit, combined with
 /// the power heuristic.
@@ -64,32 +26,6 @@ pub struct DirectSettings {
     pub emitter_samples: u32,
     /// Samples of the BSDF-sampling technique per hit (`bsdf_samples`).
     pub bsdf_samples: u32,
-}
-
-/// The Mitsuba sampler a scene names. All of them draw from btfpt's independent sampler: the
-/// expected image is the same, only the noise differs; the sample count is the one Mitsuba's
-/// sampler would take (rounded as it rounds).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum SamplerType {
-    #[default]
-    Independent,
-    Stratified,
-    Multijitter,
-    LdSampler,
-    Orthogonal,
-}
-
-impl SamplerType {
-    /// Mitsuba's plugin name.
-    pub fn name(self) -> &'static str {
-        match self {
-            SamplerType::Independent => "independent",
-            SamplerType::Stratified => "stratified",
-            SamplerType::Multijitter => "multijitter",
-            SamplerType::LdSampler => "ldsampler",
-            SamplerType::Orthogonal => "orthogonal",
-        }
-    }
 }
 
 /// Settings of the `path` (or `direct`) integrator (Mitsuba 3 semantics).
@@ -105,6 +41,59 @@ pub struct IntegratorSettings {
     pub rr_depth: i32,
     /// Do not show directly visible emitters.
     pub hide_emitters: bool,
+}
+
+impl IntegratorSettings {
+    /// Mitsuba's `path`: `max_depth` (−1, unbounded), `rr_depth` (5), `hide_emitters`.
+    pub fn path_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {
+        let max_depth = p.int("max_depth", -1)?;
+        let rr_depth = p.int("rr_depth", 5)?;
+        let hide_emitters = p.bool("hide_emitters", false)?;
+        if max_depth < -1 || max_depth > i32::MAX as i64 {
+            return Err(p.err("\"max_depth\" must be -1 (infinite) or a value >= 0"));
+        }
+        if rr_depth <= 0 || rr_depth > i32::MAX as i64 {
+            return Err(p.err("\"rr_depth\" must be set to a value greater than zero"));
+        }
+        Ok(IntegratorSettings {
+            max_depth: max_depth as i32,
+            rr_depth: rr_depth as i32,
+            hide_emitters,
+            ..Default::default()
+        })
+    }
+
+    /// Mitsuba's `direct`: `shading_samples` (1), or `emitter_samples` and `bsdf_samples`
+    /// (each `shading_samples` by default; at most 65536, not both 0), `hide_emitters`.
+    pub fn direct_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {
+        if p.has("shading_samples") && (p.has("emitter_samples") || p.has("bsdf_samples")) {
+            return Err(p.err(
+                "cannot specify both 'shading_samples' and ('emitter_samples' and/or 'bsdf_samples')",
+            ));
+        }
+        let count = |name: &str, default: i64| -> crate::Result<u32> {
+            let v = p.int(name, default)?;
+            u32::try_from(v)
+                .ok()
+                .filter(|v| *v <= 1 << 16)
+                .ok_or_else(|| p.err(&format!("\"{name}\" = {v} must be in 0..=65536")))
+        };
+        let shading = count("shading_samples", 1)?;
+        let emitter_samples = count("emitter_samples", shading as i64)?;
+        let bsdf_samples = count("bsdf_samples", shading as i64)?;
+        let hide_emitters = p.bool("hide_emitters", false)?;
+        if emitter_samples + bsdf_samples == 0 {
+            return Err(p.err("must have at least 1 BSDF or emitter sample"));
+        }
+        Ok(IntegratorSettings {
+            direct: Some(DirectSettings {
+                emitter_samples,
+                bsdf_samples,
+            }),
+            hide_emitters,
+            ..Default::default()
+        })
+    }
 }
 
 impl Default for IntegratorSettings {

@@ -8,8 +8,9 @@
 //! anything is allocated for them), then every chunk parses straight into its own part of the
 //! vertex arrays, resolving relative (negative) indices against the counts before it.
 
-use super::shapes::{LocalMesh, available_memory, check_mesh_fits};
+use super::shapes::{LocalMesh, Shape, available_memory, check_mesh_fits};
 use crate::math::{Vec2, Vec3};
+use crate::plugin::Properties;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -19,6 +20,11 @@ use std::path::Path;
 
 /// A face corner without a uv or normal index.
 const NONE: u32 = u32::MAX;
+
+/// Mitsuba's `obj` shape: `filename`, `face_normals`, `flip_tex_coords` (true).
+pub fn from_props(p: &dyn Properties) -> Result<Shape> {
+    Shape::mesh_file_from_props(p, true, load)
+}
 
 /// Loads an OBJ file into object space. Errors name the file and, for bad records, the line.
 pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {

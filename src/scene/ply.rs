@@ -3,8 +3,9 @@
 //! (`u v`, `s t`, `texture_u texture_v`, `texture_s texture_t`); faces from the `vertex_indices`
 //! (or `vertex_index`) list, polygons fan-triangulated; other elements and properties skipped.
 
-use super::shapes::LocalMesh;
+use super::shapes::{LocalMesh, Shape};
 use crate::math::{Vec2, Vec3};
+use crate::plugin::Properties;
 use crate::{Error, Result};
 use std::path::Path;
 
@@ -136,6 +137,11 @@ impl Source<'_> {
             }
         }
     }
+}
+
+/// Mitsuba's `ply` shape: `filename`, `face_normals`, `flip_tex_coords` (false).
+pub fn from_props(p: &dyn Properties) -> Result<Shape> {
+    Shape::mesh_file_from_props(p, false, load)
 }
 
 /// Loads a PLY file into object space; `flip_tex_coords` (Mitsuba default false for PLY) flips v.

@@ -5,9 +5,10 @@
 //! The file ends with the byte offset of each shape (u64 in v4, u32 in v3) and the u32 shape
 //! count, which `shape_index` selects by.
 
-use super::shapes::{LocalMesh, available_memory, check_mesh_fits};
+use super::shapes::{LocalMesh, Shape, available_memory, check_mesh_fits};
 use crate::io::bytes::Reader;
 use crate::math::{Vec2, Vec3};
+use crate::plugin::Properties;
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::io::Read;
@@ -30,6 +31,27 @@ pub struct SerializedShape {
     pub face_normals: bool,
     /// Shape name (version 4 files; empty otherwise).
     pub name: String,
+}
+
+/// Mitsuba's `serialized` shape: `filename`, `shape_index` (0), `face_normals` (false: Mitsuba 3
+/// ignores the face-normals flag of version 3/4 files, only its v5 loader applies it).
+pub fn from_props(p: &dyn Properties) -> Result<Shape> {
+    let mut s = Shape::base(p, None)?;
+    let file = p.string_req("filename")?;
+    let path = p.resolve(&file);
+    let index = p.int("shape_index", 0)?;
+    let index = u32::try_from(index).map_err(|_| p.err(&format!("invalid shape_index {index}")))?;
+    let sh = load(&path, index).map_err(|e| p.err(&e.to_string()))?;
+    s.local = Some(sh.mesh);
+    s.options.face_normals = p.bool("face_normals", false)?;
+    s.options.recompute_normals = true;
+    s.label = Some(if sh.name.is_empty() {
+        format!("{file}[{index}]")
+    } else {
+        format!("{file}[{index}] {}", sh.name)
+    });
+    s.file = Some(path);
+    Ok(s)
 }
 
 /// Reads shape `shape_index` of a serialized file.

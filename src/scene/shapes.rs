@@ -1,11 +1,17 @@
-//! Built-in shapes (Mitsuba `rectangle`, `cube`, `sphere`, `disk`) as triangle meshes with
-//! Mitsuba's exact uv parameterisations, and the common step that turns any object-space mesh into
-//! a world-space [`Mesh`] (transform, normals, degenerate triangles, flips).
+//! What a shape plugin describes ([`Shape`]: object-space geometry and its placement) with the
+//! constructors that read the built-in shapes' properties (Mitsuba `rectangle`, `cube`,
+//! `sphere`, `disk`, `cylinder`; the mesh files' own are in `obj.rs`, `ply.rs`,
+//! `serialized.rs`), the built-ins as triangle meshes with Mitsuba's exact uv
+//! parameterisations, and the common step that turns any object-space mesh into a world-space
+//! [`Mesh`] (transform, normals, degenerate triangles, flips).
 
 use crate::geometry::Mesh;
+use crate::geometry::sphere::Sphere;
 use crate::math::transform::{normal_matrix, xf_point};
-use crate::math::{Mat4, Vec2, Vec3};
+use crate::math::{Frame, Mat3, Mat4, Vec2, Vec3};
+use crate::plugin::Properties;
 use rayon::prelude::*;
+use std::path::{Path, PathBuf};
 
 /// Sphere tessellation: rings in θ (pole to pole) and segments in φ.
 pub const SPHERE_RINGS: usize = 128;
@@ -44,6 +50,170 @@ pub struct MeshOptions {
     /// Analytic shapes: keep the winding consistent with the transformed normals when `to_world`
     /// mirrors (Mitsuba's analytic shapes take their normal from the inverse transpose).
     pub keep_orientation: bool,
+}
+
+/// A shape as its plugin's constructor reads it: what it is in object space and how it is
+/// placed in the world (Mitsuba 3's `Shape` base properties and the plugin's own).
+#[derive(Clone, Debug)]
+pub struct Shape {
+    /// The triangles in object space; None for the analytic sphere (centre and radius in
+    /// `to_world`).
+    pub local: Option<LocalMesh>,
+    /// Object → world, including the plugin's own placement (a sphere's centre and radius, ...).
+    pub to_world: Mat4,
+    /// How [`to_world`] treats the mesh's normals.
+    pub options: MeshOptions,
+    /// The mesh file the shape was read from (for messages).
+    pub file: Option<PathBuf>,
+    /// The name of the shape when its element has no id (a mesh file's name, ...).
+    pub label: Option<String>,
+}
+
+impl Shape {
+    /// The properties every shape reads first, as Mitsuba's `Shape` and `Mesh` base
+    /// constructors: `to_world` (identity) and `flip_normals` (false); the geometry comes next.
+    pub fn base(p: &dyn Properties, local: Option<LocalMesh>) -> crate::Result<Shape> {
+        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let flip_normals = p.bool("flip_normals", false)?;
+        Ok(Shape {
+            local,
+            to_world,
+            options: MeshOptions {
+                flip_normals,
+                ..Default::default()
+            },
+            file: None,
+            label: None,
+        })
+    }
+
+    /// A mesh file (`obj`, `ply`): `filename`, `face_normals` (false), `flip_tex_coords`
+    /// (`flip_default`); `load` reads the file (v ← 1 − v when flipping); vertex normals are
+    /// recomputed when the file has none.
+    pub fn mesh_file_from_props(
+        p: &dyn Properties,
+        flip_default: bool,
+        load: fn(&Path, bool) -> crate::Result<LocalMesh>,
+    ) -> crate::Result<Shape> {
+        let mut s = Shape::base(p, None)?;
+        let file = p.string_req("filename")?;
+        let path = p.resolve(&file);
+        s.options.face_normals = p.bool("face_normals", false)?;
+        s.options.recompute_normals = true;
+        let flip_uv = p.bool("flip_tex_coords", flip_default)?;
+        s.local = Some(load(&path, flip_uv).map_err(|e| p.err(&e.to_string()))?);
+        s.file = Some(path);
+        s.label = Some(file);
+        Ok(s)
+    }
+
+    /// Mitsuba's `rectangle`: [-1, 1]² in the z = 0 plane; `to_world` without shear.
+    pub fn rectangle_from_props(p: &dyn Properties) -> crate::Result<Shape> {
+        let mut s = Shape::base(p, Some(rectangle()))?;
+        let l = Mat3::from_mat4(s.to_world);
+        if l.x_axis.normalize().dot(l.y_axis.normalize()).abs() > 1e-4 {
+            return Err(p.err("the to_world transformation contains shear, which Mitsuba's rectangle does not support"));
+        }
+        s.options.keep_orientation = true;
+        Ok(s)
+    }
+
+    /// Mitsuba's `disk`: the unit disk in the z = 0 plane.
+    pub fn disk_from_props(p: &dyn Properties) -> crate::Result<Shape> {
+        let mut s = Shape::base(p, Some(disk(DISK_RINGS, DISK_SEGMENTS)))?;
+        s.options.keep_orientation = true;
+        Ok(s)
+    }
+
+    /// Mitsuba's `cube`: [-1, 1]³.
+    pub fn cube_from_props(p: &dyn Properties) -> crate::Result<Shape> {
+        Shape::base(p, Some(cube()))
+    }
+
+    /// Mitsuba's `cylinder`: `radius` (1) around the axis from `p0` (origin) to `p1` (+z),
+    /// tessellated; `to_world` must scale x and y alike (Mitsuba's is analytic).
+    pub fn cylinder_from_props(p: &dyn Properties) -> crate::Result<Shape> {
+        let mut s = Shape::base(p, None)?;
+        let radius = p.float("radius", 1.0)?;
+        let p0 = p.vec3_opt("p0")?.unwrap_or(Vec3::ZERO);
+        let p1 = p.vec3_opt("p1")?.unwrap_or(Vec3::Z);
+        let d = p1 - p0;
+        let length = d.length();
+        if radius <= 0.0 || length <= 0.0 {
+            return Err(p.err("the cylinder needs a positive radius and p0 != p1"));
+        }
+        // Mitsuba: to_world · translate(p0) · to_frame(Frame(d / |d|)) · scale(r, r, |d|).
+        let f = Frame::from_normal(d / length);
+        let frame = Mat4::from_cols(
+            f.s.extend(0.0),
+            f.t.extend(0.0),
+            f.n.extend(0.0),
+            glam::Vec4::W,
+        );
+        s.to_world = s.to_world
+            * Mat4::from_translation(p0)
+            * frame
+            * Mat4::from_scale(Vec3::new(radius, radius, length));
+        let l = Mat3::from_mat4(s.to_world);
+        if (l.x_axis.length() - l.y_axis.length()).abs() > 1e-4 * l.x_axis.length()
+            || l.x_axis.dot(l.y_axis).abs() > 1e-4 * l.x_axis.length_squared()
+        {
+            return Err(p.err("to_world must not contain shear or non-uniform scaling along x and y for a cylinder (Mitsuba's is analytic)"));
+        }
+        s.options.keep_orientation = true;
+        s.local = Some(cylinder(CYLINDER_SEGMENTS));
+        Ok(s)
+    }
+
+    /// Mitsuba's `sphere`, analytic: `center` (origin), `radius` (1); `to_world` must scale
+    /// uniformly (Mitsuba keeps only its centre, radius and orientation).
+    pub fn sphere_from_props(p: &dyn Properties) -> crate::Result<Shape> {
+        let mut s = Shape::base(p, None)?;
+        let center = p.vec3_opt("center")?.unwrap_or(Vec3::ZERO);
+        let radius = p.float("radius", 1.0)?;
+        if radius <= 0.0 {
+            return Err(p.err("the sphere radius must be positive"));
+        }
+        s.to_world =
+            s.to_world * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
+        // An ellipsoid here would not match Mitsuba's render, which warns and ignores the rest.
+        let l = Mat3::from_mat4(s.to_world);
+        let g = l.transpose() * l;
+        let s2 = g.x_axis.x;
+        if (g - Mat3::from_diagonal(Vec3::splat(s2)))
+            .to_cols_array()
+            .iter()
+            .any(|v| v.abs() > 1e-4 * s2)
+        {
+            return Err(p.err("to_world must not contain non-uniform scale or shear for a sphere (Mitsuba ignores it)"));
+        }
+        Ok(s)
+    }
+
+    /// The shape in world space (an error message for the caller to locate): the mesh placed
+    /// by [`to_world`], or the analytic sphere; a mesh must keep a triangle of non-zero area.
+    pub fn into_mesh(self) -> Result<Mesh, String> {
+        let mesh = match self.local {
+            None => Mesh {
+                sphere: Some(
+                    Sphere::from_to_world(&self.to_world, self.options.flip_normals)
+                        .ok_or("to_world is singular for a sphere")?,
+                ),
+                ..Default::default()
+            },
+            Some(local) => to_world(local, &self.to_world, self.options)?,
+        };
+        if mesh.indices.is_empty() && mesh.sphere.is_none() {
+            return Err(match self.file {
+                Some(f) => format!(
+                    "{}: the mesh has no triangles of non-zero area",
+                    f.display()
+                ),
+                None => "the shape has no triangles of non-zero area".into(),
+            });
+        }
+        Ok(mesh)
+    }
 }
 
 /// Bytes per triangle a loaded mesh costs at the peak of loading and BVH building (indices,

@@ -912,3 +912,46 @@ fn shapes_without_a_bsdf_get_mitsubas_default_black_on_emitters() {
         "the default is built once"
     );
 }
+
+#[test]
+fn unknown_plugins_are_named_with_what_btfpt_implements() {
+    let dir = tempfile::tempdir().unwrap();
+    for (body, needle) in [
+        (
+            "<texture type=\"noise\" id=\"t\"/>",
+            "unsupported texture type (btfpt implements bitmap, checkerboard)",
+        ),
+        (
+            "<shape type=\"torus\"/>",
+            "unsupported shape type (btfpt implements obj, ply, serialized, rectangle, cube, \
+             sphere, disk, cylinder)",
+        ),
+        (
+            "<emitter type=\"sunsky\"/>",
+            "unsupported emitter type (btfpt implements area, point, spot, directional, \
+             constant, envmap)",
+        ),
+    ] {
+        expect_err(&scene_with(dir.path(), body), &[], 7, needle);
+    }
+    for (name, sensor, needle) in [
+        (
+            "sensor.xml",
+            "<sensor type=\"thinlens\"/>",
+            "unsupported sensor type (btfpt implements perspective)",
+        ),
+        (
+            "film.xml",
+            "<sensor type=\"perspective\">\n<film type=\"specfilm\"/></sensor>",
+            "unsupported film type (btfpt implements hdrfilm)",
+        ),
+    ] {
+        let p = write(
+            dir.path(),
+            name,
+            &format!("<scene version=\"3.0.0\">\n{sensor}\n</scene>\n"),
+        );
+        let line = if name == "film.xml" { 3 } else { 2 };
+        expect_err(&p, &[], line, needle);
+    }
+}

@@ -1,6 +1,9 @@
 //! A fitted model in its evaluation layout: SoA lobe records, index planes, polynomial rows, the
 //! range clamps, the direction interpolators and the light sampler.
 
+use super::lobes::{
+    HIT_LOBES, HitLobes, MIN_EXPONENT, MIN_SHARP_SHARE, lobe_albedo, selection_weight, srgb_decode,
+};
 use crate::bsdf::btf_sampler::BtfLightSampler;
 use crate::btf::directions::DirectionInterp;
 use crate::math::color::luminance;
@@ -191,7 +194,7 @@ impl PlmcMaterial {
             sharp_views: Vec::new(),
             isa: simd::isa(),
         };
-        // (The lobe sampling weights: `lobes.rs`.)
+        // What sampling a hit's own lobes (`lobes.rs`) needs of the layout.
         material.store_lobe_albedos(&model.lights.dirs);
         material.sharp_views = material.find_sharp_views();
         Ok(material)
@@ -383,6 +386,179 @@ fn advise_huge<T>(v: &Vec<T>, len: usize) {
 }
 
 /// Summary only: the tables can be large.
+/// The pad slot of a cluster record (`LobeRec`, `[ρ, Dx, Dy, Dz, n, pad…]`) that holds the
+/// lobe's albedo after the mapping.
+pub(super) const ALBEDO_SLOT: usize = 5;
+
+impl PlmcMaterial {
+    /// Writes [`lobe_albedo`] into slot [`ALBEDO_SLOT`] of every cluster record (a pad slot the
+    /// kernels do not read, on the cache line the lobe's parameters are read from): the lobe
+    /// value at its peak clamped and mapped as the kernel does, by the polynomial of the
+    /// measured light nearest to the lobe's axis (`light_dirs`), then decoded. Per-texel
+    /// models have no pad: their albedos are estimated per hit, without the mapping.
+    pub(super) fn store_lobe_albedos(&mut self, light_dirs: &[Vec3]) {
+        let albedo = self.cluster_lobe_albedos(light_dirs);
+        if let Params::Clustered8 { records, .. } | Params::Clustered16 { records, .. } =
+            &mut self.params
+        {
+            for (r, a) in records.iter_mut().zip(albedo) {
+                r.0[ALBEDO_SLOT] = a;
+            }
+        }
+    }
+
+    /// Per view: whether its lobes of exponent at least [`MIN_EXPONENT`] (the only ones
+    /// [`HitLobes`] keeps) carry at least [`MIN_SHARP_SHARE`] of the view's albedo summed over
+    /// texels and channels (luminance-weighted, as the selection is).
+    pub(super) fn find_sharp_views(&self) -> Vec<bool> {
+        let nv = self.n_views;
+        let mut sharp = vec![0f64; nv];
+        let mut all = vec![0f64; nv];
+        let mut add = |v: usize, c: usize, l: &[f32], albedo: f32| {
+            let a = f64::from(selection_weight(1.0, c, albedo));
+            if a > 0.0 && a < f64::INFINITY {
+                all[v] += a;
+                if l[0] > 0.0 && l[4] >= MIN_EXPONENT {
+                    sharp[v] += a;
+                }
+            }
+        };
+        let texels = self.width * self.height;
+        match &self.params {
+            Params::Clustered8 { k, records, index } => {
+                for (i, ix) in index.iter().enumerate() {
+                    let v = i % nv;
+                    for (c, &cl) in ix[..3].iter().enumerate() {
+                        let r = &records[(v * 3 + c) * k + cl as usize].0;
+                        add(v, c, r, r[ALBEDO_SLOT]);
+                    }
+                }
+            }
+            Params::Clustered16 { k, records, index } => {
+                for (i, ix) in index.iter().enumerate() {
+                    let v = i % nv;
+                    for (c, &cl) in ix[..3].iter().enumerate() {
+                        let r = &records[(v * 3 + c) * k + cl as usize].0;
+                        add(v, c, r, r[ALBEDO_SLOT]);
+                    }
+                }
+            }
+            Params::Texel { lobes } => {
+                for (i, l) in lobes.iter().enumerate() {
+                    let (v, c) = (i / (3 * texels.max(1)), i % 3);
+                    add(v, c, l, self.texel_lobe_albedo(l));
+                }
+            }
+        }
+        (0..nv)
+            .map(|v| all[v] > 0.0 && sharp[v] >= f64::from(MIN_SHARP_SHARE) * all[v])
+            .collect()
+    }
+
+    /// [`lobe_albedo`] of a per-texel model's lobe: without the mapping (LM has none; PLM's
+    /// polynomials are per view and light, not known at the peak here), decoded.
+    fn texel_lobe_albedo(&self, l: &[f32; 5]) -> f32 {
+        lobe_albedo(l, |y| match self.space {
+            ValueSpace::Linear => y.max(0.0),
+            ValueSpace::Srgb => srgb_decode(y),
+        })
+    }
+
+    /// [`lobe_albedo`] of every cluster record (see [`PlmcMaterial::store_lobe_albedos`]).
+    fn cluster_lobe_albedos(&self, light_dirs: &[Vec3]) -> Vec<f32> {
+        let (k, records) = match &self.params {
+            Params::Clustered8 { k, records, .. } | Params::Clustered16 { k, records, .. } => {
+                (*k, records)
+            }
+            Params::Texel { .. } => return Vec::new(),
+        };
+        let nl = self.n_lights;
+        let mut out = vec![0f32; records.len()];
+        for (j, (rec, o)) in records.iter().zip(out.iter_mut()).enumerate() {
+            let (v, c) = (j / (3 * k), j / k % 3);
+            let l = record5(&rec.0);
+            let map = |y: f32| {
+                let mut y = y;
+                if !self.polys.is_empty() {
+                    // The measured light nearest to the axis (the largest cosine).
+                    let mut best = (f32::NEG_INFINITY, 0);
+                    for (i, d) in light_dirs.iter().enumerate() {
+                        let cos = l[1] * d.x + l[2] * d.y + l[3] * d.z;
+                        if cos > best.0 {
+                            best = (cos, i);
+                        }
+                    }
+                    let row = &self.polys[v * nl + best.1].0;
+                    let a = |p: usize| row[3 * p + c];
+                    let x = y.min(self.y_max[v][c]);
+                    let p = a(0) + x * (a(1) + x * (a(2) + x * (a(3) + x * a(4))));
+                    y = p.min(self.out_max[v * nl + best.1][c]);
+                }
+                match self.space {
+                    ValueSpace::Linear => y.max(0.0),
+                    ValueSpace::Srgb => srgb_decode(y),
+                }
+            };
+            *o = lobe_albedo(&l, map);
+        }
+        out
+    }
+
+    /// The lobe mixture of a hit at views `vi` (weights `vw`) filtered by `texels`: the lobes
+    /// of the texel with the largest filter weight.
+    pub(super) fn hit_lobes(
+        &self,
+        vi: [u32; 3],
+        vw: [f32; 3],
+        texels: &[(usize, f32)],
+    ) -> HitLobes {
+        let mut t = texels.first().map_or(0, |x| x.0);
+        let mut best = f32::NEG_INFINITY;
+        for &(i, w) in texels {
+            if w > best {
+                (t, best) = (i, w);
+            }
+        }
+        if !(0..3).any(|a| vw[a] > 0.0 && self.sharp_views[vi[a] as usize]) {
+            return HitLobes::default();
+        }
+        let nv = self.n_views;
+        let mut lobes = [[0f32; 5]; HIT_LOBES];
+        let mut weight = [0f32; HIT_LOBES];
+        for a in 0..3 {
+            if !(vw[a] > 0.0) {
+                continue;
+            }
+            let v = vi[a] as usize;
+            for c in 0..3 {
+                let (l, albedo) = match &self.params {
+                    Params::Clustered8 { k, records, index } => {
+                        let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
+                        (record5(&records[j].0), records[j].0[ALBEDO_SLOT])
+                    }
+                    Params::Clustered16 { k, records, index } => {
+                        let j = (v * 3 + c) * k + index[t * nv + v][c] as usize;
+                        (record5(&records[j].0), records[j].0[ALBEDO_SLOT])
+                    }
+                    Params::Texel { lobes: per_texel } => {
+                        let l = per_texel[(v * self.width * self.height + t) * 3 + c];
+                        (l, self.texel_lobe_albedo(&l))
+                    }
+                };
+                lobes[3 * a + c] = l;
+                weight[3 * a + c] = selection_weight(vw[a], c, albedo);
+            }
+        }
+        HitLobes::new(&lobes, &weight)
+    }
+}
+
+/// The `[ρ, Dx, Dy, Dz, n]` of a padded lobe record.
+#[inline(always)]
+fn record5(r: &[f32; 8]) -> [f32; 5] {
+    [r[0], r[1], r[2], r[3], r[4]]
+}
+
 impl std::fmt::Debug for PlmcMaterial {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let clusters = match &self.params {

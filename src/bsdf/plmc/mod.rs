@@ -31,14 +31,15 @@
 //! data.
 //!
 //! Files, one concept each: `material.rs` ([`PlmcMaterial`]: the evaluation layout built from a
-//! model, loading, lookups, prefetches), `kernel.rs` (every evaluation of it: the generic 4-wide
-//! kernel on `math::simd::f4::F4`, and the dispatch by the one `math::simd::Isa`), `avx512.rs`
-//! (the 16-lane kernel), `batch.rs` (16 queries per pass, one per lane: the packet integrator's
-//! batched emitter evaluations), `query.rs` (one query of a batch), `bsdf.rs` (the BSDF: texel
-//! addressing, per-hit state), `lobes.rs` (sampling the texel's lobes, and the lobe albedos the
-//! material stores for it), `prepare16.rs` (the per-hit state of a packet batch, its view
-//! lookups 16 at a time), `tables.rs` (the texel-mean values and range clamps built at load, 16
-//! lobes per step). The exp2/log2 of the kernels are the fused ones of `math::simd::approx`.
+//! model, loading, lookups, prefetches, the lobe albedos stored at load and a hit's lobes),
+//! `kernel.rs` (every evaluation of it: the generic 4-wide kernel on `math::simd::f4::F4`, and
+//! the dispatch by the one `math::simd::Isa`), `avx512.rs` (the 16-lane kernel), `batch.rs` (16
+//! queries per pass, one per lane: the packet integrator's batched emitter evaluations),
+//! `query.rs` (one query of a batch), `bsdf.rs` (the BSDF: texel addressing, per-hit state),
+//! `lobes.rs` (the lobe mixture of a hit: selection weights, density, sampling, a lobe's
+//! albedo), `prepare16.rs` (the per-hit state of a packet batch, its view lookups 16 at a
+//! time), `tables.rs` (the texel-mean values and range clamps built at load, 16 lobes per
+//! step). The exp2/log2 of the kernels are the fused ones of `math::simd::approx`.
 //!
 
 #[cfg(target_arch = "x86_64")]

@@ -4,7 +4,7 @@
 //! measured materials (`scene::measured_material`) are built here when a constructor asks.
 
 use super::properties::Props;
-use super::{Builder, N};
+use super::{Builder, N, plugin_constructor};
 use crate::bsdf::{
     BlendBsdf, Bsdf, BsdfProperties, BumpMap, Conductor, Dielectric, Diffuse, Mask, NormalMap,
     Plastic, RoughConductor, RoughDielectric, RoughPlastic, Texture, ThinDielectric, TwoSided,
@@ -66,32 +66,16 @@ impl<'a, 'x> Builder<'a, 'x> {
 
     pub(super) fn build_bsdf_inner(&mut self, node: N<'a>) -> Result<Bsdf> {
         let p = Props::parse(self.x, node)?;
-        let Some(&(_, construct)) = BSDF_PLUGINS.iter().find(|(name, _)| *name == p.ty) else {
-            let names: Vec<&str> = BSDF_PLUGINS.iter().map(|(name, _)| *name).collect();
-            return Err(p.err(format!(
-                "unsupported bsdf type (btfpt implements {})",
-                names.join(", ")
-            )));
-        };
+        let construct = *plugin_constructor(BSDF_PLUGINS, &p, "bsdf type", &[])?;
         let mut element = Element { b: self, p };
         let bsdf = construct(&mut element)?;
         element.p.finish()?;
         Ok(bsdf)
     }
 
-    /// A reflectance-like parameter: constant (rgb/float/spectrum) or a nested/referenced
-    /// `<texture>` (bitmap, checkerboard).
-    pub(super) fn texture_param(
-        &mut self,
-        p: &Props<'a, 'x>,
-        name: &str,
-        default: Vec3,
-    ) -> Result<Texture> {
-        self.texture_param_as(p, name, default, SpectrumUse::Reflectance)
-    }
-
-    /// [`Builder::texture_param`] for a parameter used as `usage` (what a `<spectrum>` list
-    /// converts to: Mitsuba's unbounded textures, eta/k/alpha, are not clipped at 1).
+    /// A texture-or-colour parameter used as `usage`: a nested/referenced `<texture>`, else a
+    /// constant (rgb/float/spectrum; what a `<spectrum>` list converts to depends on the usage:
+    /// Mitsuba's unbounded textures, eta/k/alpha, are not clipped at 1), else `default`.
     pub(super) fn texture_param_as(
         &mut self,
         p: &Props<'a, 'x>,
@@ -149,11 +133,11 @@ const BSDF_PLUGINS: &[(&str, BsdfConstructor)] = &[
     ("btf", crate::bsdf::btf::from_props),
 ];
 
-/// A `<bsdf>` element as its constructor reads it: the element's properties, and the builder
-/// that builds what it nests (memoised, reference cycles refused).
-struct Element<'b, 'a, 'x> {
-    b: &'b mut Builder<'a, 'x>,
-    p: Props<'a, 'x>,
+/// A `<bsdf>` or `<texture>` element as its constructor reads it: the element's properties,
+/// and the builder that builds what it nests (memoised, reference cycles refused).
+pub(super) struct Element<'b, 'a, 'x> {
+    pub(super) b: &'b mut Builder<'a, 'x>,
+    pub(super) p: Props<'a, 'x>,
 }
 
 impl<'a> Element<'_, 'a, '_> {
@@ -194,6 +178,10 @@ impl Properties for Element<'_, '_, '_> {
 
     fn resolve(&self, filename: &str) -> std::path::PathBuf {
         self.p.resolve(filename)
+    }
+
+    fn mitsuba_0_6(&self) -> bool {
+        self.p.mitsuba_0_6()
     }
 }
 

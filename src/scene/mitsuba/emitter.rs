@@ -2,15 +2,12 @@
 //! properties ([`Emitter`]'s, in `light/emitter.rs`; area emitters are attached by `shape`).
 
 use super::properties::Props;
+use super::{Constructor, plugin_constructor};
 use crate::Result;
 use crate::light::Emitter;
-use crate::plugin::Properties;
-
-/// An emitter plugin's constructor: reads the element's properties.
-type EmitterConstructor = fn(&dyn Properties) -> Result<Emitter>;
 
 /// Every `<emitter>` plugin btfpt implements besides `area`, by Mitsuba plugin name.
-const EMITTER_PLUGINS: &[(&str, EmitterConstructor)] = &[
+const EMITTER_PLUGINS: &[(&str, Constructor<Emitter>)] = &[
     ("point", Emitter::point_from_props),
     ("spot", Emitter::spot_from_props),
     ("directional", Emitter::directional_from_props),
@@ -20,14 +17,5 @@ const EMITTER_PLUGINS: &[(&str, EmitterConstructor)] = &[
 
 /// The emitter an `<emitter>` element describes (its properties not yet checked for unread ones).
 pub(super) fn emitter(p: &Props) -> Result<Emitter> {
-    match EMITTER_PLUGINS.iter().find(|(name, _)| *name == p.ty) {
-        Some((_, construct)) => construct(p),
-        None => {
-            let names: Vec<&str> = EMITTER_PLUGINS.iter().map(|(name, _)| *name).collect();
-            Err(p.err(format!(
-                "unsupported emitter type (btfpt implements area, {})",
-                names.join(", ")
-            )))
-        }
-    }
+    plugin_constructor(EMITTER_PLUGINS, p, "emitter type", &["area"])?(p)
 }

@@ -1,8 +1,10 @@
 //! Mitsuba 3 XML scenes (the subset btfpt renders) → [`Scene`]: the `load` entry and the top
-//! level of the scene builder. The builder's methods live with the plugin kind they build
-//! (`sensor`, `shape`, `bsdf`, `emitter`); `document` and `properties` are the XML side
-//! (substitution, ids, typed properties, the report-unused check) and `transform` parses
-//! `<transform>`. Model: pbrt-v4's parser.cpp + paramdict.h, Mitsuba 3's xml.cpp + properties.h.
+//! level of the scene builder. Each plugin kind has a file (`sensor`, `shape`, `bsdf`,
+//! `texture`, `emitter`) with its table from plugin name to the constructor in the file of the
+//! concept it builds, which reads the element's [`Props`]; `document` and `properties` are the
+//! XML side (substitution, ids, typed properties, the report-unused check) and `transform`
+//! parses `<transform>`. Model: pbrt-v4's parser.cpp + paramdict.h, Mitsuba 3's xml.cpp +
+//! properties.h.
 //!
 //! Semantics follow Mitsuba 3's `xml.cpp` and plugins: `<default>`/`$name` substitution with CLI
 //! defines winning, ids unique, `<ref>` to any object with an id, unknown plugins, elements or
@@ -112,6 +114,34 @@ pub(super) struct Builder<'a, 'x> {
 }
 
 pub(super) type N<'a> = Node<'a, 'a>;
+
+/// A plugin's constructor that reads only its own properties (nested objects are passed in or
+/// built on request through a wider trait, as `BsdfProperties`).
+type Constructor<T> = fn(&dyn crate::plugin::Properties) -> Result<T>;
+
+/// The constructor `table` lists for the element's plugin name, else an error naming `what`
+/// (e.g. "bsdf type") and every name btfpt implements (`also` first: those built elsewhere).
+fn plugin_constructor<'t, C>(
+    table: &'t [(&str, C)],
+    p: &Props,
+    what: &str,
+    also: &[&str],
+) -> Result<&'t C> {
+    match table.iter().find(|(name, _)| *name == p.ty) {
+        Some((_, construct)) => Ok(construct),
+        None => {
+            let names: Vec<&str> = also
+                .iter()
+                .copied()
+                .chain(table.iter().map(|(name, _)| *name))
+                .collect();
+            Err(p.err(format!(
+                "unsupported {what} (btfpt implements {})",
+                names.join(", ")
+            )))
+        }
+    }
+}
 impl<'a, 'x> Builder<'a, 'x> {
     fn scene(&mut self, root: N<'a>) -> Result<Scene> {
         let x = self.x;
@@ -140,7 +170,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 ));
             }
         }
-        let mut camera: Option<(Camera, u32, crate::scene::SamplerType)> = None;
+        let mut camera: Option<(Camera, crate::scene::sensor::Sampler)> = None;
         let mut integrator: Option<IntegratorSettings> = None;
         if let Some(t) = root
             .children()
@@ -209,15 +239,14 @@ impl<'a, 'x> Builder<'a, 'x> {
                  references this one)",
             ));
         }
-        let (camera, spp, sampler) =
-            camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        let (camera, sampler) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
         let mut integrator = integrator.unwrap_or_default();
-        integrator.sampler = sampler;
+        integrator.sampler = sampler.kind;
         Ok(Scene {
             source: x.file.clone(),
             camera,
             integrator,
-            spp,
+            spp: sampler.spp,
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),
             emitters: std::mem::take(&mut self.emitters),

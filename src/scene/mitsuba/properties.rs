@@ -296,6 +296,10 @@ impl Properties for Props<'_, '_> {
     fn resolve(&self, filename: &str) -> PathBuf {
         self.x.resolve(filename)
     }
+
+    fn mitsuba_0_6(&self) -> bool {
+        self.x.is_legacy(self.node)
+    }
 }
 
 /// A `<spectrum>` property: `value` (one number, or wavelength:value pairs separated by commas
