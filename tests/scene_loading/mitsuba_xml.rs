@@ -937,8 +937,8 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
     for (name, sensor, needle) in [
         (
             "sensor.xml",
-            "<sensor type=\"thinlens\"/>",
-            "unsupported sensor type (btfpt implements perspective)",
+            "<sensor type=\"irradiancemeter\"/>",
+            "unsupported sensor type (btfpt implements perspective, thinlens, orthographic)",
         ),
         (
             "film.xml",
