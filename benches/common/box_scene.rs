@@ -72,6 +72,7 @@ pub fn box_scene(bsdfs: Vec<Bsdf>, walls: [u32; 5]) -> RenderScene {
                 dir.extend(0.0),
                 origin.extend(1.0),
             ),
+            projection: btfpt::scene::Projection::Perspective,
             fov_x_deg: 40.0,
             near_clip: 1e-3,
             far_clip: 100.0,

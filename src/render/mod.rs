@@ -18,7 +18,7 @@ use crate::geometry::accel::Accel;
 use crate::light::LightSet;
 use crate::scene::Scene;
 use crate::{Error, Result};
-use camera::PerspectiveCamera;
+use camera::ProjectiveCamera;
 use integrator::Integrator;
 
 pub use film::{RenderSettings, RenderState};
@@ -45,7 +45,7 @@ pub struct RenderScene {
     pub scene: Scene,
     pub accel: Accel,
     pub lights: LightSet,
-    pub camera: PerspectiveCamera,
+    pub camera: ProjectiveCamera,
     pub integrator: Integrator,
     /// The integrator asked for (packet unless chosen otherwise; see [`Self::integrator_kind`]).
     pub kind: IntegratorKind,
@@ -94,7 +94,7 @@ impl RenderScene {
         let accel = Accel::build(&scene.meshes);
         let bvh_secs = t0.elapsed().as_secs_f64();
         let lights = LightSet::new(&scene.meshes, &scene.emitters, accel.bounds())?;
-        let camera = PerspectiveCamera::new(&scene.camera)?;
+        let camera = ProjectiveCamera::new(&scene.camera)?;
         let integrator = Integrator::new(&scene.integrator)?;
         Ok(RenderScene {
             scene,

@@ -46,7 +46,7 @@ impl Integrator {
                 for tx in 0..tile.w {
                     let (px, py) = (tile.x0 + tx, tile.y0 + ty);
                     let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
-                    let (o, d, tmax) = rs.camera.ray(fx, fy);
+                    let (o, d, tmax) = rs.camera.sample_ray_rng(fx, fy, &mut rng);
                     let l = self.li(rs, o, d, tmax, &mut rng, &mut stats);
                     if !tile.add_sample(s, filter, px, py, fx, fy, l) {
                         invalid += 1;

@@ -262,6 +262,7 @@ impl GltfBuilder<'_> {
         }
         Ok(Camera {
             to_world: rigid * FLIP_YZ,
+            projection: crate::scene::Projection::Perspective,
             fov_x_deg: fov_x,
             near_clip: near,
             far_clip: far,

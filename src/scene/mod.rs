@@ -15,7 +15,7 @@ use crate::geometry::Mesh;
 pub use crate::light::Emitter;
 use crate::plugin::Properties;
 pub use load_options::LoadOptions;
-pub use sensor::{Camera, SamplerType};
+pub use sensor::{Camera, Projection, SamplerType};
 use std::path::PathBuf;
 
 /// Mitsuba's `direct` integrator: emitter and BSDF samples per camera-ray hit, combined with

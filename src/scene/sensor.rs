@@ -1,14 +1,19 @@
-//! What a scene says about its sensor — the perspective [`Camera`], its [`Film`] and
-//! reconstruction filter, the [`Sampler`] — and the constructors that read each plugin's
-//! properties (Mitsuba 3's `perspective`, `hdrfilm`, the `<rfilter>`s and samplers). The
-//! renderer's ray generator is [`crate::render::camera::PerspectiveCamera`].
+//! What a scene says about its sensor — the [`Camera`] and its [`Projection`], its [`Film`]
+//! and reconstruction filter, the [`Sampler`] — and the constructors that read each plugin's
+//! properties (Mitsuba 3's `perspective`, `thinlens`, `orthographic`, `hdrfilm`, the
+//! `<rfilter>`s and samplers). The renderer's ray generator is
+//! [`crate::render::camera::ProjectiveCamera`].
+
+// `!(x > 0.0)` deliberately also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::Result;
 use crate::math::filter::Filter;
 use crate::math::{Mat3, Mat4};
 use crate::plugin::Properties;
 
-/// A perspective pinhole camera with an `hdrfilm` and box reconstruction filter (Mitsuba semantics).
+/// A camera (pinhole, thin lens or orthographic, see [`Projection`]) with its film and
+/// reconstruction filter (Mitsuba semantics).
 ///
 /// **Image orientation (what the renderer must do to match Mitsuba pixel for pixel).** Camera
 /// space looks along +z with +y up, and — as in Mitsuba's `perspective.cpp`, whose sample-space
@@ -20,12 +25,17 @@ use crate::plugin::Properties;
 /// d_cam = normalize(((1 − 2 fx / width) · t, (1 − 2 fy / height) · t / aspect, 1)),
 /// ray origin = to_world · (0, 0, 0), direction = linear part of to_world · d_cam,
 /// t_min = near_clip / d_cam.z, t_max = far_clip / d_cam.z. The renderer's
-/// [`crate::render::camera::PerspectiveCamera`] does exactly this. With a crop window, pixel (i, j) of the output is pixel (i + x, j + y) of the full film.
+/// [`crate::render::camera::ProjectiveCamera`] does exactly this (and the thin lens and
+/// orthographic variants of [`Projection`]). With a crop window, pixel (i, j) of the output is pixel (i + x, j + y) of the full film.
 #[derive(Clone, Debug)]
 pub struct Camera {
-    /// Camera → world (no scale); the camera looks along +z with +y up and +x to the image's left.
+    /// Camera → world (no scale, except for the orthographic camera, whose view extent it
+    /// scales); the camera looks along +z with +y up and +x to the image's left.
     pub to_world: Mat4,
-    /// Full horizontal field of view in degrees (any `fov_axis` resolved by the loader).
+    /// Pinhole, thin lens or orthographic.
+    pub projection: Projection,
+    /// Full horizontal field of view in degrees (any `fov_axis` resolved by the loader; unused
+    /// by the orthographic camera).
     pub fov_x_deg: f32,
     pub near_clip: f32,
     pub far_clip: f32,
@@ -50,41 +60,144 @@ impl Camera {
     /// Mitsuba's `perspective` on `film`: `fov` + `fov_axis` or `focal_length` (see
     /// [`horizontal_fov`]), `near_clip` (0.01), `far_clip` (10⁴), `to_world` (no scale).
     pub fn perspective_from_props(p: &dyn Properties, film: Film) -> Result<Camera> {
-        let aspect = film.width as f64 / film.height as f64;
-        let fov_x = horizontal_fov(p, aspect)?;
-        let near_clip = p.float("near_clip", 1e-2)?;
-        let far_clip = p.float("far_clip", 1e4)?;
-        if near_clip <= 0.0 {
-            return Err(p.err("the \"near_clip\" parameter must be greater than zero"));
-        }
-        if near_clip >= far_clip {
-            return Err(p.err("the \"near_clip\" parameter must be smaller than \"far_clip\""));
-        }
+        let (fov_x, near_clip, far_clip) = projective_props(p, &film, true)?;
         // A pinhole camera is in focus everywhere: the focus distance changes nothing.
         let _ = p.float("focus_distance", far_clip)?;
-        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
-        let l = Mat3::from_mat4(to_world);
-        let g = l.transpose() * l;
-        if (g - Mat3::IDENTITY)
-            .to_cols_array()
-            .iter()
-            .any(|v| v.abs() > 1e-3)
-        {
-            return Err(
-                p.err("scale factors in the camera-to-world transformation are not allowed")
-            );
-        }
-        Ok(Camera {
+        let to_world = rigid_to_world(p)?;
+        Ok(Camera::on_film(
             to_world,
-            fov_x_deg: fov_x,
+            Projection::Perspective,
+            fov_x,
+            (near_clip, far_clip),
+            film,
+        ))
+    }
+
+    /// Mitsuba's `thinlens` on `film`: what `perspective` takes, plus `aperture_radius` (scene
+    /// units, required, ≥ 0) and `focus_distance` (scene units along the view axis, > 0;
+    /// default `far_clip` as in Mitsuba).
+    pub fn thinlens_from_props(p: &dyn Properties, film: Film) -> Result<Camera> {
+        let (fov_x, near_clip, far_clip) = projective_props(p, &film, true)?;
+        let Some(aperture_radius) = p.float_opt("aperture_radius")? else {
+            return Err(p.err("the \"aperture_radius\" parameter is required"));
+        };
+        if !(aperture_radius >= 0.0 && aperture_radius.is_finite()) {
+            return Err(p.err_at(
+                "aperture_radius",
+                &format!("the aperture radius must be finite and ≥ 0, got {aperture_radius}"),
+            ));
+        }
+        let focus_distance = p.float("focus_distance", far_clip)?;
+        if !(focus_distance > 0.0 && focus_distance.is_finite()) {
+            return Err(p.err_at(
+                "focus_distance",
+                &format!("the focus distance must be finite and > 0, got {focus_distance}"),
+            ));
+        }
+        let to_world = rigid_to_world(p)?;
+        let projection = Projection::ThinLens {
+            aperture_radius,
+            focus_distance,
+        };
+        Ok(Camera::on_film(
+            to_world,
+            projection,
+            fov_x,
+            (near_clip, far_clip),
+            film,
+        ))
+    }
+
+    /// Mitsuba's `orthographic` on `film`: `near_clip` (0.01), `far_clip` (10⁴), `to_world`,
+    /// whose scale sets the view extent (camera space [−1, 1] × [−1/aspect, 1/aspect]).
+    pub fn orthographic_from_props(p: &dyn Properties, film: Film) -> Result<Camera> {
+        let (_, near_clip, far_clip) = projective_props(p, &film, false)?;
+        let _ = p.float("focus_distance", far_clip)?;
+        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let det = Mat3::from_mat4(to_world).determinant();
+        if !(to_world.is_finite() && det.abs() > 1e-20) {
+            return Err(p.err("the camera-to-world transformation is singular or not finite"));
+        }
+        Ok(Camera::on_film(
+            to_world,
+            Projection::Orthographic,
+            90.0,
+            (near_clip, far_clip),
+            film,
+        ))
+    }
+
+    fn on_film(
+        to_world: Mat4,
+        projection: Projection,
+        fov_x_deg: f32,
+        (near_clip, far_clip): (f32, f32),
+        film: Film,
+    ) -> Camera {
+        Camera {
+            to_world,
+            projection,
+            fov_x_deg,
             near_clip,
             far_clip,
             width: film.width,
             height: film.height,
             crop: film.crop,
             filter: film.filter,
-        })
+        }
     }
+}
+
+/// How a [`Camera`] turns film positions into rays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Projection {
+    /// Mitsuba's `perspective`: every ray leaves the camera origin.
+    Perspective,
+    /// Mitsuba's `thinlens`: rays leave a disk of `aperture_radius` (scene units) around the
+    /// camera origin in its xy plane, sampled with the concentric map from the sampler's 2-D
+    /// dimension after the film position, and meet at camera-space z = `focus_distance`.
+    ThinLens {
+        aperture_radius: f32,
+        focus_distance: f32,
+    },
+    /// Mitsuba's `orthographic`: parallel rays along camera +z from the near plane over
+    /// [−1, 1] × [−1/aspect, 1/aspect] in camera space (before `to_world`'s scale).
+    Orthographic,
+}
+
+/// The properties every projective camera reads: the horizontal field of view (perspective
+/// ones only), `near_clip` and `far_clip`, checked as Mitsuba checks them.
+fn projective_props(p: &dyn Properties, film: &Film, fov: bool) -> Result<(f32, f32, f32)> {
+    let aspect = film.width as f64 / film.height as f64;
+    let fov_x = if fov {
+        horizontal_fov(p, aspect)?
+    } else {
+        90.0
+    };
+    let near_clip = p.float("near_clip", 1e-2)?;
+    let far_clip = p.float("far_clip", 1e4)?;
+    if !(near_clip > 0.0) {
+        return Err(p.err("the \"near_clip\" parameter must be greater than zero"));
+    }
+    if !(near_clip < far_clip) {
+        return Err(p.err("the \"near_clip\" parameter must be smaller than \"far_clip\""));
+    }
+    Ok((fov_x, near_clip, far_clip))
+}
+
+/// `to_world` of a perspective camera, which Mitsuba requires to have no scale.
+fn rigid_to_world(p: &dyn Properties) -> Result<Mat4> {
+    let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+    let l = Mat3::from_mat4(to_world);
+    let g = l.transpose() * l;
+    if (g - Mat3::IDENTITY)
+        .to_cols_array()
+        .iter()
+        .any(|v| !(v.abs() <= 1e-3))
+    {
+        return Err(p.err("scale factors in the camera-to-world transformation are not allowed"));
+    }
+    Ok(to_world)
 }
 
 /// Mitsuba's `parse_fov`: the horizontal field of view in degrees from `fov` + `fov_axis`

@@ -55,6 +55,7 @@ pub fn scene(
         source: "in-code.xml".into(),
         camera: Camera {
             to_world: lookat(origin, target, Vec3::Y),
+            projection: btfpt::scene::Projection::Perspective,
             fov_x_deg: fov,
             near_clip: 1e-3,
             far_clip: 1e4,

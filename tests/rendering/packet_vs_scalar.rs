@@ -10,7 +10,7 @@ use btfpt::metrics::{Comparison, Criteria};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
-use btfpt::scene::{LoadOptions, Scene};
+use btfpt::scene::{LoadOptions, Projection, Scene};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -94,6 +94,22 @@ fn packet_replays_the_scalar_integrator_sample_by_sample() {
             Box::new(|_| {}),
         ),
         (BSDFS, Box::new(|_| {}), Box::new(|_| {})),
+        // The thin lens draws its aperture sample after the film position, in both integrators.
+        (
+            ALL,
+            Box::new(|s| {
+                s.camera.projection = Projection::ThinLens {
+                    aperture_radius: 0.15,
+                    focus_distance: 3.0,
+                }
+            }),
+            Box::new(|_| {}),
+        ),
+        (
+            ALL,
+            Box::new(|s| s.camera.projection = Projection::Orthographic),
+            Box::new(|_| {}),
+        ),
     ];
     for (k, (path, edit_scene, edit_rs)) in cases.iter().enumerate() {
         let mut scene = load(path, &[("width", "80"), ("height", "60")]);

@@ -4,7 +4,7 @@
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::{Vec2, Vec3};
-use btfpt::render::camera::PerspectiveCamera;
+use btfpt::render::camera::ProjectiveCamera;
 use btfpt::scene::{self, Emitter, LoadOptions};
 
 fn base64(data: &[u8]) -> String {
@@ -119,7 +119,7 @@ fn gltf_scene_maps_to_expected_values() {
     assert!((c.fov_x_deg.to_radians() - expect).abs() < 1e-5);
     assert!((c.near_clip - 0.05).abs() < 1e-7);
     // The renderer's camera, built from what the loader produced; rays start on the near plane.
-    let rc = PerspectiveCamera::new(c).unwrap();
+    let rc = ProjectiveCamera::new(c).unwrap();
     let (o, d, _) = rc.ray(100.0, 50.0);
     assert!(
         close(o, Vec3::new(0.0, 0.0, 4.95)) && close(d, -Vec3::Z),

@@ -4,7 +4,7 @@
 use btfpt::bsdf::{Bsdf, Bxdf, MicrofacetType, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
-use btfpt::render::camera::PerspectiveCamera;
+use btfpt::render::camera::ProjectiveCamera;
 use btfpt::scene::{self, Emitter, LoadOptions, Scene};
 use std::path::{Path, PathBuf};
 
@@ -354,7 +354,7 @@ fn camera_rays_follow_mitsuba_orientation() {
         <film type="hdrfilm"><integer name="width" value="100"/><integer name="height" value="50"/>
         <rfilter type="box"/></film></sensor></scene>"#;
     // The renderer's camera, built from what the loader produced.
-    let c = PerspectiveCamera::new(&load(&write(dir.path(), "c.xml", xml)).camera).unwrap();
+    let c = ProjectiveCamera::new(&load(&write(dir.path(), "c.xml", xml)).camera).unwrap();
     let (o, d, _) = c.ray(50.0, 25.0);
     // The ray starts on the near plane (Mitsuba's default near_clip = 0.01) in front of the origin.
     assert!(
@@ -937,8 +937,8 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
     for (name, sensor, needle) in [
         (
             "sensor.xml",
-            "<sensor type=\"thinlens\"/>",
-            "unsupported sensor type (btfpt implements perspective)",
+            "<sensor type=\"irradiancemeter\"/>",
+            "unsupported sensor type (btfpt implements perspective, thinlens, orthographic)",
         ),
         (
             "film.xml",

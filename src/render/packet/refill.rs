@@ -1,7 +1,7 @@
 //! Starting camera paths in the pool 16 at a time: the free slots a round refills are
 //! collected with their work items, and their random streams (seeded from (seed, pixel,
 //! sample)), film positions (written to the chunk's output for the film's filter) and camera rays are computed in SoA by the twins of the scalar
-//! code ([`Pcg32x::for_samples`], [`PerspectiveCamera::ray_x`](crate::render::camera::PerspectiveCamera::ray_x)),
+//! code ([`Pcg32x::for_samples`], [`ProjectiveCamera::ray_x`](crate::render::camera::ProjectiveCamera::ray_x)),
 //! so each lane starts with the bits [`crate::render::integrator::Integrator::li`]'s path does.
 
 use super::chunk::{Chunk, FilmSample};
@@ -76,7 +76,14 @@ fn start(
     let all = [true; LANES];
     let fx = Fx(px) + Fx(rng.next_f32(&all));
     let fy = Fx(py) + Fx(rng.next_f32(&all));
-    let (o, d, tmax) = rs.camera.ray_x(fx, fy);
+    // The thin lens's aperture sample: the next 2-D dimension, as the scalar path draws it.
+    let (ux, uy) = if rs.camera.needs_aperture_sample() {
+        let ux = Fx(rng.next_f32(&all));
+        (ux, Fx(rng.next_f32(&all)))
+    } else {
+        (Fx::splat(0.5), Fx::splat(0.5))
+    };
+    let (o, d, tmax) = rs.camera.ray_x(fx, fy, ux, uy);
     for l in 0..n {
         out[fill.job[l] as usize].pos = [fx.0[l], fy.0[l]];
         pool.start(

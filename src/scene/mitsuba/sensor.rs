@@ -21,8 +21,11 @@ const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
 type OwnerConstructor<T, Owned> = fn(&dyn Properties, Owned) -> Result<T>;
 
 /// Every `<sensor>` plugin btfpt implements, with its film.
-const SENSOR_PLUGINS: &[(&str, OwnerConstructor<Camera, Film>)] =
-    &[("perspective", Camera::perspective_from_props)];
+const SENSOR_PLUGINS: &[(&str, OwnerConstructor<Camera, Film>)] = &[
+    ("perspective", Camera::perspective_from_props),
+    ("thinlens", Camera::thinlens_from_props),
+    ("orthographic", Camera::orthographic_from_props),
+];
 
 /// Every `<film>` plugin btfpt implements, with its reconstruction filter.
 const FILM_PLUGINS: &[(&str, OwnerConstructor<Film, Filter>)] =
