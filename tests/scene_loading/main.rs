@@ -6,3 +6,4 @@ mod gltf;
 mod mitsuba_constructs;
 mod mitsuba_xml;
 mod named_conductors;
+mod principled;
