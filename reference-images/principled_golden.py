@@ -1,4 +1,4 @@
-"""Regenerates principled_golden.txt: eval/pdf/sample of Mitsuba 3's own `principled` BSDF
+"""Regenerates principled_golden.txt: eval/pdf/sample of Mitsuba 3's own `principled` and `principledthin` BSDFs
 (scalar_rgb) at the fixed directions and random numbers of bsdf_golden.py, in its line format;
 src/bsdf/tests/principled.rs builds the same configurations and must reproduce every line.
 
@@ -38,6 +38,18 @@ CONFIGS = {
                             "spec_trans": 0.3, "eta": 1.3, "clearcoat": checker(0.2, 0.9),
                             "clearcoat_gloss": 0.3, "sheen": 0.5, "sheen_tint": 0.8,
                             "anisotropic": 0.2, "flatness": 0.4, "spec_tint": 0.3},
+    "principledthin_default": {"type": "principledthin"},
+    "principledthin_all": {"type": "principledthin", "base_color": rgb([0.7, 0.4, 0.2]),
+                           "roughness": 0.35, "anisotropic": 0.4, "spec_trans": 0.6,
+                           "eta": 1.4, "spec_tint": 0.5, "sheen": 0.5, "sheen_tint": 0.6,
+                           "flatness": 0.3, "diff_trans": 0.8,
+                           "specular_reflectance_sampling_rate": 1.5,
+                           "specular_transmittance_sampling_rate": 0.7,
+                           "diffuse_reflectance_sampling_rate": 2.0,
+                           "diffuse_transmittance_sampling_rate": 0.5},
+    "principledthin_textured": {"type": "principledthin", "base_color": bitmap(BASE),
+                                "roughness": bitmap(ROUGH), "spec_trans": checker(0.3, 0.8),
+                                "eta": checker(1.2, 1.6), "diff_trans": 1.4},
 }
 
 if __name__ == "__main__":

@@ -328,6 +328,7 @@ fn flags_from_mitsuba(bits: u32) -> BsdfFlags {
     match bits {
         1 | 64 => BsdfFlags::DELTA_TRANSMISSION,
         2 => BsdfFlags::DIFFUSE_REFLECTION,
+        4 => BsdfFlags::DIFFUSE_TRANSMISSION,
         8 => BsdfFlags::GLOSSY_REFLECTION,
         16 => BsdfFlags::GLOSSY_TRANSMISSION,
         32 => BsdfFlags::DELTA_REFLECTION,

@@ -28,6 +28,7 @@ pub mod plmc;
 pub mod plugin;
 pub mod principled;
 pub mod principled_lobes;
+pub mod principledthin;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
@@ -54,6 +55,7 @@ pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use plugin::BsdfProperties;
 pub use principled::Principled;
+pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -249,6 +251,8 @@ bsdf_enum! {
     BumpMap(BumpMap),
     /// Disney's principled BSDF (Mitsuba `principled`).
     Principled(Principled),
+    /// Disney's thin-sheet principled BSDF (Mitsuba `principledthin`).
+    PrincipledThin(PrincipledThin),
     /// Measured BTF (raw data), docs/conventions.md.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (docs/model.md).

@@ -1,4 +1,4 @@
-//! The principled BSDF against Mitsuba 3.9.1's own plugin (`principled_golden.txt`), its
+//! The principled BSDFs (`principled`, `principledthin`) against Mitsuba 3.9.1's own plugin (`principled_golden.txt`), its
 //! sampling against its pdf (chi-square), and a white furnace: importance-sampled albedo equals
 //! the uniformly sampled one and stays ≤ 1 where the model conserves energy.
 
@@ -11,7 +11,7 @@ use crate::math::{Pcg32, warp};
 const GOLDEN: &str = include_str!("../../../reference-images/principled_golden.txt");
 
 /// Chi-square tests in this file (the Šidák family).
-const CHI2_TESTS: usize = 6 * 4;
+const CHI2_TESTS: usize = 6 * 4 + 3 * 4;
 
 fn c(r: f32, g: f32, b: f32) -> Texture {
     Texture::Constant(Spectrum::new(r, g, b))
@@ -48,8 +48,70 @@ fn default() -> Principled {
     }
 }
 
+/// Mitsuba's `principledthin` defaults.
+fn thin_default() -> PrincipledThin {
+    PrincipledThin {
+        base_color: u(0.5),
+        roughness: u(0.5),
+        anisotropic: u(0.0),
+        spec_trans: u(0.0),
+        spec_tint: u(0.0),
+        sheen: u(0.0),
+        sheen_tint: u(0.0),
+        flatness: u(0.0),
+        diff_trans: u(0.0),
+        eta: u(1.5),
+        has_spec_trans: false,
+        has_diff_trans: false,
+        rates: [1.0; 4],
+    }
+}
+
+/// The thin configurations of `principled_golden.py`.
+fn thin_config(name: &str) -> Bsdf {
+    let d = thin_default();
+    Bsdf::PrincipledThin(match name {
+        "principledthin_default" => d,
+        "principledthin_all" => PrincipledThin {
+            base_color: c(0.7, 0.4, 0.2),
+            roughness: u(0.35),
+            anisotropic: u(0.4),
+            spec_trans: u(0.6),
+            eta: u(1.4),
+            spec_tint: u(0.5),
+            sheen: u(0.5),
+            sheen_tint: u(0.6),
+            flatness: u(0.3),
+            diff_trans: u(0.8),
+            has_spec_trans: true,
+            has_diff_trans: true,
+            rates: [1.5, 0.7, 2.0, 0.5],
+        },
+        "principledthin_textured" => PrincipledThin {
+            base_color: texels(
+                |i, j| 0.2 + 0.6 * ((i + 2 * j) % 4) as f64 / 4.0,
+                [1.0, 0.7, 0.4],
+            ),
+            roughness: texels(
+                |i, j| 0.15 + 0.6 * ((2 * i + j) % 5) as f64 / 5.0,
+                [1.0, 0.9, 1.1],
+            ),
+            spec_trans: checker(0.3, 0.8),
+            eta: checker(1.2, 1.6),
+            diff_trans: u(1.4),
+            has_spec_trans: true,
+            has_diff_trans: true,
+            ..d
+        },
+        other => panic!("golden file names an unknown configuration {other}"),
+    })
+}
+
 /// The configurations of `principled_golden.py`, by name.
 fn config(name: &str) -> Bsdf {
+    if name.starts_with("principledthin") {
+        return thin_config(name);
+    }
     let d = default();
     Bsdf::Principled(match name {
         "principled_default" => d,
@@ -140,7 +202,7 @@ fn config(name: &str) -> Bsdf {
 #[test]
 fn principled_matches_mitsuba3_plugin() {
     let (n_config, n_eval, n_sample) = check_golden(GOLDEN, config);
-    assert!(n_config == 8 && n_eval >= 240 && n_sample >= 190);
+    assert!(n_config == 11 && n_eval >= 330 && n_sample >= 260);
 }
 
 fn si(wi: Vec3) -> SurfaceInteraction {
@@ -192,6 +254,9 @@ fn chi2_principled() {
         ("principled_glass", &[0.3, 1.1, 2.0, 2.9][..]),
         ("principled_eta_below_one", &[0.5, 1.3, 2.2, 2.7][..]),
         ("principled_textured", &[0.6, 1.4, 2.4, 2.9][..]),
+        ("principledthin_default", &[0.4, 1.3, 2.0, 2.8][..]),
+        ("principledthin_all", &[0.2, 1.1, 1.9, 2.9][..]),
+        ("principledthin_textured", &[0.7, 1.4, 2.3, 2.6][..]),
     ];
     let mut n = 0;
     let mut failures = Vec::new();
@@ -235,6 +300,8 @@ fn furnace_importance_and_uniform_estimates_agree() {
         "principled_glass",
         "principled_metal",
         "principled_textured",
+        "principledthin_all",
+        "principledthin_textured",
     ];
     for name in names {
         let b = config(name);

@@ -7,8 +7,8 @@ use super::properties::Props;
 use super::{Builder, N};
 use crate::bsdf::{
     BlendBsdf, Bsdf, BsdfProperties, BumpMap, Conductor, Dielectric, Diffuse, Mask, NormalMap,
-    Plastic, Principled, RoughConductor, RoughDielectric, RoughPlastic, Texture, ThinDielectric,
-    TwoSided,
+    Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Texture,
+    ThinDielectric, TwoSided,
 };
 use crate::math::Spectrum;
 use crate::math::Vec3;
@@ -148,6 +148,9 @@ const BSDF_PLUGINS: &[(&str, BsdfConstructor)] = &[
     ("normalmap", |p| NormalMap::from_props(p).map(Bsdf::from)),
     ("bumpmap", |p| BumpMap::from_props(p).map(Bsdf::from)),
     ("principled", |p| Principled::from_props(p).map(Bsdf::from)),
+    ("principledthin", |p| {
+        PrincipledThin::from_props(p).map(Bsdf::from)
+    }),
     ("btf", crate::bsdf::btf::from_props),
 ];
 
