@@ -438,8 +438,9 @@ fn packet_equals_scalar_on_every_batched_bsdf_with_textures() {
 
 #[test]
 fn packet_equals_scalar_on_principled() {
-    // `principled` has no SoA twin: its lanes take the per-lane fallback of the packet kernel.
-    // Opaque with sheen and clearcoat, transmissive and anisotropic, and bitmap-textured.
+    // `principled` and `principledthin` have no SoA twin: its lanes take the per-lane fallback of the packet kernel.
+    // Opaque with sheen and clearcoat, transmissive and anisotropic, and bitmap-textured; and a
+    // `principledthin` sheet with both transmissions.
     let dir = env!("CARGO_MANIFEST_DIR");
     let xml = format!(
         r#"<scene version="3.0.0">
@@ -468,6 +469,11 @@ fn packet_equals_scalar_on_principled() {
     <shape type="rectangle">
         <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/><translate y="-0.5"/></transform>
         <bsdf type="principled"><float name="roughness" value="0.6"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.5"/><rotate y="1" angle="30"/><translate x="0.3" y="0.2" z="1"/></transform>
+        <bsdf type="principledthin"><float name="spec_trans" value="0.5"/><float name="diff_trans" value="0.8"/>
+            <float name="sheen" value="0.4"/><float name="roughness" value="0.3"/></bsdf>
     </shape>
     <emitter type="point"><point name="position" x="1.5" y="2" z="2"/><rgb name="intensity" value="6"/></emitter>
     <emitter type="envmap"><string name="filename" value="{dir}/scenes/cornell-box-all/envmap.exr"/></emitter>

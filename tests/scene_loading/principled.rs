@@ -1,4 +1,4 @@
-//! Mitsuba's `principled` BSDF read from a scene file: every parameter, constant or textured,
+//! Mitsuba's `principled` and `principledthin` BSDFs read from a scene file: every parameter, constant or textured,
 //! `specular` mapped to `eta`; and its bad inputs (a message naming the file, line and problem).
 
 use btfpt::bsdf::{Bsdf, Texture};
@@ -82,6 +82,36 @@ fn principled_reads_every_parameter() {
 }
 
 #[test]
+fn principledthin_reads_every_parameter() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = load_bsdf(
+        dir.path(),
+        r#"<bsdf type="principledthin">
+        <rgb name="base_color" value="0.7, 0.4, 0.2"/><float name="roughness" value="0.35"/>
+        <float name="anisotropic" value="0.4"/><float name="spec_trans" value="0.6"/>
+        <texture type="checkerboard" name="eta"><float name="color0" value="1.2"/><float name="color1" value="1.6"/></texture>
+        <float name="spec_tint" value="0.5"/><float name="sheen" value="0.5"/>
+        <float name="sheen_tint" value="0.6"/><float name="flatness" value="0.3"/>
+        <float name="diff_trans" value="1.6"/>
+        <float name="specular_reflectance_sampling_rate" value="1.5"/>
+        <float name="specular_transmittance_sampling_rate" value="0.7"/>
+        <float name="diffuse_reflectance_sampling_rate" value="2"/>
+        <float name="diffuse_transmittance_sampling_rate" value="0.5"/>
+        </bsdf>"#,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let Bsdf::PrincipledThin(p) = b else {
+        panic!("expected principledthin, got {b:?}")
+    };
+    let uv = Vec2::new(0.3, 0.6);
+    assert!(matches!(p.eta, Texture::Checkerboard(_)));
+    assert_eq!(p.diff_trans.eval_1(uv), 1.6);
+    assert_eq!(p.flatness.eval_1(uv), 0.3);
+    assert!(p.has_spec_trans && p.has_diff_trans);
+    assert_eq!(p.rates, [1.5, 0.7, 2.0, 0.5]);
+}
+
+#[test]
 fn principled_bad_parameters_name_file_line_and_problem() {
     let dir = tempfile::tempdir().unwrap();
     for (bsdf, needle) in [
@@ -116,6 +146,18 @@ fn principled_bad_parameters_name_file_line_and_problem() {
         (
             r#"<bsdf type="principled"><float name="roughnes" value="0.2"/></bsdf>"#,
             "roughnes",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="diff_trans" value="2.5"/></bsdf>"#,
+            "\"diff_trans\" must lie in [0, 2]",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="eta" value="0"/></bsdf>"#,
+            "\"eta\" must be positive",
+        ),
+        (
+            r#"<bsdf type="principledthin"><float name="sheen" value="1.1"/></bsdf>"#,
+            "\"sheen\" must lie in [0, 1]",
         ),
     ] {
         let e = load_bsdf(dir.path(), bsdf).expect_err(bsdf);
