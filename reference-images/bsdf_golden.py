@@ -164,10 +164,10 @@ def fmt(x):
     return "%.9g" % float(x)
 
 
-def main():
+def main(configs=CONFIGS):
     rng = random.Random(1234)
     ctx = mi.BSDFContext()
-    for cid, (name, desc) in enumerate(CONFIGS.items()):
+    for cid, (name, desc) in enumerate(configs.items()):
         bsdf = mi.load_dict(desc)
         print("bsdf", cid, name)
         thetas_i = [0.0, 0.4, 1.1, 1.5, 2.0, 2.9]

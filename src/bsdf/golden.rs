@@ -250,7 +250,7 @@ fn beckmann_config(name: &str) -> Bsdf {
 }
 
 /// `bsdf_golden.py`'s `texels`: a 4×3 raw image, value (i, j) = f(i, j) × scales per channel.
-fn texels(f: impl Fn(usize, usize) -> f64, scales: [f64; 3]) -> Texture {
+pub(super) fn texels(f: impl Fn(usize, usize) -> f64, scales: [f64; 3]) -> Texture {
     let mut img = crate::io::RgbImage::new(4, 3);
     for j in 0..3 {
         for i in 0..4 {
@@ -276,7 +276,7 @@ fn k_texels() -> Texture {
     texels(|i, j| 2.0 + 0.4 * ((3 * i + j) % 5) as f64, [1.0, 0.8, 0.6])
 }
 
-fn checker(c0: f32, c1: f32) -> Texture {
+pub(super) fn checker(c0: f32, c1: f32) -> Texture {
     Texture::Checkerboard(std::sync::Arc::new(Checkerboard {
         color0: Texture::uniform(c0),
         color1: Texture::uniform(c1),
@@ -328,6 +328,7 @@ fn flags_from_mitsuba(bits: u32) -> BsdfFlags {
     match bits {
         1 | 64 => BsdfFlags::DELTA_TRANSMISSION,
         2 => BsdfFlags::DIFFUSE_REFLECTION,
+        4 => BsdfFlags::DIFFUSE_TRANSMISSION,
         8 => BsdfFlags::GLOSSY_REFLECTION,
         16 => BsdfFlags::GLOSSY_TRANSMISSION,
         32 => BsdfFlags::DELTA_REFLECTION,
@@ -345,10 +346,26 @@ fn close3(a: Vec3, b: Vec3, rel: f32) -> bool {
 
 #[test]
 fn matches_mitsuba3_plugins() {
+    let (n_config, n_eval, n_sample) = check_golden(GOLDEN, config);
+    assert!(n_config == 36 && n_eval > 400 && n_sample > 300);
+}
+
+/// Checks every line of a golden file in `bsdf_golden.py`'s format against the configurations
+/// `config` builds by name; returns the numbers of configurations, evals and samples.
+pub(super) fn check_golden(text: &str, config: fn(&str) -> Bsdf) -> (usize, usize, usize) {
     let mut configs: Vec<(String, Bsdf)> = Vec::new();
     let (mut n_eval, mut n_sample) = (0, 0);
     let mut failures = Vec::new();
-    for (ln, line) in GOLDEN.lines().enumerate() {
+    // Largest relative differences of eval and pdf (over values above 1e-3).
+    let (mut max_eval, mut max_pdf) = (0.0f32, 0.0f32);
+    let rel = |a: f32, b: f32| {
+        if a.abs().max(b.abs()) > 1e-3 {
+            (a - b).abs() / a.abs().max(b.abs())
+        } else {
+            0.0
+        }
+    };
+    for (ln, line) in text.lines().enumerate() {
         let f: Vec<&str> = line.split_whitespace().collect();
         let num = |i: usize| -> f32 { f[i].parse().unwrap() };
         let v3 = |i: usize| Vec3::new(num(i), num(i + 1), num(i + 2));
@@ -362,6 +379,9 @@ fn matches_mitsuba3_plugins() {
                 let s = SurfaceInteraction::for_tests(v3(2), Vec2::new(0.3, 0.6));
                 let wo = v3(5);
                 let (e, p) = (b.eval(&s, wo), b.pdf(&s, wo));
+                let r = v3(8);
+                max_eval = max_eval.max(rel(e.x, r.x).max(rel(e.y, r.y)).max(rel(e.z, r.z)));
+                max_pdf = max_pdf.max(rel(p, num(11)));
                 if !close3(e, v3(8), 1e-4) || !close(p, num(11), 1e-4) {
                     failures.push(format!(
                         "line {}: {name} eval: ours {e} pdf {p}, Mitsuba {} pdf {}",
@@ -400,11 +420,12 @@ fn matches_mitsuba3_plugins() {
             other => panic!("line {}: unknown record {other}", ln + 1),
         }
     }
-    assert!(configs.len() == 36 && n_eval > 400 && n_sample > 300);
+    println!("max relative difference to Mitsuba: eval {max_eval:e}, pdf {max_pdf:e}");
     assert!(
         failures.is_empty(),
         "{} mismatches with Mitsuba 3:\n{}",
         failures.len(),
         failures.join("\n")
     );
+    (configs.len(), n_eval, n_sample)
 }

@@ -27,6 +27,9 @@ pub mod perturbed;
 pub mod plastic;
 pub mod plmc;
 pub mod plugin;
+pub mod principled;
+pub mod principled_lobes;
+pub mod principledthin;
 pub mod roughconductor;
 pub mod roughdielectric;
 pub mod roughplastic;
@@ -52,6 +55,8 @@ pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use plugin::BsdfProperties;
+pub use principled::Principled;
+pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
 pub use roughdielectric::RoughDielectric;
 pub use roughplastic::RoughPlastic;
@@ -245,6 +250,10 @@ bsdf_enum! {
     NormalMap(NormalMap),
     /// Shading-frame perturbation from the gradient of a height texture around a nested BSDF.
     BumpMap(BumpMap),
+    /// Disney's principled BSDF (Mitsuba `principled`).
+    Principled(Principled),
+    /// Disney's thin-sheet principled BSDF (Mitsuba `principledthin`).
+    PrincipledThin(PrincipledThin),
     /// Measured BTF (raw data), docs/conventions.md.
     Btf(BtfBsdf),
     /// Measured BTF as a fitted LM / PLM / PLM-C model (docs/model.md).

@@ -451,3 +451,49 @@ fn packet_equals_scalar_on_every_batched_bsdf_with_textures() {
     );
     packet_equals_scalar_on_xml(&xml, 9);
 }
+
+#[test]
+fn packet_equals_scalar_on_principled() {
+    // `principled` and `principledthin` have no SoA twin: its lanes take the per-lane fallback of the packet kernel.
+    // Opaque with sheen and clearcoat, transmissive and anisotropic, and bitmap-textured; and a
+    // `principledthin` sheet with both transmissions.
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="6"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <transform name="to_world"><lookat origin="0, 0.5, 3.2" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="36"/></film>
+    </sensor>
+    <shape type="sphere"><point name="center" x="-1" y="0" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="principled"><rgb name="base_color" value="0.8, 0.3, 0.2"/>
+            <float name="sheen" value="0.6"/><float name="clearcoat" value="0.7"/>
+            <float name="metallic" value="0.2"/><float name="spec_tint" value="0.5"/></bsdf>
+    </shape>
+    <shape type="sphere"><point name="center" x="0" y="0" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="principled"><float name="spec_trans" value="0.8"/><float name="eta" value="1.45"/>
+            <float name="roughness" value="0.2"/><float name="anisotropic" value="0.5"/></bsdf>
+    </shape>
+    <shape type="sphere"><point name="center" x="1" y="0" z="0"/><float name="radius" value="0.45"/>
+        <bsdf type="principled"><texture type="bitmap" name="base_color">
+            <string name="filename" value="{dir}/scenes/cornell-box-all/checker.png"/></texture>
+            <texture type="bitmap" name="roughness">
+            <string name="filename" value="{dir}/scenes/cornell-box-all/checker.png"/></texture>
+            <float name="flatness" value="0.5"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="4"/><rotate x="1" angle="-90"/><translate y="-0.5"/></transform>
+        <bsdf type="principled"><float name="roughness" value="0.6"/></bsdf>
+    </shape>
+    <shape type="rectangle">
+        <transform name="to_world"><scale value="0.5"/><rotate y="1" angle="30"/><translate x="0.3" y="0.2" z="1"/></transform>
+        <bsdf type="principledthin"><float name="spec_trans" value="0.5"/><float name="diff_trans" value="0.8"/>
+            <float name="sheen" value="0.4"/><float name="roughness" value="0.3"/></bsdf>
+    </shape>
+    <emitter type="point"><point name="position" x="1.5" y="2" z="2"/><rgb name="intensity" value="6"/></emitter>
+    <emitter type="envmap"><string name="filename" value="{dir}/scenes/cornell-box-all/envmap.exr"/></emitter>
+</scene>"#
+    );
+    packet_equals_scalar_on_xml(&xml, 13);
+}

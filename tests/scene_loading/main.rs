@@ -6,4 +6,5 @@ mod gltf;
 mod mitsuba_constructs;
 mod mitsuba_xml;
 mod named_conductors;
+mod principled;
 mod sensors;

@@ -6,3 +6,4 @@ mod batch_vs_scalar;
 mod beckmann_sampling;
 mod conductor_materials;
 mod physics;
+mod principled;

@@ -7,7 +7,8 @@ use super::properties::Props;
 use super::{Builder, N, plugin_constructor};
 use crate::bsdf::{
     BlendBsdf, Bsdf, BsdfProperties, BumpMap, Conductor, Dielectric, Diffuse, Mask, NormalMap,
-    Plastic, RoughConductor, RoughDielectric, RoughPlastic, Texture, ThinDielectric, TwoSided,
+    Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Texture,
+    ThinDielectric, TwoSided,
 };
 use crate::math::Spectrum;
 use crate::math::Vec3;
@@ -130,6 +131,10 @@ const BSDF_PLUGINS: &[(&str, BsdfConstructor)] = &[
     ("mask", |p| Mask::from_props(p).map(Bsdf::from)),
     ("normalmap", |p| NormalMap::from_props(p).map(Bsdf::from)),
     ("bumpmap", |p| BumpMap::from_props(p).map(Bsdf::from)),
+    ("principled", |p| Principled::from_props(p).map(Bsdf::from)),
+    ("principledthin", |p| {
+        PrincipledThin::from_props(p).map(Bsdf::from)
+    }),
     ("btf", crate::bsdf::btf::from_props),
 ];
 
