@@ -42,6 +42,12 @@ pub enum Emitter {
 }
 
 impl Emitter {
+    /// Mitsuba's `area` (nested in a shape, whose mesh carries it): its `radiance` in
+    /// W/(m² sr).
+    pub fn area_radiance_from_props(p: &dyn Properties) -> Result<Spectrum> {
+        p.emission("radiance", Vec3::ONE)
+    }
+
     /// Mitsuba's `point`: `intensity` (W/sr), `position` or `to_world`.
     pub fn point_from_props(p: &dyn Properties) -> Result<Emitter> {
         let intensity = p.emission("intensity", Vec3::ONE)?;

@@ -5,9 +5,8 @@
 use super::properties::Props;
 use super::{Builder, Constructor, N, plugin_constructor};
 use crate::Result;
-use crate::math::Vec3;
+use crate::light::emitter::Emitter;
 use crate::math::transform::is_finite;
-use crate::plugin::Properties;
 use crate::scene::shapes::Shape;
 use crate::scene::{obj, ply, serialized};
 
@@ -39,7 +38,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                 if e.ty != "area" {
                     return Err(e.err("only \"area\" emitters can be attached to a shape"));
                 }
-                let radiance = e.emission("radiance", Vec3::ONE)?;
+                let radiance = Emitter::area_radiance_from_props(&e)?;
                 e.finish()?;
                 self.area_emitters_used.insert(x.key(c.node));
                 Some(radiance)
