@@ -1,8 +1,8 @@
 //! The raw measured BTF as a material (docs/conventions.md): barycentric interpolation over 3 measured views
 //! × 3 measured lights, nearest texel, eval = B/π (B is cosine-baked), one-sided.
 //!
-//! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]), one set of
-//! tables per group of texels with similar light distributions ([`super::btf_texel_groups`]).
+//! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]), built from the
+//! texel-averaged values of this material.
 //!
 //! Memory: the material reads the BTF only through `RawBtf::data()` (f16, `[view][light][row][col]
 //! [rgb]`) and its dimensions; a 256² × 81 × 81 material is 2.6 GB, so it must be kept once per
@@ -13,17 +13,18 @@ use super::Bsdf;
 use super::btf_sampler::BtfLightSampler;
 #[cfg(test)]
 use super::btf_sampler::DEFENSIVE_FRACTION;
-use super::btf_texel_groups::texel_groups;
 use super::plugin::BsdfProperties;
 use super::{BsdfFlags, BsdfSample, Bxdf};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
+use crate::math::color::luminance;
 #[cfg(test)]
 use crate::math::warp;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::model::BtfModel;
 use crate::{Error, Result};
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -37,8 +38,6 @@ pub struct BtfMaterial {
     views: DirectionInterp,
     /// Light-direction sampling tables (and the light interpolator they are built on).
     sampler: BtfLightSampler,
-    /// Sampling-table group of every texel, `[row][column]`; empty: one group.
-    groups: Vec<u8>,
 }
 
 impl BtfMaterial {
@@ -52,16 +51,37 @@ impl BtfMaterial {
             .lights()
             .interpolator()
             .map_err(|e| Error::Invalid(format!("BTF light directions: {e}")))?;
+        let (nv, nl) = (btf.views().len(), btf.lights().len());
         let (w, h) = (btf.width(), btf.height());
-        let grid = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
-        let groups = texel_groups(&btf, grid, lights.num_triangles());
-        let nv = btf.views().len();
-        let sampler = BtfLightSampler::new(lights, &btf.lights().dirs, nv, &groups.lum);
+        let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
+        let data = btf.data();
+        // Texel-averaged luminance of B per (view, light).
+        let lum: Vec<f32> = (0..nv * nl)
+            .into_par_iter()
+            .map(|vl| {
+                let mut sum = Spectrum::ZERO;
+                let mut count = 0u32;
+                for y in (0..h).step_by(sy) {
+                    let row = 3 * ((vl * h + y) * w);
+                    for x in (0..w).step_by(sx) {
+                        let i = row + 3 * x;
+                        sum += Spectrum::new(
+                            data[i].to_f32(),
+                            data[i + 1].to_f32(),
+                            data[i + 2].to_f32(),
+                        );
+                        count += 1;
+                    }
+                }
+                let l = luminance(sum / count as f32);
+                if l.is_finite() { l.max(0.0) } else { 0.0 }
+            })
+            .collect();
+        let sampler = BtfLightSampler::new(lights, &btf.lights().dirs, &lum);
         Ok(BtfMaterial {
             btf,
             views,
             sampler,
-            groups: groups.of_texel,
         })
     }
 
@@ -120,23 +140,6 @@ impl BtfMaterial {
     /// The light-direction sampler (shared code with the fitted models).
     pub fn sampler(&self) -> &BtfLightSampler {
         &self.sampler
-    }
-
-    /// Sampling-table group of texel (x, y).
-    #[inline]
-    fn group(&self, x: usize, y: usize) -> usize {
-        self.groups
-            .get(y * self.btf.width() + x)
-            .map_or(0, |&g| g as usize)
-    }
-
-    /// Number of texel groups with their own sampling tables.
-    pub fn group_count(&self) -> usize {
-        self.groups
-            .iter()
-            .map(|&g| g as usize + 1)
-            .max()
-            .unwrap_or(1)
     }
 
     /// The view-direction interpolator.
@@ -216,6 +219,11 @@ impl BtfBsdf {
         };
         (idx(uv.x, btf.width()), idx(uv.y, btf.height()))
     }
+
+    #[inline]
+    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        self.material.sampler.pdf(vi, vw, wo)
+    }
 }
 
 impl Bxdf for BtfBsdf {
@@ -240,10 +248,8 @@ impl Bxdf for BtfBsdf {
         if si.wi.z <= 0.0 || wo.z <= 0.0 {
             return 0.0;
         }
-        let m = &*self.material;
-        let (vi, vw) = m.views.lookup(si.wi);
-        let (x, y) = self.texel(si.uv);
-        m.sampler.pdf(m.sampler.rows(m.group(x, y), vi), vw, wo)
+        let (vi, vw) = self.material.views.lookup(si.wi);
+        self.pdf_with_views(vi, vw, wo)
     }
 
     /// `(eval, pdf)` sharing the view lookup (what emitter sampling with MIS needs).
@@ -256,8 +262,7 @@ impl Bxdf for BtfBsdf {
         let (vi, vw) = m.views.lookup(si.wi);
         let (x, y) = self.texel(si.uv);
         let f = m.eval_b_with_views(vi, vw, wo, x, y) * INV_PI;
-        let pdf = m.sampler.pdf(m.sampler.rows(m.group(x, y), vi), vw, wo);
-        (f, pdf)
+        (f, self.pdf_with_views(vi, vw, wo))
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -272,16 +277,15 @@ impl Bxdf for BtfBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.views.lookup(si.wi);
-        let (x, y) = self.texel(si.uv);
-        let rows = m.sampler.rows(m.group(x, y), vi);
-        let (wo, _) = m.sampler.sample(rows, vw, sample1, sample2);
+        let (wo, _) = m.sampler.sample(vi, vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = m.sampler.pdf(rows, vw, wo);
+        let pdf = self.pdf_with_views(vi, vw, wo);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
+        let (x, y) = self.texel(si.uv);
         let weight = m.eval_b_with_views(vi, vw, wo, x, y) * (INV_PI / pdf);
         let s = BsdfSample {
             wo,
@@ -438,95 +442,6 @@ mod tests {
                 assert!(
                     (out.pdf_integral - 1.0).abs() < 5e-3,
                     "{name} {wi}: {}",
-                    out.pdf_integral
-                );
-            }
-        }
-    }
-
-    /// Two kinds of texels: columns 0..8 a sharp glossy lobe, columns 8..16 Lambertian.
-    fn two_kinds() -> &'static BtfBsdf {
-        static M: OnceLock<BtfBsdf> = OnceLock::new();
-        M.get_or_init(|| {
-            let f = |v: Vec3, l: Vec3, x: usize, _: usize| {
-                let r = Vec3::new(-v.x, -v.y, v.z);
-                let b = if x < 8 {
-                    l.z * (0.05 + 4.0 * r.dot(l).max(0.0).powi(30))
-                } else {
-                    0.5 * l.z
-                };
-                [b; 3]
-            };
-            let m = BtfMaterial::new(Arc::new(table(16, 16, f))).unwrap();
-            BtfBsdf::new(Arc::new(m), 1.0).unwrap()
-        })
-    }
-
-    #[test]
-    fn texels_with_different_light_distributions_get_their_own_tables() {
-        let b = two_kinds();
-        let m = b.material();
-        assert_eq!(m.group_count(), 2);
-        let (glossy, matte) = (m.group(0, 0), m.group(8, 0));
-        assert_ne!(glossy, matte);
-        for y in 0..16 {
-            for x in 0..16 {
-                assert_eq!(
-                    m.group(x, y),
-                    if x < 8 { glossy } else { matte },
-                    "({x}, {y})"
-                );
-            }
-        }
-        // At the mirror direction the glossy texel's tables put far more density than the
-        // matte texel's (cosine-like) ones; sample and pdf agree on each.
-        let wi = dir(40.0, 70.0);
-        let mirror = Vec3::new(-wi.x, -wi.y, wi.z);
-        let at = |x: f32| {
-            let mut s = si(wi);
-            s.uv = Vec2::new(x, 0.5);
-            s
-        };
-        let (g, d) = (at(0.2), at(0.8));
-        assert!(b.pdf(&g, mirror) > 4.0 * b.pdf(&d, mirror));
-        let mut rng = Pcg32::new(5, 6);
-        for s in [g, d] {
-            for _ in 0..500 {
-                if let Some((smp, _)) = b.sample(&s, rng.next_f32(), rng.next_2d()) {
-                    let pdf = b.pdf(&s, smp.wo);
-                    assert!((smp.pdf - pdf).abs() <= 1e-5 * pdf);
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn chi2_of_grouped_tables() {
-        use crate::bsdf::chi2::Chi2Test;
-        let b = two_kinds();
-        let t = Chi2Test {
-            cos_theta_res: 20,
-            phi_res: 40,
-            sample_count: 200_000,
-            test_count: 6,
-            ..Default::default()
-        };
-        for u in [0.2, 0.8] {
-            for wi in [dir(0.0, 0.0), dir(40.0, 70.0), dir(75.0, 200.0)] {
-                let mut s = si(wi);
-                s.uv = Vec2::new(u, 0.5);
-                let mut lobe = Pcg32::new(23, 3);
-                let out = t.run(
-                    |u1, u2| {
-                        let s1 = lobe.next_f32();
-                        b.sample(&s, s1, Vec2::new(u1, u2)).map(|x| x.0.wo)
-                    },
-                    |w| b.pdf(&s, w),
-                );
-                assert!(out.passed, "u {u} wi = {wi}: {}", out.message);
-                assert!(
-                    (out.pdf_integral - 1.0).abs() < 5e-3,
-                    "{}",
                     out.pdf_integral
                 );
             }

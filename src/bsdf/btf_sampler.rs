@@ -3,10 +3,7 @@
 //!
 //! At load, per measured view, a piecewise-constant density over the light triangulation on the
 //! unit disk, proportional to the texel-averaged luminance of B / cos θ_l (so a Lambertian table
-//! gives exactly cosine sampling). A material may split its texels into groups of similar
-//! reflectance (the raw BTF does, by k-means) with one set of view tables per group, averaged
-//! over the group's texels only: table row `group × views + view` ([`BtfLightSampler::rows`]);
-//! with one group the rows are the view indices. For a query the tables of the 3 views of wi are blended with
+//! gives exactly cosine sampling). For a query the tables of the 3 views of wi are blended with
 //! their interpolation weights; the grazing band beyond the measured hull (where the direction
 //! rule of docs/conventions.md holds B at its outer-ring values) gets its own uniform component
 //! weighted by its estimated share of ∫ B dω; uniform hemisphere sampling is always mixed in
@@ -46,8 +43,6 @@ enum Part {
 pub struct BtfLightSampler {
     /// The light directions' triangulation on the unit disk (also the material's light lookup).
     lights: DirectionInterp,
-    /// Measured views (rows per texel group).
-    n_views: usize,
     /// Per view: triangles chosen ∝ their share of ∫ B/cos θ_l dA; None for a black view
     /// (cosine sampling is used instead) or a view whose energy is all in the grazing band.
     tris: Vec<Option<Distribution1D>>,
@@ -63,12 +58,10 @@ pub struct BtfLightSampler {
 }
 
 impl BtfLightSampler {
-    /// Builds the tables from `lum`, the luminance of B averaged over each texel group at every
-    /// measured (view, light), `[group][view][light]` (one group: the texel average), linear
-    /// and cosine-baked.
-    pub fn new(lights: DirectionInterp, light_dirs: &[Vec3], n_views: usize, lum: &[f32]) -> Self {
+    /// Builds the tables from `lum`, the texel-averaged luminance of B at every measured
+    /// (view, light), `[view][light]`, linear and cosine-baked.
+    pub fn new(lights: DirectionInterp, light_dirs: &[Vec3], lum: &[f32]) -> Self {
         let nl = light_dirs.len();
-        // Table rows: groups × views (every per-view array below is per row).
         let nv = lum.len().checked_div(nl).unwrap_or(0);
         let nt = lights.num_triangles();
         let clean = |l: f32| if l.is_finite() { l.max(0.0) } else { 0.0 };
@@ -116,26 +109,12 @@ impl BtfLightSampler {
         }
         BtfLightSampler {
             lights,
-            n_views,
             tris,
             density,
             table_ok,
             table_prob,
             band_cos,
         }
-    }
-
-    /// The table rows of views `vi` in texel group `group` (the view indices for group 0).
-    #[inline(always)]
-    pub fn rows(&self, group: usize, vi: [u32; 3]) -> [u32; 3] {
-        let base = (group * self.n_views) as u32;
-        vi.map(|v| base + v)
-    }
-
-    /// Bytes of the tables of one texel group (what a group costs in memory).
-    pub fn group_bytes(n_views: usize, triangles: usize) -> usize {
-        // Density, and the triangle distribution's cdf, lower edges, pmf and guide table.
-        n_views * (triangles * (4 + Distribution1D::BYTES_PER_BIN) + 64)
     }
 
     /// The light-direction interpolator the tables are built on.
@@ -149,7 +128,7 @@ impl BtfLightSampler {
     }
 
     /// Samples a light direction from the mixture (uniform defensive part + the blended tabulated
-    /// part of the views `vi` (table rows, [`BtfLightSampler::rows`]) with weights `vw`); its density is [`BtfLightSampler::pdf`]. Also
+    /// part of the views `vi` with weights `vw`); its density is [`BtfLightSampler::pdf`]. Also
     /// returns the light triangle when the direction was drawn inside one (so the caller's eval
     /// and pdf need not search for it again).
     #[inline]
@@ -323,8 +302,7 @@ impl BtfLightSampler {
 impl std::fmt::Debug for BtfLightSampler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("BtfLightSampler")
-            .field("views", &self.n_views)
-            .field("groups", &(self.tris.len() / self.n_views.max(1)))
+            .field("views", &self.tris.len())
             .field("light_triangles", &self.lights.num_triangles())
             .field("band_cos", &self.band_cos)
             .finish_non_exhaustive()

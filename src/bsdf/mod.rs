@@ -10,7 +10,6 @@ pub mod batch;
 pub mod blend;
 pub mod btf;
 pub mod btf_sampler;
-pub mod btf_texel_groups;
 pub mod bumpmap;
 #[cfg(test)]
 pub(crate) mod chi2;

@@ -27,9 +27,6 @@ pub struct Distribution1D {
 }
 
 impl Distribution1D {
-    /// Bytes a distribution holds per bin (cdf, lower edge, pmf, guide entry).
-    pub const BYTES_PER_BIN: usize = 3 * 4 + std::mem::size_of::<GuideBin>();
-
     /// Builds from weights; negative and non-finite weights count as 0. Returns None if the sum
     /// is 0 (nothing to sample).
     pub fn new(weights: impl IntoIterator<Item = f64>) -> Option<Self> {

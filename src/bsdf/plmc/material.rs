@@ -177,7 +177,7 @@ impl PlmcMaterial {
             .chunks_exact(3)
             .map(|c| luminance(Spectrum::new(c[0], c[1], c[2])))
             .collect();
-        let sampler = BtfLightSampler::new(lights, &model.lights.dirs, model.views.len(), &lum);
+        let sampler = BtfLightSampler::new(lights, &model.lights.dirs, &lum);
         let mut material = PlmcMaterial {
             kind: model.kind,
             space: model.space,
