@@ -3,7 +3,7 @@
 //! portable (SSE2) build of the same lane loop is measured too, to show what the ISA buys.
 
 use btfpt::math::simd::approx::{exp2_isa, log2_isa, sin_cos_isa};
-use btfpt::math::simd::wide::Fx;
+use btfpt::math::simd::f16::F16;
 use btfpt::math::simd::{F32x16, Isa, WIDTH};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
@@ -65,7 +65,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &angles {
-                    let (Fx(s), Fx(c)) = sin_cos_isa(isa, Fx(*black_box(x)));
+                    let (F16(s), F16(c)) = sin_cos_isa(isa, F16(*black_box(x)));
                     acc += s[3] + c[11];
                 }
                 acc
@@ -75,7 +75,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &exps {
-                    acc += exp2_isa(isa, Fx(*black_box(x))).0[5];
+                    acc += exp2_isa(isa, F16(*black_box(x))).0[5];
                 }
                 acc
             })
@@ -84,7 +84,7 @@ fn bench(c: &mut Criterion<ThreadCpuTime>) {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for x in &logs {
-                    acc += log2_isa(isa, Fx(*black_box(x))).0[7];
+                    acc += log2_isa(isa, F16(*black_box(x))).0[7];
                 }
                 acc
             })

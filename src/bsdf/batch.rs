@@ -21,7 +21,7 @@ use super::{
     RoughDielectric, RoughPlastic, Texture,
 };
 use crate::geometry::SurfaceInteraction;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
 use std::mem::MaybeUninit;
 
@@ -44,11 +44,11 @@ enum Kind<'a> {
     /// Smooth conductor (sampling only: a delta lobe).
     Conductor(&'a Conductor),
     /// Rough conductor, with its textures at the lanes' hits.
-    RoughConductor(&'a RoughConductor, RoughConductorAt<Fx>),
+    RoughConductor(&'a RoughConductor, RoughConductorAt<F16>),
     /// Smooth dielectric (sampling only: delta lobes).
     Dielectric(&'a Dielectric),
     /// Rough dielectric, with its textures at the lanes' hits.
-    RoughDielectric(&'a RoughDielectric, RoughDielectricAt<Fx>),
+    RoughDielectric(&'a RoughDielectric, RoughDielectricAt<F16>),
     /// A fitted BTF: per-hit states 16 view lookups at once, emitter evaluations and BSDF
     /// samples 16 per pass of its batched kernel.
     Plmc(&'a PlmcBsdf),
@@ -76,8 +76,8 @@ pub struct BsdfBatch<'a> {
     /// Diffuse lanes: albedo, lanes seen from below a `twosided` (directions z-mirrored), and
     /// lanes seen edge-on (wi.z neither > 0 nor < 0: black, no sample).
     albedo: V3x,
-    flip: Mx,
-    edge_on: Mx,
+    flip: M16,
+    edge_on: M16,
     /// Plastic lanes: the specular reflectance (the base's albedo is in `albedo`).
     specular: V3x,
 }
@@ -92,15 +92,15 @@ pub struct BatchSample {
     /// Sampled direction in the local frame.
     pub wo: V3x,
     /// Its solid-angle density.
-    pub pdf: Fx,
+    pub pdf: F16,
     /// eval · |cos θ_o| / pdf.
     pub weight: V3x,
     /// Relative index of refraction of the sampled event (1 for reflection).
-    pub eta: Fx,
+    pub eta: F16,
     /// The sample came from a delta lobe.
-    pub delta: Mx,
+    pub delta: M16,
     /// False where sampling failed (the path ends).
-    pub ok: Mx,
+    pub ok: M16,
 }
 
 impl BatchSample {
@@ -132,8 +132,8 @@ fn diffuse_sides(b: &Bsdf) -> Option<(&Texture, Option<&Texture>)> {
 
 /// `v` with z negated in the lanes of `m` (`twosided`'s mirror through the surface).
 #[inline(always)]
-fn mirror_z(m: Mx, v: V3x) -> V3x {
-    V3x::new(v.x, v.y, Fx::select(m, -v.z, v.z))
+fn mirror_z(m: M16, v: V3x) -> V3x {
+    V3x::new(v.x, v.y, F16::select(m, -v.z, v.z))
 }
 
 impl<'a> BsdfBatch<'a> {
@@ -169,8 +169,8 @@ impl<'a> BsdfBatch<'a> {
             tex: [None; L],
             uv: V2x::ZERO,
             albedo: V3x::ZERO,
-            flip: Mx::splat(false),
-            edge_on: Mx::splat(false),
+            flip: M16::splat(false),
+            edge_on: M16::splat(false),
             specular: V3x::ZERO,
         }
     }
@@ -282,7 +282,7 @@ impl<'a> BsdfBatch<'a> {
                 todo &= !(1 << first);
                 continue;
             };
-            let mut same = Mx::splat(false);
+            let mut same = M16::splat(false);
             let mut bits = 0u16;
             for l in 0..L {
                 if todo & (1 << l) != 0 && self.tex[l].is_some_and(|t| std::ptr::eq(t, tex)) {
@@ -311,19 +311,19 @@ impl<'a> BsdfBatch<'a> {
     #[inline(always)]
     pub fn eval_for_light(
         &self,
-        want: Mx,
+        want: M16,
         wi: V3x,
         wo: V3x,
-        delta: Mx,
+        delta: M16,
         si: impl Fn(usize) -> SurfaceInteraction,
-    ) -> (V3x, Fx) {
-        let zero = Fx::splat(0.0);
+    ) -> (V3x, F16) {
+        let zero = F16::splat(0.0);
         if let Kind::Diffuse = self.kind {
             let (flip, edge_on) = (self.flip, self.edge_on);
             let (wi, wo) = (mirror_z(flip, wi), mirror_z(flip, wo));
             return (
                 V3x::select(edge_on, V3x::ZERO, eval_local_x(self.albedo, wi, wo)),
-                Fx::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
+                F16::select(delta.or(edge_on), zero, pdf_local_x(wi, wo)),
             );
         }
         let batched = match &self.kind {
@@ -332,7 +332,7 @@ impl<'a> BsdfBatch<'a> {
             _ => self.eval_batched(wi, wo),
         };
         if let Some((f, pdf)) = batched {
-            return (f, Fx::select(delta, zero, pdf));
+            return (f, F16::select(delta, zero, pdf));
         }
         let (mut f, mut pdf) = match self.kind {
             Kind::Plmc(b) => self.eval_plmc(b, want, wo, delta),
@@ -355,7 +355,7 @@ impl<'a> BsdfBatch<'a> {
     pub fn sample(
         &self,
         wi: V3x,
-        u_lobe: Fx,
+        u_lobe: F16,
         u_bsdf: V2x,
         si: impl Fn(usize) -> SurfaceInteraction,
     ) -> BatchSample {
@@ -368,8 +368,8 @@ impl<'a> BsdfBatch<'a> {
                 wo,
                 pdf,
                 weight: self.albedo,
-                eta: Fx::splat(1.0),
-                delta: Mx::splat(false),
+                eta: F16::splat(1.0),
+                delta: M16::splat(false),
                 ok,
             };
         }
@@ -381,7 +381,7 @@ impl<'a> BsdfBatch<'a> {
                     wo,
                     pdf,
                     weight,
-                    eta: Fx::splat(1.0),
+                    eta: F16::splat(1.0),
                     delta,
                     ok,
                 };
@@ -395,11 +395,11 @@ impl<'a> BsdfBatch<'a> {
         }
         let mut out = BatchSample {
             wo: V3x::splat(Vec3::Z),
-            pdf: Fx::splat(1.0),
+            pdf: F16::splat(1.0),
             weight: V3x::ZERO,
-            eta: Fx::splat(1.0),
-            delta: Mx::splat(false),
-            ok: Mx::splat(false),
+            eta: F16::splat(1.0),
+            delta: M16::splat(false),
+            ok: M16::splat(false),
         };
         if let Kind::Plmc(b) = self.kind {
             self.sample_plmc(b, u_lobe, u_bsdf, &mut out);
@@ -415,7 +415,7 @@ impl<'a> BsdfBatch<'a> {
 
     /// (f, pdf) of the kinds with SoA twins but plastic's (None for the others).
     #[inline(never)]
-    fn eval_batched(&self, wi: V3x, wo: V3x) -> Option<(V3x, Fx)> {
+    fn eval_batched(&self, wi: V3x, wo: V3x) -> Option<(V3x, F16)> {
         let (wit, wot) = (wi.into(), wo.into());
         match &self.kind {
             Kind::RoughPlastic(p) => Some((
@@ -432,15 +432,15 @@ impl<'a> BsdfBatch<'a> {
                 Some((f.into(), pdf))
             }
             // Delta lobes only: nothing for an emitter sample to see.
-            Kind::Conductor(_) | Kind::Dielectric(_) => Some((V3x::ZERO, Fx::splat(0.0))),
+            Kind::Conductor(_) | Kind::Dielectric(_) => Some((V3x::ZERO, F16::splat(0.0))),
             _ => None,
         }
     }
 
     /// BSDF samples of the kinds with SoA twins but plastic's (None for the others).
     #[inline(never)]
-    fn sample_batched(&self, wi: V3x, u_lobe: Fx, u_bsdf: V2x) -> Option<BatchSample> {
-        let (one, no) = (Fx::splat(1.0), Mx::splat(false));
+    fn sample_batched(&self, wi: V3x, u_lobe: F16, u_bsdf: V2x) -> Option<BatchSample> {
+        let (one, no) = (F16::splat(1.0), M16::splat(false));
         let (wit, ut) = (wi.into(), u_bsdf.into());
         let (wo, pdf, weight, eta, delta, ok) = match &self.kind {
             Kind::RoughPlastic(p) => {
@@ -449,10 +449,10 @@ impl<'a> BsdfBatch<'a> {
                 (wo.into(), pdf, weight.into(), one, no, ok)
             }
             Kind::Conductor(c) => {
-                let ok = wi.z.gt(Fx::splat(0.0));
+                let ok = wi.z.gt(F16::splat(0.0));
                 let wo = V3x::new(-wi.x, -wi.y, wi.z);
                 let weight = c.weight_t(wi.z, self.uv.into()).into();
-                (wo, one, weight, one, Mx::splat(true), ok)
+                (wo, one, weight, one, M16::splat(true), ok)
             }
             Kind::RoughConductor(c, at) => {
                 let (wo, pdf, weight, ok) = c.sample_t(at, wit, ut);
@@ -465,8 +465,8 @@ impl<'a> BsdfBatch<'a> {
                     pdf,
                     weight.into(),
                     eta,
-                    Mx::splat(true),
-                    Mx::splat(true),
+                    M16::splat(true),
+                    M16::splat(true),
                 )
             }
             Kind::RoughDielectric(d, at) => {
@@ -500,8 +500,8 @@ impl<'a> BsdfBatch<'a> {
     /// whose BSDF kept its per-hit state (the rest through the scalar code), 16 per pass of the
     /// batched kernel; the pdf is 0 for delta lights.
     #[inline(always)]
-    fn eval_plmc(&self, b: &PlmcBsdf, want: Mx, wo: V3x, delta: Mx) -> (V3x, Fx) {
-        let (mut f, mut pdf) = (V3x::ZERO, Fx::splat(0.0));
+    fn eval_plmc(&self, b: &PlmcBsdf, want: M16, wo: V3x, delta: M16) -> (V3x, F16) {
+        let (mut f, mut pdf) = (V3x::ZERO, F16::splat(0.0));
         let n = self.plmc_n;
         if n == 0 {
             return (f, pdf);
@@ -531,7 +531,7 @@ impl<'a> BsdfBatch<'a> {
     /// into `out` where sampling succeeds, their model evaluations 16 per pass of the batched
     /// kernel: [`PlmcBsdf::sample_batch`], the same samples as the scalar `sample_hit`.
     #[inline(always)]
-    fn sample_plmc(&self, b: &PlmcBsdf, u_lobe: Fx, u_bsdf: V2x, out: &mut BatchSample) {
+    fn sample_plmc(&self, b: &PlmcBsdf, u_lobe: F16, u_bsdf: V2x, out: &mut BatchSample) {
         let n = self.plmc_n;
         if n == 0 {
             return;

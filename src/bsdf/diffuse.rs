@@ -4,7 +4,7 @@ use super::plugin::BsdfProperties;
 use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
 use crate::Result;
 use crate::geometry::SurfaceInteraction;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3, warp};
 
 /// Ideal diffuse reflector with a (possibly textured) albedo.
@@ -90,16 +90,16 @@ pub fn sample_local(wi: Vec3, u: Vec2) -> Option<(Vec3, f32)> {
 /// [`eval_local`] per lane.
 #[inline(always)]
 pub fn eval_local_x(r: V3x, wi: V3x, wo: V3x) -> V3x {
-    let zero = Fx::splat(0.0);
+    let zero = F16::splat(0.0);
     let below = wi.z.le(zero).or(wo.z.le(zero));
     V3x::select(below, V3x::ZERO, r.scale(INV_PI * wo.z))
 }
 
 /// [`pdf_local`] per lane.
 #[inline(always)]
-pub fn pdf_local_x(wi: V3x, wo: V3x) -> Fx {
-    let zero = Fx::splat(0.0);
-    Fx::select(
+pub fn pdf_local_x(wi: V3x, wo: V3x) -> F16 {
+    let zero = F16::splat(0.0);
+    F16::select(
         wi.z.le(zero),
         zero,
         warp::square_to_cosine_hemisphere_pdf_x(wo),
@@ -108,8 +108,8 @@ pub fn pdf_local_x(wi: V3x, wo: V3x) -> Fx {
 
 /// [`sample_local`] per lane: (wo, pdf, valid), valid false where that returns None.
 #[inline(always)]
-pub fn sample_local_x(wi: V3x, u: V2x) -> (V3x, Fx, Mx) {
-    let zero = Fx::splat(0.0);
+pub fn sample_local_x(wi: V3x, u: V2x) -> (V3x, F16, M16) {
+    let zero = F16::splat(0.0);
     let wo = warp::square_to_cosine_hemisphere_x(u);
     let pdf = warp::square_to_cosine_hemisphere_pdf_x(wo);
     let ok = wi.z.le(zero).not().and(pdf.le(zero).not());

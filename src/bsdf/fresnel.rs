@@ -3,7 +3,7 @@
 use crate::math::simd::real::{Real, V3};
 use crate::math::{Spectrum, Vec3};
 
-/// Result of the dielectric Fresnel equations for one incident cosine (per lane for [`Fx`]).
+/// Result of the dielectric Fresnel equations for one incident cosine (per lane for [`F16`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FresnelDielectric<T = f32> {
     /// Unpolarised reflectance in [0, 1] (1 under total internal reflection).

@@ -2,7 +2,7 @@
 //! GGX (Trowbridge–Reitz), anisotropic roughness (alpha_u along s = local x, alpha_v along t =
 //! local y), Smith's separable shadowing-masking (Beckmann through Mitsuba's rational fit), and
 //! either visible-normal sampling (Jakob's numerical inversion for Beckmann, Heitz 2018 for GGX)
-//! or sampling D(m) cos θ_m. Written once for one lane or sixteen ([`Real`]); [`Fx`] is the
+//! or sampling D(m) cos θ_m. Written once for one lane or sixteen ([`Real`]); [`F16`] is the
 //! 16-lane type.
 
 use super::{BsdfProperties, Texture};
@@ -93,7 +93,7 @@ pub fn check_alpha(p: &dyn Properties, name: &str, alpha: f32) -> Result<()> {
     }
 }
 
-/// A microfacet distribution with its sampling strategy; `T` is `f32`, or [`Fx`] for 16 lanes
+/// A microfacet distribution with its sampling strategy; `T` is `f32`, or [`F16`] for 16 lanes
 /// of one kind with per-lane roughness (the SoA twins run the scalar code's operations).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Microfacet<T = f32> {

@@ -12,7 +12,7 @@ use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
 use crate::Result;
 use crate::geometry::SurfaceInteraction;
 use crate::math::simd::real::{Real, V2, V3};
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3, warp};
 
 /// A coated base's albedo `d` divided by what the coating's internal reflections (diffuse
@@ -137,7 +137,7 @@ impl Plastic {
 
     /// [`Self::prob_diffuse`] per lane.
     #[inline(always)]
-    fn prob_diffuse_x(&self, f_i: Fx) -> Fx {
+    fn prob_diffuse_x(&self, f_i: F16) -> F16 {
         let ps = f_i * self.specular_sampling_weight;
         let pd = (1.0 - f_i) * (1.0 - self.specular_sampling_weight);
         pd / (ps + pd)
@@ -145,8 +145,8 @@ impl Plastic {
 
     /// [`Self::eval`] and [`Self::pdf`] per lane, with each lane's [`Self::base`] in `base`.
     #[inline(always)]
-    pub fn eval_pdf_x(&self, base: V3x, wi: V3x, wo: V3x) -> (V3x, Fx) {
-        let zero = Fx::splat(0.0);
+    pub fn eval_pdf_x(&self, base: V3x, wi: V3x, wo: V3x) -> (V3x, F16) {
+        let zero = F16::splat(0.0);
         let below = wi.z.le(zero).or(wo.z.le(zero));
         let f_i = fresnel_dielectric_t(wi.z, self.eta).r;
         let f_o = fresnel_dielectric_t(wo.z, self.eta).r;
@@ -155,7 +155,7 @@ impl Plastic {
         let pdf = cos_pdf * self.prob_diffuse_x(f_i);
         (
             V3x::select(below, V3x::ZERO, f),
-            Fx::select(below, zero, pdf),
+            F16::select(below, zero, pdf),
         )
     }
 
@@ -167,10 +167,10 @@ impl Plastic {
         base: V3x,
         specular: V3x,
         wi: V3x,
-        sample1: Fx,
+        sample1: F16,
         sample2: V2x,
-    ) -> (V3x, Fx, V3x, Mx, Mx) {
-        let zero = Fx::splat(0.0);
+    ) -> (V3x, F16, V3x, M16, M16) {
+        let zero = F16::splat(0.0);
         let f_i = fresnel_dielectric_t(wi.z, self.eta).r;
         let prob_diffuse = self.prob_diffuse_x(f_i);
         let prob_specular = 1.0 - prob_diffuse;
@@ -187,7 +187,7 @@ impl Plastic {
         let ok = above.and(specular_lobe.or(pdf_d.le(zero).not()));
         (
             V3x::select(specular_lobe, ws, wd),
-            Fx::select(specular_lobe, prob_specular, pdf_d),
+            F16::select(specular_lobe, prob_specular, pdf_d),
             V3x::select(specular_lobe, w_spec, w_diff),
             specular_lobe,
             ok,
@@ -292,7 +292,7 @@ mod tests {
             );
             for round in 0..200 {
                 let (mut wi, mut wo) = (V3x::ZERO, V3x::ZERO);
-                let (mut u1, mut u2) = (Fx::splat(0.0), V2x::ZERO);
+                let (mut u1, mut u2) = (F16::splat(0.0), V2x::ZERO);
                 let (mut base, mut spec) = (V3x::ZERO, V3x::ZERO);
                 let mut si = Vec::new();
                 for l in 0..16 {

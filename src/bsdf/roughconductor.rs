@@ -188,7 +188,7 @@ impl Bxdf for RoughConductor {
     }
 }
 
-/// A rough conductor's textures at a hit (per lane for [`crate::math::simd::wide::Fx`]).
+/// A rough conductor's textures at a hit (per lane for [`crate::math::simd::f16::F16`]).
 #[derive(Clone, Copy, Debug)]
 pub struct RoughConductorAt<T> {
     /// The distribution with the roughness there.

@@ -264,7 +264,7 @@ impl Bxdf for RoughDielectric {
     }
 }
 
-/// A rough dielectric's textures at a hit (per lane for [`crate::math::simd::wide::Fx`]).
+/// A rough dielectric's textures at a hit (per lane for [`crate::math::simd::f16::F16`]).
 #[derive(Clone, Copy, Debug)]
 pub struct RoughDielectricAt<T> {
     /// The distribution with the roughness there.

@@ -6,7 +6,7 @@ use crate::Result;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
 use crate::math::simd::real::{Cond, Real, V2, V3};
-use crate::math::simd::wide::{Fx, V2x, V3x};
+use crate::math::simd::f16::{F16, V2x, V3x};
 use crate::math::transform::is_finite;
 use crate::math::{Mat4, Spectrum, Vec2, Vec3};
 use crate::plugin::Properties;
@@ -221,7 +221,7 @@ impl Checkerboard {
         })))
     }
 
-    /// True where `color0` shows (per lane for [`Fx`]).
+    /// True where `color0` shows (per lane for [`F16`]).
     #[inline(always)]
     fn is_color0<T: Real>(&self, uv: V2<T>) -> T::Mask {
         let t = self.to_uv.apply_t(uv);
@@ -263,7 +263,7 @@ impl Texture {
     /// [`Self::eval_t`] of 16 lanes.
     #[inline]
     pub fn eval_x(&self, uv: V2x) -> V3x {
-        self.eval_t::<Fx>(uv.into()).into()
+        self.eval_t::<F16>(uv.into()).into()
     }
 
     /// The scalar value at `uv` (Mitsuba's `eval_1`, used for roughness): a grey constant's

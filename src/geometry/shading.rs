@@ -5,7 +5,7 @@
 use super::accel::Hit;
 use super::{Mesh, SurfaceInteraction};
 use crate::math::frame::FrameX;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Frame, Vec2, Vec3};
 
 /// Barycentrics (b1, b2) of the point where the line `o + t d` meets the plane of (p0, p1, p2)
@@ -113,9 +113,9 @@ pub fn triangle_surface(
 #[allow(clippy::type_complexity)]
 pub fn triangle_surface_x(
     [p0, p1, p2]: [V3x; 3],
-    has_normals: Mx,
+    has_normals: M16,
     [n0, n1, n2]: [V3x; 3],
-    has_uvs: Mx,
+    has_uvs: M16,
     [t0, t1, t2]: [V2x; 3],
     b: V2x,
 ) -> (V3x, V3x, V3x, V2x, V3x, V3x) {
@@ -131,7 +131,7 @@ pub fn triangle_surface_x(
     let duv0 = t1.sub(t0);
     let duv1 = t2.sub(t0);
     let det = duv0.x * duv1.y - duv0.y * duv1.x;
-    let det_ok = det.ne(Fx::splat(0.0)).and(det.is_finite());
+    let det_ok = det.ne(F16::splat(0.0)).and(det.is_finite());
     let inv = 1.0 / det;
     let du = dp0.scale(duv1.y).sub(dp1.scale(duv0.y)).scale(inv);
     let dv = dp1.scale(duv0.x).sub(dp0.scale(duv1.x)).scale(inv);

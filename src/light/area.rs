@@ -7,7 +7,7 @@
 use super::{LightSample, LightSampleX};
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::distribution::Distribution1D;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3, warp};
 
 /// Uniform area sampling over one emissive mesh (triangles chosen by area).
@@ -61,7 +61,7 @@ impl AreaLight {
 
     /// [`AreaLight::pick`] for 16 lanes: the triangle indices and the re-scaled numbers.
     #[inline(always)]
-    pub fn pick_x(&self, ux: Fx) -> ([u32; 16], Fx) {
+    pub fn pick_x(&self, ux: F16) -> ([u32; 16], F16) {
         let (t, _, ux) = self.tris.sample_x(ux);
         (t, ux)
     }
@@ -131,16 +131,16 @@ pub fn sample_toward(
 #[inline(always)]
 pub fn sample_toward_x(
     radiance: V3x,
-    inv_area: Fx,
+    inv_area: F16,
     p: V3x,
     (pl, ng, ns): (V3x, V3x, V3x),
-) -> (LightSampleX, Mx) {
+) -> (LightSampleX, M16) {
     let to = pl.sub(p);
     let d2 = to.length_squared();
     let dist = d2.sqrt();
     let wi = to.div(dist);
     let cos_l = -ns.dot(wi);
-    let ok = d2.gt(Fx::splat(0.0)).and(cos_l.gt(Fx::splat(0.0)));
+    let ok = d2.gt(F16::splat(0.0)).and(cos_l.gt(F16::splat(0.0)));
     let pdf = inv_area * d2 / cos_l;
     let s = LightSampleX {
         wi,
@@ -148,7 +148,7 @@ pub fn sample_toward_x(
         n_geo: ng,
         weight: radiance.div(pdf),
         pdf,
-        delta: Mx::splat(false),
+        delta: M16::splat(false),
     };
     (s, ok)
 }
@@ -228,7 +228,7 @@ pub fn tri_point_x(
     e1: V3x,
     e2: V3x,
     ng: V3x,
-    has_normals: Mx,
+    has_normals: M16,
     [n0, n1, n2]: [V3x; 3],
     b: V2x,
 ) -> (V3x, V3x, V3x) {

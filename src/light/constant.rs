@@ -1,7 +1,7 @@
 //! Uniform environment light (Mitsuba `constant`), sampled uniformly over the sphere.
 
 use super::{LightSample, LightSampleX};
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{INV_FOUR_PI, Spectrum, Vec2, Vec3, warp};
 
 /// Uniform radiance from every direction at infinity.
@@ -31,11 +31,11 @@ impl ConstantLight {
     pub fn sample_li_x(&self, u: V2x) -> LightSampleX {
         LightSampleX {
             wi: warp::square_to_uniform_sphere_x(u),
-            dist: Fx::splat(f32::INFINITY),
+            dist: F16::splat(f32::INFINITY),
             n_geo: V3x::ZERO,
             weight: V3x::splat(self.radiance / INV_FOUR_PI),
-            pdf: Fx::splat(INV_FOUR_PI),
-            delta: Mx::splat(false),
+            pdf: F16::splat(INV_FOUR_PI),
+            delta: M16::splat(false),
         }
     }
 

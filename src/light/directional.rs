@@ -1,7 +1,7 @@
 //! Directional (distant) light (Mitsuba `directional`).
 
 use super::{LightSample, LightSampleX};
-use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::simd::f16::{F16, M16, V3x};
 use crate::math::{Spectrum, Vec3};
 use crate::{Error, Result};
 
@@ -53,11 +53,11 @@ impl DirectionalLight {
         let len = p.sub(V3x::splat(c)).length();
         LightSampleX {
             wi: V3x::splat(-self.direction),
-            dist: 2.0 * Fx::select(len.gt(Fx::splat(r)), len, Fx::splat(r)),
+            dist: 2.0 * F16::select(len.gt(F16::splat(r)), len, F16::splat(r)),
             n_geo: V3x::ZERO,
             weight: V3x::splat(self.irradiance),
-            pdf: Fx::splat(1.0),
-            delta: Mx::splat(true),
+            pdf: F16::splat(1.0),
+            delta: M16::splat(true),
         }
     }
 }

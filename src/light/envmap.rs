@@ -21,7 +21,7 @@ use crate::math::alias::AliasTable;
 use crate::math::color::luminance;
 use crate::math::simd::WIDTH;
 use crate::math::simd::approx::{self, atan2_x, floor_small_x, sin_cos};
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x, lanes};
+use crate::math::simd::f16::{F16, M16, V2x, V3x, lanes};
 use crate::math::{Mat4, PI, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 use std::path::Path;
@@ -140,7 +140,7 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::eval_pdf`] for 16 directions (the same bits per lane).
     #[inline(always)]
-    pub fn eval_pdf_x(&self, d: V3x) -> (V3x, Fx) {
+    pub fn eval_pdf_x(&self, d: V3x) -> (V3x, F16) {
         let (u, v) = self.lat_long_x(d);
         let col = self.column_x(u);
         (self.lookup_x(col, v), self.pdf_at_x(col.0, v))
@@ -167,14 +167,14 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::lat_long`] per lane: (u, v).
     #[inline(always)]
-    fn lat_long_x(&self, d: V3x) -> (Fx, Fx) {
+    fn lat_long_x(&self, d: V3x) -> (F16, F16) {
         let v = d.transform(&self.to_local);
         let bad = v.is_finite().not().or(v.is_zero());
         let r = (v.x * v.x + v.z * v.z).sqrt();
         let u = atan2_x(v.x, -v.z) * (0.5 / PI);
         let t = atan2_x(r, v.y) * (1.0 / PI);
-        let half = Fx::splat(0.5);
-        (Fx::select(bad, half, u), Fx::select(bad, half, t))
+        let half = F16::splat(0.5);
+        (F16::select(bad, half, u), F16::select(bad, half, t))
     }
 
     /// The texel column left of lat-long `u` (periodic) and the fraction of the way to the next
@@ -191,13 +191,13 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::column`] per lane.
     #[inline(always)]
-    fn column_x(&self, u: Fx) -> ([u32; WIDTH], Fx) {
+    fn column_x(&self, u: F16) -> ([u32; WIDTH], F16) {
         let w = self.width;
         let u = u - 0.5 / w as f32;
         let u = u - floor_small_x(u);
         let x = u * w as f32;
         let ix: [u32; WIDTH] = lanes(|l| (x.0[l] as u32).min(w as u32 - 1));
-        (ix, x - Fx(lanes(|l| ix[l] as f32)))
+        (ix, x - F16(lanes(|l| ix[l] as f32)))
     }
 
     /// Mitsuba's bilinear lookup at texel column `col` (from [`EnvMapLight::column`]) and
@@ -221,12 +221,12 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::lookup`] per lane: four texel gathers per lane, the blends in SoA.
     #[inline(always)]
-    fn lookup_x(&self, (ix, fx): ([u32; WIDTH], Fx), v: Fx) -> V3x {
+    fn lookup_x(&self, (ix, fx): ([u32; WIDTH], F16), v: F16) -> V3x {
         let (w, h) = (self.width, self.height);
         let v = v - floor_small_x(v);
         let y = v * (h - 1) as f32;
         let iy: [u32; WIDTH] = lanes(|l| (y.0[l] as u32).min(h as u32 - 2));
-        let fy = y - Fx(lanes(|l| iy[l] as f32));
+        let fy = y - F16(lanes(|l| iy[l] as f32));
         // Each lane's four texels: (ix, iy), (ix + 1, iy), (ix, iy + 1), (ix + 1, iy + 1).
         let last = self.data.len() - 1;
         let mut at = [[0usize; WIDTH]; 4];
@@ -255,7 +255,7 @@ impl EnvMapLight {
             let t = self.data[at[l]];
             (x[l], y[l], z[l]) = (t.x, t.y, t.z);
         }
-        V3x::new(Fx(x), Fx(y), Fx(z))
+        V3x::new(F16(x), F16(y), F16(z))
     }
 
     /// Samples a world direction; returns (direction, radiance, solid-angle pdf).
@@ -284,29 +284,29 @@ impl EnvMapLight {
     /// [`EnvMapLight::sample`] for 16 lanes: (direction, radiance, pdf, lanes where the scalar
     /// code returns a sample), the same bits per lane.
     #[inline(always)]
-    pub fn sample_x(&self, u: V2x) -> (V3x, V3x, Fx, Mx) {
+    pub fn sample_x(&self, u: V2x) -> (V3x, V3x, F16, M16) {
         let Some(rows) = self.rows.as_ref() else {
-            return (V3x::ZERO, V3x::ZERO, Fx::splat(0.0), Mx::splat(false));
+            return (V3x::ZERO, V3x::ZERO, F16::splat(0.0), M16::splat(false));
         };
         let w = self.width;
         let (j, uy) = rows.sample_x([0; WIDTH], u.y);
         let (i, ux) = self.cols.sample_x(j, u.x);
         let last = self.cell_pdf.len() - 1;
-        let pdf = Fx(lanes(|l| {
+        let pdf = F16(lanes(|l| {
             self.cell_pdf[(j[l] as usize * w + i[l] as usize).min(last)]
         }));
         let top = self.cos_row.len() - 1;
-        let c0 = Fx(lanes(|l| self.cos_row[(j[l] as usize).min(top)]));
-        let c1 = Fx(lanes(|l| self.cos_row[(j[l] as usize + 1).min(top)]));
+        let c0 = F16(lanes(|l| self.cos_row[(j[l] as usize).min(top)]));
+        let c1 = F16(lanes(|l| self.cos_row[(j[l] as usize + 1).min(top)]));
         let cos_t = c0 + (c1 - c0) * uy;
-        let sin_t = (1.0 - cos_t * cos_t).max(Fx::splat(0.0)).sqrt();
-        let fi = Fx(lanes(|l| i[l] as f32));
+        let sin_t = (1.0 - cos_t * cos_t).max(F16::splat(0.0)).sqrt();
+        let fi = F16(lanes(|l| i[l] as f32));
         let u_lat = (fi + ux) / w as f32 + 0.5 / w as f32;
         let (sp, cp) = approx::sin_cos_x(2.0 * PI * u_lat);
         let local = V3x::new(sin_t * sp, cos_t, -sin_t * cp);
         let d = local.transform(&self.to_world).normalize_or_zero();
         let ok = pdf
-            .gt(Fx::splat(0.0))
+            .gt(F16::splat(0.0))
             .and(pdf.is_finite())
             .and(d.is_zero().not());
         let v = atan2_x(sin_t, cos_t) * (1.0 / PI);
@@ -329,15 +329,15 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::sample_li`] for 16 lanes: the samples and the lanes that have one.
     #[inline(always)]
-    pub fn sample_li_x(&self, u: V2x) -> (LightSampleX, Mx) {
+    pub fn sample_li_x(&self, u: V2x) -> (LightSampleX, M16) {
         let (wi, val, pdf, ok) = self.sample_x(u);
         let s = LightSampleX {
             wi,
-            dist: Fx::splat(f32::INFINITY),
+            dist: F16::splat(f32::INFINITY),
             n_geo: V3x::ZERO,
             weight: val.div(pdf),
             pdf,
-            delta: Mx::splat(false),
+            delta: M16::splat(false),
         };
         (s, ok)
     }
@@ -358,11 +358,11 @@ impl EnvMapLight {
 
     /// [`EnvMapLight::pdf_at`] per lane.
     #[inline(always)]
-    fn pdf_at_x(&self, i: [u32; WIDTH], v: Fx) -> Fx {
+    fn pdf_at_x(&self, i: [u32; WIDTH], v: F16) -> F16 {
         let (w, h) = (self.width, self.height);
         let y = v * (h - 1) as f32;
         let last = self.cell_pdf.len() - 1;
-        Fx(lanes(|l| {
+        F16(lanes(|l| {
             let j = (y.0[l] as usize).min(h - 2);
             self.cell_pdf[(j * w + i[l] as usize).min(last)]
         }))

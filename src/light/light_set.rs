@@ -11,7 +11,7 @@ use super::{
 use crate::Result;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::simd::WIDTH;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Spectrum, Vec2, Vec3};
 
 /// A light's sample with the selection probability `sel` folded in (pdf × sel, weight / sel).
@@ -148,16 +148,16 @@ impl LightSet {
     /// have one — the same bits per lane. The lanes that chose one emitter are sampled together
     /// in SoA (an analytic sphere's lane by lane).
     #[inline(always)]
-    pub fn sample_x(&self, p: V3x, chosen: &[u32; WIDTH], want: Mx, u: V2x) -> (LightSampleX, Mx) {
+    pub fn sample_x(&self, p: V3x, chosen: &[u32; WIDTH], want: M16, u: V2x) -> (LightSampleX, M16) {
         let mut out = LightSampleX {
             wi: V3x::splat(Vec3::Z),
-            dist: Fx::splat(1.0),
+            dist: F16::splat(1.0),
             n_geo: V3x::ZERO,
             weight: V3x::ZERO,
-            pdf: Fx::splat(1.0),
-            delta: Mx::splat(false),
+            pdf: F16::splat(1.0),
+            delta: M16::splat(false),
         };
-        let mut ok = Mx::splat(false);
+        let mut ok = M16::splat(false);
         if self.lights.is_empty() {
             return (out, ok);
         }
@@ -165,17 +165,17 @@ impl LightSet {
         let mut left = want;
         while let Some(first) = (0..WIDTH).find(|&l| left.0[l]) {
             let idx = chosen[first];
-            let m = Mx(std::array::from_fn(|l| left.0[l] && chosen[l] == idx));
+            let m = M16(std::array::from_fn(|l| left.0[l] && chosen[l] == idx));
             left = left.and(m.not());
             let (s, has) = match &self.lights[idx as usize] {
                 Light::Point(l) => l.sample_li_x(p),
                 Light::Spot(l) => l.sample_li_x(p),
-                Light::Directional(l) => (l.sample_li_x(p, self.bsphere), Mx::splat(true)),
-                Light::Constant(l) => (l.sample_li_x(u), Mx::splat(true)),
+                Light::Directional(l) => (l.sample_li_x(p, self.bsphere), M16::splat(true)),
+                Light::Constant(l) => (l.sample_li_x(u), M16::splat(true)),
                 Light::EnvMap(l) => l.sample_li_x(u),
                 Light::Area(_) | Light::SphereArea(_) => {
                     let mut s = out;
-                    let mut has = Mx::splat(false);
+                    let mut has = M16::splat(false);
                     for l in (0..WIDTH).filter(|&l| m.0[l]) {
                         let got = match &self.lights[idx as usize] {
                             Light::Area(a) => a.sample_li(p.get(l), u.get(l)),
@@ -252,14 +252,14 @@ impl LightSet {
 
     /// [`LightSet::eval_infinite`] for 16 escaped rays (the same bits per lane).
     #[inline(always)]
-    pub fn eval_infinite_x(&self, k: usize, d: V3x) -> (V3x, Fx) {
+    pub fn eval_infinite_x(&self, k: usize, d: V3x) -> (V3x, F16) {
         let (le, pdf) = match &self.lights[self.infinite[k] as usize] {
             Light::Constant(l) => {
                 let (le, pdf) = l.eval_pdf();
-                (V3x::splat(le), Fx::splat(pdf))
+                (V3x::splat(le), F16::splat(pdf))
             }
             Light::EnvMap(env) => env.eval_pdf_x(d),
-            _ => return (V3x::ZERO, Fx::splat(0.0)),
+            _ => return (V3x::ZERO, F16::splat(0.0)),
         };
         (le, pdf * self.select_pdf())
     }

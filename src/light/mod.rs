@@ -12,7 +12,7 @@ pub mod point;
 pub mod sphere_area;
 pub mod spot;
 
-use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::simd::f16::{F16, M16, V3x};
 use crate::math::{Spectrum, Vec3};
 pub use area::AreaLight;
 pub use constant::ConstantLight;
@@ -40,11 +40,11 @@ pub enum Light {
 #[derive(Clone, Copy, Debug)]
 pub struct LightSampleX {
     pub wi: V3x,
-    pub dist: Fx,
+    pub dist: F16,
     pub n_geo: V3x,
     pub weight: V3x,
-    pub pdf: Fx,
-    pub delta: Mx,
+    pub pdf: F16,
+    pub delta: M16,
 }
 
 impl LightSampleX {
@@ -63,19 +63,19 @@ impl LightSampleX {
     #[inline(always)]
     pub fn with_selection(mut self, sel: f32) -> LightSampleX {
         self.pdf = self.pdf * sel;
-        self.weight = self.weight.div(Fx::splat(sel));
+        self.weight = self.weight.div(F16::splat(sel));
         self
     }
 
     /// Lanes of `a` where `m`, of `b` elsewhere.
     #[inline(always)]
-    pub fn select(m: Mx, a: &LightSampleX, b: &LightSampleX) -> LightSampleX {
+    pub fn select(m: M16, a: &LightSampleX, b: &LightSampleX) -> LightSampleX {
         LightSampleX {
             wi: V3x::select(m, a.wi, b.wi),
-            dist: Fx::select(m, a.dist, b.dist),
+            dist: F16::select(m, a.dist, b.dist),
             n_geo: V3x::select(m, a.n_geo, b.n_geo),
             weight: V3x::select(m, a.weight, b.weight),
-            pdf: Fx::select(m, a.pdf, b.pdf),
+            pdf: F16::select(m, a.pdf, b.pdf),
             delta: m.and(a.delta).or(m.not().and(b.delta)),
         }
     }

@@ -4,7 +4,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{LightSample, LightSampleX};
-use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::simd::f16::{F16, M16, V3x};
 use crate::math::{Spectrum, Vec3};
 
 /// An isotropic point light.
@@ -38,7 +38,7 @@ impl PointLight {
     /// [`PointLight::sample_li`] for 16 reference points: the samples and the lanes that have
     /// one (the same bits per lane).
     #[inline(always)]
-    pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, Mx) {
+    pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, M16) {
         let to = V3x::splat(self.position).sub(p);
         let d2 = to.length_squared();
         let dist = d2.sqrt();
@@ -47,9 +47,9 @@ impl PointLight {
             dist,
             n_geo: V3x::ZERO,
             weight: V3x::splat(self.intensity).div(d2),
-            pdf: Fx::splat(1.0),
-            delta: Mx::splat(true),
+            pdf: F16::splat(1.0),
+            delta: M16::splat(true),
         };
-        (s, d2.gt(Fx::splat(0.0)))
+        (s, d2.gt(F16::splat(0.0)))
     }
 }

@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{LightSample, LightSampleX};
-use crate::math::simd::wide::{Fx, Mx, V3x, lanes};
+use crate::math::simd::f16::{F16, M16, V3x, lanes};
 use crate::math::{Mat3, Mat4, Spectrum, Vec3};
 use crate::{Error, Result};
 
@@ -85,7 +85,7 @@ impl SpotLight {
     /// [`SpotLight::sample_li`] for 16 reference points: the samples and the lanes that have
     /// one (the same bits per lane; the transition band's acos is libm's, lane by lane).
     #[inline(always)]
-    pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, Mx) {
+    pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, M16) {
         let to = V3x::splat(self.position).sub(p);
         let d2 = to.length_squared();
         let dist = d2.sqrt();
@@ -93,30 +93,30 @@ impl SpotLight {
         let local = wi.neg().transform(&self.to_local).normalize_or_zero();
         let c = local.z;
         let (outside, inside) = (
-            c.le(Fx::splat(self.cos_cutoff)),
-            c.ge(Fx::splat(self.cos_beam)),
+            c.le(F16::splat(self.cos_cutoff)),
+            c.ge(F16::splat(self.cos_beam)),
         );
         // (acos only where a lane is in the transition band.)
-        let band = Fx(lanes(|l| {
+        let band = F16(lanes(|l| {
             if outside.0[l] || inside.0[l] {
                 0.0
             } else {
                 (self.cutoff - c.0[l].clamp(-1.0, 1.0).acos()) * self.inv_transition
             }
         }));
-        let falloff = Fx::select(
+        let falloff = F16::select(
             outside,
-            Fx::splat(0.0),
-            Fx::select(inside, Fx::splat(1.0), band),
+            F16::splat(0.0),
+            F16::select(inside, F16::splat(1.0), band),
         );
-        let ok = d2.gt(Fx::splat(0.0)).and(falloff.gt(Fx::splat(0.0)));
+        let ok = d2.gt(F16::splat(0.0)).and(falloff.gt(F16::splat(0.0)));
         let s = LightSampleX {
             wi,
             dist,
             n_geo: V3x::ZERO,
             weight: V3x::splat(self.intensity).scale(falloff / d2),
-            pdf: Fx::splat(1.0),
-            delta: Mx::splat(true),
+            pdf: F16::splat(1.0),
+            delta: M16::splat(true),
         };
         (s, ok)
     }

@@ -5,7 +5,7 @@
 
 use super::*;
 use crate::io::RgbImage;
-use crate::math::simd::wide::{Mx, V2x, V3x};
+use crate::math::simd::f16::{M16, V2x, V3x};
 use crate::math::{Mat4, Pcg32, Spectrum, Vec2};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -66,7 +66,7 @@ fn sample_x_is_sample_per_lane() {
         let (mut p, mut u) = (V3x::ZERO, V2x::ZERO);
         let mut u_sel = [0f32; 16];
         let mut chosen = [0u32; 16];
-        let mut want = Mx::splat(false);
+        let mut want = M16::splat(false);
         for l in 0..16 {
             let k = round * 16 + l;
             let pl = match k % 9 {

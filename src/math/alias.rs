@@ -11,7 +11,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::math::simd::WIDTH;
-use crate::math::simd::wide::{Fx, lanes};
+use crate::math::simd::f16::{F16, lanes};
 
 /// The largest f32 below 1: re-scaled numbers stay in [0, 1).
 const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -155,21 +155,21 @@ impl AliasTable {
     /// [`AliasTable::sample`] for 16 lanes, each in its own row `r[l]`: the same bins and
     /// re-scaled numbers, with one read of each table per lane and no loop that depends on u.
     #[inline(always)]
-    pub fn sample_x(&self, r: [u32; WIDTH], u: Fx) -> ([u32; WIDTH], Fx) {
+    pub fn sample_x(&self, r: [u32; WIDTH], u: F16) -> ([u32; WIDTH], F16) {
         let n = self.len;
         let last = self.keep.len() - 1;
         let x = u * n as f32;
-        let x = Fx::select(x.gt(Fx::splat(0.0)), x, Fx::splat(0.0));
+        let x = F16::select(x.gt(F16::splat(0.0)), x, F16::splat(0.0));
         let k: [u32; WIDTH] = lanes(|l| (x.0[l] as u32).min(n as u32 - 1));
-        let kf = Fx(lanes(|l| k[l] as f32));
+        let kf = F16(lanes(|l| k[l] as f32));
         let f = x - kf;
         let at: [usize; WIDTH] = lanes(|l| (r[l] as usize * n + k[l] as usize).min(last));
-        let q = Fx(lanes(|l| self.keep[at[l]]));
+        let q = F16(lanes(|l| self.keep[at[l]]));
         let a: [u32; WIDTH] = lanes(|l| self.alias[at[l]]);
         let stay = f.lt(q);
         let i = lanes(|l| if stay.0[l] { k[l] } else { a[l] });
-        let num = Fx::select(stay, f, f - q);
-        let den = Fx::select(stay, q, 1.0 - q);
+        let num = F16::select(stay, f, f - q);
+        let den = F16::select(stay, q, 1.0 - q);
         (i, clamp_unit_x(num / den))
     }
 }
@@ -183,10 +183,10 @@ fn clamp_unit(v: f32) -> f32 {
 
 /// [`clamp_unit`] per lane.
 #[inline(always)]
-fn clamp_unit_x(v: Fx) -> Fx {
-    let v = Fx::select(v.ge(Fx::splat(0.0)), v, Fx::splat(0.0));
-    let one = Fx::splat(ONE_MINUS_EPS);
-    Fx::select(v.lt(one), v, one)
+fn clamp_unit_x(v: F16) -> F16 {
+    let v = F16::select(v.ge(F16::splat(0.0)), v, F16::splat(0.0));
+    let one = F16::splat(ONE_MINUS_EPS);
+    F16::select(v.lt(one), v, one)
 }
 
 #[cfg(test)]

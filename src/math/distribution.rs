@@ -5,7 +5,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use crate::math::simd::WIDTH;
-use crate::math::simd::wide::{Fx, lanes};
+use crate::math::simd::f16::{F16, lanes};
 
 /// A discrete distribution over `n` bins proportional to non-negative weights.
 #[derive(Clone, Debug)]
@@ -177,7 +177,7 @@ impl Distribution1D {
     /// (bin, its probability, u re-scaled), the same values; a lane whose search needs a step
     /// takes it in a loop that runs until no lane does.
     #[inline(always)]
-    pub fn sample_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
+    pub fn sample_x(&self, u: F16) -> ([u32; WIDTH], F16, F16) {
         if self.cdf.len() <= SMALL {
             return self.sample_small_x(u);
         }
@@ -187,7 +187,7 @@ impl Distribution1D {
             let cell = ((u.0[l].max(0.0) * n as f32) as usize).min(last);
             self.guide[cell].bin as usize
         });
-        let gather = |v: &[f32], t: &[usize; WIDTH]| Fx(lanes(|l| v[t[l].min(last)]));
+        let gather = |v: &[f32], t: &[usize; WIDTH]| F16(lanes(|l| v[t[l].min(last)]));
         loop {
             let lo = gather(&self.lower, &t);
             let back: [bool; WIDTH] = lanes(|l| (t[l] > 0) & (lo.0[l] > u.0[l]));
@@ -223,9 +223,9 @@ impl Distribution1D {
     /// from its start cell, guide[0]: the count for u = 0), and the bin's values are picked by
     /// one select per entry instead of gathers.
     #[inline(always)]
-    fn sample_small_x(&self, u: Fx) -> ([u32; WIDTH], Fx, Fx) {
+    fn sample_small_x(&self, u: F16) -> ([u32; WIDTH], F16, F16) {
         let last = self.cdf.len() - 1;
-        let uu = Fx(lanes(|l| if u.0[l].is_nan() { 0.0 } else { u.0[l] }));
+        let uu = F16(lanes(|l| if u.0[l].is_nan() { 0.0 } else { u.0[l] }));
         let mut t = [0u32; WIDTH];
         for &c in &self.cdf[..last] {
             for l in 0..WIDTH {
@@ -239,7 +239,7 @@ impl Distribution1D {
                     o[l] = if t[l] == j as u32 { x } else { o[l] };
                 }
             }
-            Fx(o)
+            F16(o)
         };
         let mut p = pick(&self.pmf, &t);
         loop {
@@ -258,8 +258,8 @@ impl Distribution1D {
 /// u re-scaled into its bin (lower edge `lo`, probability `p`) per lane, as
 /// [`Distribution1D::sample`] does.
 #[inline(always)]
-fn rescale_x(u: Fx, lo: Fx, p: Fx) -> Fx {
-    Fx(lanes(|l| {
+fn rescale_x(u: F16, lo: F16, p: F16) -> F16 {
+    F16(lanes(|l| {
         if p.0[l] > 0.0 {
             ((u.0[l] - lo.0[l]) / p.0[l]).clamp(0.0, 1.0 - f32::EPSILON / 2.0)
         } else {
@@ -341,7 +341,7 @@ mod tests {
             us.extend(d.cdf.iter().map(|c| c.next_down()));
             us.extend([0.0, -0.0, -0.5, 1.0, 1.5, f32::NAN, f32::INFINITY]);
             for c in us.chunks(WIDTH) {
-                let mut u = Fx::splat(0.25);
+                let mut u = F16::splat(0.25);
                 u.0[..c.len()].copy_from_slice(c);
                 let (i, p, r) = d.sample_x(u);
                 for l in 0..c.len() {

@@ -1,6 +1,6 @@
 //! Orthonormal frames: the local shading space in which BSDFs and BTFs are evaluated (z = normal).
 
-use crate::math::simd::wide::{Fx, V3x};
+use crate::math::simd::f16::{F16, V3x};
 use glam::Vec3;
 
 /// An orthonormal basis (s, t, n); local coordinates are (x along s, y along t, z along n).
@@ -80,7 +80,7 @@ impl FrameX {
         let len2 = s.length_squared();
         let bad = len2
             .ne(len2)
-            .or(len2.le(Fx::splat(1e-20)))
+            .or(len2.le(F16::splat(1e-20)))
             .or(len2.is_finite().not());
         let s = s.div(len2.sqrt());
         let fb = FrameX::from_normal(n);

@@ -3,7 +3,7 @@
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 use crate::math::simd::approx::sin_cos;
 use crate::math::simd::real::{Cond, Real, V2, V3};
-use crate::math::simd::wide::{Fx, V2x, V3x};
+use crate::math::simd::f16::{F16, V2x, V3x};
 use glam::{Vec2, Vec3};
 
 /// Concentric (Shirley–Chiu) map to the unit disk: low distortion, continuous.
@@ -83,7 +83,7 @@ pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
 #[inline(always)]
 pub fn square_to_uniform_sphere_x(u: V2x) -> V3x {
     let z = 1.0 - 2.0 * u.x;
-    let r = (1.0 - z * z).max(Fx::splat(0.0)).sqrt();
+    let r = (1.0 - z * z).max(F16::splat(0.0)).sqrt();
     let (s, c) = (2.0 * PI * u.y).sin_cos();
     V3x::new(r * c, r * s, z)
 }
@@ -133,13 +133,13 @@ pub fn square_to_uniform_triangle_x(u: V2x) -> V2x {
 /// [`square_to_cosine_hemisphere`] per lane.
 #[inline(always)]
 pub fn square_to_cosine_hemisphere_x(u: V2x) -> V3x {
-    square_to_cosine_hemisphere_t::<Fx>(u.into()).into()
+    square_to_cosine_hemisphere_t::<F16>(u.into()).into()
 }
 
 /// [`square_to_cosine_hemisphere_pdf`] per lane.
 #[inline(always)]
-pub fn square_to_cosine_hemisphere_pdf_x(v: V3x) -> Fx {
-    Fx::select(v.z.gt(Fx::splat(0.0)), v.z * INV_PI, Fx::splat(0.0))
+pub fn square_to_cosine_hemisphere_pdf_x(v: V3x) -> F16 {
+    F16::select(v.z.gt(F16::splat(0.0)), v.z * INV_PI, F16::splat(0.0))
 }
 
 #[cfg(test)]

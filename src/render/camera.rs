@@ -14,7 +14,7 @@
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-use crate::math::simd::wide::{Fx, V3x};
+use crate::math::simd::f16::{F16, V3x};
 use crate::math::warp::square_to_uniform_disk_concentric;
 use crate::math::{Pcg32, Vec2, Vec3};
 use crate::scene::{Camera, Projection};
@@ -176,11 +176,11 @@ impl ProjectiveCamera {
     /// lane is the scalar ray's bits. The pinhole runs in SIMD; the thin lens and orthographic
     /// cameras call the scalar ray per lane.
     #[inline(always)]
-    pub fn ray_x(&self, fx: Fx, fy: Fx, ux: Fx, uy: Fx) -> (V3x, V3x, Fx) {
+    pub fn ray_x(&self, fx: F16, fy: F16, ux: F16, uy: F16) -> (V3x, V3x, F16) {
         if self.projection != Projection::Perspective {
             let mut o = V3x::splat(Vec3::ZERO);
             let mut d = V3x::splat(Vec3::ZERO);
-            let mut t = Fx::splat(0.0);
+            let mut t = F16::splat(0.0);
             for l in 0..16 {
                 let (lo, ld, lt) = self.sample_ray(fx.0[l], fy.0[l], Vec2::new(ux.0[l], uy.0[l]));
                 o.set(l, lo);
@@ -273,9 +273,9 @@ mod tests {
             filter: crate::math::filter::Filter::BOX,
         };
         let c = ProjectiveCamera::new(&cam).unwrap();
-        let fx = Fx(std::array::from_fn(|l| l as f32 * 10.7 - 0.5));
-        let fy = Fx(std::array::from_fn(|l| 120.5 - l as f32 * 7.9));
-        let (o, d, t) = c.ray_x(fx, fy, Fx::splat(0.5), Fx::splat(0.5));
+        let fx = F16(std::array::from_fn(|l| l as f32 * 10.7 - 0.5));
+        let fy = F16(std::array::from_fn(|l| 120.5 - l as f32 * 7.9));
+        let (o, d, t) = c.ray_x(fx, fy, F16::splat(0.5), F16::splat(0.5));
         for l in 0..16 {
             let (so, sd, st) = c.ray(fx.0[l], fy.0[l]);
             let bits = |v: Vec3| v.to_array().map(f32::to_bits);

@@ -12,7 +12,7 @@ use crate::geometry::accel::offset_origin;
 use crate::geometry::accel::offset_origin_x;
 use crate::geometry::shading::surface_interaction;
 use crate::light::LightSampleX;
-use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::simd::f16::{F16, M16, V3x};
 use crate::math::{Pcg32, Vec3};
 use crate::scene::{DirectSettings, IntegratorSettings};
 use crate::{Error, Result};
@@ -147,7 +147,7 @@ pub(super) fn shadow_segment_from(
 /// [`shadow_segment_from`] per lane: (origin, direction, extent, valid); valid is false where
 /// that returns None.
 #[inline(always)]
-pub(super) fn shadow_segment_from_x(p: V3x, n: V3x, ls: &LightSampleX) -> (V3x, V3x, Fx, Mx) {
+pub(super) fn shadow_segment_from_x(p: V3x, n: V3x, ls: &LightSampleX) -> (V3x, V3x, F16, M16) {
     let so = offset_origin_x(p, n, ls.wi);
     let infinite = ls.dist.is_finite().not();
     let at = p.add(ls.wi.scale(ls.dist));
@@ -158,11 +158,11 @@ pub(super) fn shadow_segment_from_x(p: V3x, n: V3x, ls: &LightSampleX) -> (V3x, 
     );
     let to = target.sub(so);
     let len = to.length();
-    let ok = len.gt(Fx::splat(0.0));
+    let ok = len.gt(F16::splat(0.0));
     (
         so,
         V3x::select(infinite, ls.wi, to.div(len)),
-        Fx::select(infinite, Fx::splat(f32::INFINITY), len * (1.0 - 1e-4)),
+        F16::select(infinite, F16::splat(f32::INFINITY), len * (1.0 - 1e-4)),
         infinite.or(ok),
     )
 }
@@ -180,11 +180,11 @@ pub(super) fn occluded(
 
 /// [`mis_weight`] per lane.
 #[inline(always)]
-pub fn mis_weight_x(pdf_a: Fx, pdf_b: Fx) -> Fx {
+pub fn mis_weight_x(pdf_a: F16, pdf_b: F16) -> F16 {
     let a = pdf_a * pdf_a;
     let b = pdf_b * pdf_b;
     let w = a / (a + b);
-    Fx::select(w.is_finite(), w, Fx::splat(0.0))
+    F16::select(w.is_finite(), w, F16::splat(0.0))
 }
 
 /// Power heuristic with β = 2; 0 where undefined (Mitsuba's `mis_weight`).

@@ -7,7 +7,7 @@ use crate::bsdf::batch::{BsdfBatch, L};
 use crate::bsdf::texture::{BitmapTexture, Checkerboard, TexFilter, UvTransform, Wrap};
 use crate::bsdf::*;
 use crate::io::RgbImage;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Pcg32, warp};
 use std::sync::Arc;
 
@@ -165,8 +165,8 @@ fn check(batch_bsdf: &Bsdf, own: &[&Bsdf; L], rng: &mut Pcg32, rounds: usize, na
     for round in 0..rounds {
         let mut batch = BsdfBatch::new(batch_bsdf);
         let (mut wi, mut wo, mut uv) = (V3x::ZERO, V3x::ZERO, V2x::ZERO);
-        let (mut u1, mut u2) = (Fx::splat(0.0), V2x::ZERO);
-        let mut delta = Mx::splat(false);
+        let (mut u1, mut u2) = (F16::splat(0.0), V2x::ZERO);
+        let mut delta = M16::splat(false);
         let mut si = Vec::new();
         let mut smooth = [false; L];
         for l in 0..L {
@@ -182,7 +182,7 @@ fn check(batch_bsdf: &Bsdf, own: &[&Bsdf; L], rng: &mut Pcg32, rounds: usize, na
             si.push(s);
         }
         batch.prepare(u16::MAX, &wi, &uv);
-        let (f, pdf) = batch.eval_for_light(Mx::splat(true), wi, wo, delta, |l| si[l]);
+        let (f, pdf) = batch.eval_for_light(M16::splat(true), wi, wo, delta, |l| si[l]);
         let bs = batch.sample(wi, u1, u2, |l| si[l]);
         for (l, s) in si.iter().enumerate() {
             let at = own[l].at(s);
@@ -255,7 +255,7 @@ fn textures_look_up_16_lanes_as_the_scalar_code() {
                 uv.set(l, if l == 3 { Vec2::new(f32::NAN, 1e30) } else { v });
             }
             let x = t.eval_x(uv);
-            let x1 = t.eval_1_t::<Fx>(uv.into());
+            let x1 = t.eval_1_t::<F16>(uv.into());
             for l in 0..L {
                 assert_eq!(bits(x.get(l)), bits(t.eval(uv.get(l))), "texture {k}");
                 assert_eq!(x1.0[l].to_bits(), t.eval_1(uv.get(l)).to_bits());

@@ -25,7 +25,7 @@ mod tests;
 
 use super::Mesh;
 use super::sphere::Sphere;
-use crate::math::simd::wide::{Fx, V3x};
+use crate::math::simd::f16::{F16, V3x};
 use crate::math::simd::{self, Isa};
 use crate::math::{Vec2, Vec3};
 use node::Node8;
@@ -191,7 +191,7 @@ impl Accel {
 pub fn offset_origin_x(p: V3x, n: V3x, d: V3x) -> V3x {
     let mag = 1.0 + p.abs_max_element();
     let off = n.scale(mag * OFFSET_SCALE);
-    V3x::select(n.dot(d).ge(Fx::splat(0.0)), p.add(off), p.sub(off))
+    V3x::select(n.dot(d).ge(F16::splat(0.0)), p.add(off), p.sub(off))
 }
 
 /// Scale of the origin offset relative to the magnitude of the coordinates (≈ 2⁻¹⁶; the hit

@@ -1,6 +1,6 @@
 use super::*;
 use crate::math::Pcg32;
-use crate::math::simd::wide::{Mx, V2x, V3x};
+use crate::math::simd::f16::{M16, V2x, V3x};
 
 fn test_map() -> RgbImage {
     let (w, h) = (8, 5);
@@ -206,7 +206,7 @@ fn black_cells_are_never_sampled() {
     assert!(env.sample(Vec2::splat(0.3)).is_none());
     assert_eq!(env.pdf(Vec3::Y), 0.0);
     let (_, _, _, ok) = env.sample_x(V2x::ZERO);
-    assert_eq!(ok, Mx::splat(false));
+    assert_eq!(ok, M16::splat(false));
 }
 
 fn bits3(v: Vec3) -> [u32; 3] {

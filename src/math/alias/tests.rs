@@ -138,7 +138,7 @@ fn sample_x_is_sample_per_lane() {
     }
     us.extend([-0.0, -0.5, 1.0, 1.5, f32::NAN, f32::INFINITY]);
     for (c, chunk) in us.chunks(WIDTH).enumerate() {
-        let mut u = Fx::splat(0.5);
+        let mut u = F16::splat(0.5);
         u.0[..chunk.len()].copy_from_slice(chunk);
         let rows: [u32; WIDTH] = lanes(|l| ((c + l) % 5) as u32);
         let (i, r) = t.sample_x(rows, u);

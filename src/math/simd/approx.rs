@@ -23,11 +23,11 @@
 //! F4 and the AVX-512 versions compute the same bits. [`exp`] and [`ln`] are the fitter's: the
 //! same series in another base and order, kept because the fitted models depend on their bits.
 //! Each function's `_x` form ([`sin_cos_x`], [`atan2_x`], …) runs it over the 16 lanes of an
-//! [`Fx`], with the same bits per lane.
+//! [`F16`], with the same bits per lane.
 
 use super::WIDTH;
 use super::f4::F4;
-use super::wide::{Fx, lanes};
+use super::f16::{F16, lanes};
 
 #[cfg(target_arch = "x86_64")]
 use core::arch::x86_64::*;
@@ -264,57 +264,57 @@ pub fn floor_small(x: f32) -> f32 {
     if t > x { t - 1.0 } else { t }
 }
 
-// ---- The same per lane of an `Fx` (the packet kernels' twins: the same bits) ----
+// ---- The same per lane of an `F16` (the packet kernels' twins: the same bits) ----
 
 /// [`sin_cos`] per lane.
 #[inline(always)]
-pub fn sin_cos_x(x: Fx) -> (Fx, Fx) {
+pub fn sin_cos_x(x: F16) -> (F16, F16) {
     let mut s = [0.0; WIDTH];
     let mut c = [0.0; WIDTH];
     for i in 0..WIDTH {
         (s[i], c[i]) = sin_cos(x.0[i]);
     }
-    (Fx(s), Fx(c))
+    (F16(s), F16(c))
 }
 
 /// [`exp2`] per lane.
 #[inline(always)]
-pub fn exp2_x(x: Fx) -> Fx {
-    Fx(lanes(|l| exp2(x.0[l])))
+pub fn exp2_x(x: F16) -> F16 {
+    F16(lanes(|l| exp2(x.0[l])))
 }
 
 /// [`log2`] per lane.
 #[inline(always)]
-pub fn log2_x(x: Fx) -> Fx {
-    Fx(lanes(|l| log2(x.0[l])))
+pub fn log2_x(x: F16) -> F16 {
+    F16(lanes(|l| log2(x.0[l])))
 }
 
 /// [`atan2`] per lane.
 #[inline(always)]
-pub fn atan2_x(y: Fx, x: Fx) -> Fx {
-    Fx(lanes(|l| atan2(y.0[l], x.0[l])))
+pub fn atan2_x(y: F16, x: F16) -> F16 {
+    F16(lanes(|l| atan2(y.0[l], x.0[l])))
 }
 
 /// [`floor_small`] per lane.
 #[inline(always)]
-pub fn floor_small_x(x: Fx) -> Fx {
-    let t = Fx(lanes(|l| x.0[l] as i32 as f32));
-    Fx::select(t.gt(x), t - 1.0, t)
+pub fn floor_small_x(x: F16) -> F16 {
+    let t = F16(lanes(|l| x.0[l] as i32 as f32));
+    F16::select(t.gt(x), t - 1.0, t)
 }
 
 crate::isa_dispatch! {
     /// [`sin_cos_x`] built for `isa` (every build returns the same bits; to compare them).
-    pub fn sin_cos_isa(x: Fx) -> (Fx, Fx) = sin_cos_x;
+    pub fn sin_cos_isa(x: F16) -> (F16, F16) = sin_cos_x;
 }
 
 crate::isa_dispatch! {
     /// [`exp2_x`] built for `isa` (every build returns the same bits; to compare them).
-    pub fn exp2_isa(x: Fx) -> Fx = exp2_x;
+    pub fn exp2_isa(x: F16) -> F16 = exp2_x;
 }
 
 crate::isa_dispatch! {
     /// [`log2_x`] built for `isa` (every build returns the same bits; to compare them).
-    pub fn log2_isa(x: Fx) -> Fx = log2_x;
+    pub fn log2_isa(x: F16) -> F16 = log2_x;
 }
 
 // ---- Fused, positive normal inputs: the PLM-C evaluation kernels (F4 and AVX-512) ----

@@ -6,8 +6,8 @@
 //!   asks the CPU for features.
 //! - The lane types, side by side: [`f4::F4`] (4 f32, one SSE register: the PLM-C evaluation
 //!   kernel), [`f8::F8`] (8 f32, one AVX register or two SSE ones: the BVH traversal) and
-//!   [`wide::Fx`] (16 f32 with its mask and vectors: the packet integrator's straight-line
-//!   code), with [`real::Real`] for helpers written once over `f32` and `Fx`.
+//!   [`f16::F16`] (16 f32 with its mask and vectors: the packet integrator's straight-line
+//!   code), with [`real::Real`] for helpers written once over `f32` and `F16`.
 //! - [`approx`]: every polynomial approximation of a transcendental function (sin/cos, exp2,
 //!   log2, exp, ln, atan2), each written once, with its error bound and which kernels use it.
 //! - [`transpose`]: the AVX-512 16 × 16 transpose.
@@ -21,7 +21,7 @@ pub mod f8;
 pub mod real;
 #[cfg(target_arch = "x86_64")]
 pub mod transpose;
-pub mod wide;
+pub mod f16;
 
 use std::sync::OnceLock;
 

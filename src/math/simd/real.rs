@@ -1,15 +1,15 @@
 //! One helper for the scalar code and its 16-lane twin: [`Real`] is the arithmetic the twins
-//! share, implemented for `f32` (the scalar code) and [`Fx`] (16 lanes), so a helper written
+//! share, implemented for `f32` (the scalar code) and [`F16`] (16 lanes), so a helper written
 //! once over it compiles to both with the same operations in the same order (and so the same
 //! bits per lane). Branches are written as [`Real::select`] of both sides, which for `f32` is
 //! the value the branch would have produced. Functions without a lane formula of their own
 //! (`exp`, `ln`, `tan`, fused multiply-add) call the scalar libm routine lane by lane.
 
-use super::wide::{Fx, Mx, V2x, V3x};
+use super::f16::{F16, M16, V2x, V3x};
 use glam::{Vec2, Vec3};
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
-/// A per-lane condition: `bool` for `f32`, [`Mx`] for [`Fx`].
+/// A per-lane condition: `bool` for `f32`, [`M16`] for [`F16`].
 pub trait Cond: Copy {
     fn splat(v: bool) -> Self;
     fn and(self, b: Self) -> Self;
@@ -36,26 +36,26 @@ impl Cond for bool {
     }
 }
 
-impl Cond for Mx {
+impl Cond for M16 {
     #[inline(always)]
-    fn splat(v: bool) -> Mx {
-        Mx::splat(v)
+    fn splat(v: bool) -> M16 {
+        M16::splat(v)
     }
     #[inline(always)]
-    fn and(self, b: Mx) -> Mx {
-        Mx::and(self, b)
+    fn and(self, b: M16) -> M16 {
+        M16::and(self, b)
     }
     #[inline(always)]
-    fn or(self, b: Mx) -> Mx {
-        Mx::or(self, b)
+    fn or(self, b: M16) -> M16 {
+        M16::or(self, b)
     }
     #[inline(always)]
-    fn not(self) -> Mx {
-        Mx::not(self)
+    fn not(self) -> M16 {
+        M16::not(self)
     }
 }
 
-/// f32 arithmetic on one lane (`f32`) or sixteen ([`Fx`]).
+/// f32 arithmetic on one lane (`f32`) or sixteen ([`F16`]).
 pub trait Real:
     Copy
     + Add<Output = Self>
@@ -209,95 +209,95 @@ impl Real for f32 {
     }
 }
 
-impl Real for Fx {
-    type Mask = Mx;
+impl Real for F16 {
+    type Mask = M16;
     #[inline(always)]
-    fn splat(v: f32) -> Fx {
-        Fx::splat(v)
+    fn splat(v: f32) -> F16 {
+        F16::splat(v)
     }
     #[inline(always)]
-    fn sqrt(self) -> Fx {
-        Fx::sqrt(self)
+    fn sqrt(self) -> F16 {
+        F16::sqrt(self)
     }
     #[inline(always)]
-    fn abs(self) -> Fx {
-        Fx::abs(self)
+    fn abs(self) -> F16 {
+        F16::abs(self)
     }
     #[inline(always)]
-    fn min(self, b: Fx) -> Fx {
-        Fx::min(self, b)
+    fn min(self, b: F16) -> F16 {
+        F16::min(self, b)
     }
     #[inline(always)]
-    fn max(self, b: Fx) -> Fx {
-        Fx::max(self, b)
+    fn max(self, b: F16) -> F16 {
+        F16::max(self, b)
     }
     #[inline(always)]
-    fn select(m: Mx, a: Fx, b: Fx) -> Fx {
-        Fx::select(m, a, b)
+    fn select(m: M16, a: F16, b: F16) -> F16 {
+        F16::select(m, a, b)
     }
     #[inline(always)]
-    fn lt(self, b: Fx) -> Mx {
-        Fx::lt(self, b)
+    fn lt(self, b: F16) -> M16 {
+        F16::lt(self, b)
     }
     #[inline(always)]
-    fn le(self, b: Fx) -> Mx {
-        Fx::le(self, b)
+    fn le(self, b: F16) -> M16 {
+        F16::le(self, b)
     }
     #[inline(always)]
-    fn gt(self, b: Fx) -> Mx {
-        Fx::gt(self, b)
+    fn gt(self, b: F16) -> M16 {
+        F16::gt(self, b)
     }
     #[inline(always)]
-    fn ge(self, b: Fx) -> Mx {
-        Fx::ge(self, b)
+    fn ge(self, b: F16) -> M16 {
+        F16::ge(self, b)
     }
     #[inline(always)]
-    fn eq(self, b: Fx) -> Mx {
-        Fx::eq(self, b)
+    fn eq(self, b: F16) -> M16 {
+        F16::eq(self, b)
     }
     #[inline(always)]
-    fn is_finite(self) -> Mx {
-        Fx::is_finite(self)
+    fn is_finite(self) -> M16 {
+        F16::is_finite(self)
     }
     #[inline(always)]
-    fn is_sign_negative(self) -> Mx {
-        Mx(super::wide::lanes(|i| self.0[i].is_sign_negative()))
+    fn is_sign_negative(self) -> M16 {
+        M16(super::f16::lanes(|i| self.0[i].is_sign_negative()))
     }
     #[inline(always)]
-    fn copysign(self, sign: Fx) -> Fx {
-        Fx(super::wide::lanes(|i| self.0[i].copysign(sign.0[i])))
+    fn copysign(self, sign: F16) -> F16 {
+        F16(super::f16::lanes(|i| self.0[i].copysign(sign.0[i])))
     }
     #[inline(always)]
-    fn exp(self) -> Fx {
+    fn exp(self) -> F16 {
         self.map(f32::exp)
     }
     #[inline(always)]
-    fn ln(self) -> Fx {
+    fn ln(self) -> F16 {
         self.map(f32::ln)
     }
     #[inline(always)]
-    fn tan(self) -> Fx {
+    fn tan(self) -> F16 {
         self.map(f32::tan)
     }
     #[inline(always)]
-    fn mul_add(self, a: Fx, b: Fx) -> Fx {
-        Fx(super::wide::lanes(|i| self.0[i].mul_add(a.0[i], b.0[i])))
+    fn mul_add(self, a: F16, b: F16) -> F16 {
+        F16(super::f16::lanes(|i| self.0[i].mul_add(a.0[i], b.0[i])))
     }
     #[inline(always)]
-    fn sin_cos(self) -> (Fx, Fx) {
+    fn sin_cos(self) -> (F16, F16) {
         super::approx::sin_cos_x(self)
     }
     #[inline(always)]
-    fn map(self, f: impl Fn(f32) -> f32) -> Fx {
-        Fx(super::wide::lanes(|i| f(self.0[i])))
+    fn map(self, f: impl Fn(f32) -> f32) -> F16 {
+        F16(super::f16::lanes(|i| f(self.0[i])))
     }
     #[inline(always)]
-    fn floor(self) -> Fx {
-        Fx(super::wide::lanes(|i| self.0[i].floor()))
+    fn floor(self) -> F16 {
+        F16(super::f16::lanes(|i| self.0[i].floor()))
     }
     #[inline(always)]
-    fn gather<const N: usize>(a: Fx, b: Fx, f: impl Fn(f32, f32) -> [Vec3; N]) -> [V3<Fx>; N] {
-        let zero = Fx::splat(0.0);
+    fn gather<const N: usize>(a: F16, b: F16, f: impl Fn(f32, f32) -> [Vec3; N]) -> [V3<F16>; N] {
+        let zero = F16::splat(0.0);
         let mut out = [V3::new(zero, zero, zero); N];
         for l in 0..super::WIDTH {
             for (o, v) in out.iter_mut().zip(f(a.0[l], b.0[l])) {
@@ -344,7 +344,7 @@ pub struct V3<T> {
     pub z: T,
 }
 
-// Named methods, not operator traits, as `wide::V3x`: the twins read left to right in the order
+// Named methods, not operator traits, as `f16::V3x`: the twins read left to right in the order
 // glam evaluates.
 #[allow(clippy::should_implement_trait)]
 impl<T: Real> V3<T> {
@@ -426,16 +426,16 @@ impl From<V3<f32>> for Vec3 {
     }
 }
 
-impl From<V3x> for V3<Fx> {
+impl From<V3x> for V3<F16> {
     #[inline(always)]
-    fn from(v: V3x) -> V3<Fx> {
+    fn from(v: V3x) -> V3<F16> {
         V3::new(v.x, v.y, v.z)
     }
 }
 
-impl From<V3<Fx>> for V3x {
+impl From<V3<F16>> for V3x {
     #[inline(always)]
-    fn from(v: V3<Fx>) -> V3x {
+    fn from(v: V3<F16>) -> V3x {
         V3x::new(v.x, v.y, v.z)
     }
 }
@@ -454,16 +454,16 @@ impl From<V2<f32>> for Vec2 {
     }
 }
 
-impl From<V2x> for V2<Fx> {
+impl From<V2x> for V2<F16> {
     #[inline(always)]
-    fn from(v: V2x) -> V2<Fx> {
+    fn from(v: V2x) -> V2<F16> {
         V2::new(v.x, v.y)
     }
 }
 
-impl From<V2<Fx>> for V2x {
+impl From<V2<F16>> for V2x {
     #[inline(always)]
-    fn from(v: V2<Fx>) -> V2x {
+    fn from(v: V2<F16>) -> V2x {
         V2x { x: v.x, y: v.y }
     }
 }

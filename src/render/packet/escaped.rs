@@ -6,7 +6,7 @@
 
 use super::lane_stats::LANES;
 use super::pool::PathPool;
-use crate::math::simd::wide::{Fx, Mx, V3x};
+use crate::math::simd::f16::{F16, M16, V3x};
 use crate::render::RenderScene;
 use crate::render::integrator::mis_weight_x;
 
@@ -20,12 +20,12 @@ crate::isa_dispatch! {
 fn escaped(rs: &RenderScene, pool: &mut PathPool, slots: &[u32]) {
     let pt = &rs.integrator;
     let lights = &rs.lights;
-    let zero = Fx::splat(0.0);
+    let zero = F16::splat(0.0);
     for batch in slots.chunks(LANES) {
         // Lanes past the batch keep zeros: computed, never written back.
-        let mut show = Mx::splat(false);
+        let mut show = M16::splat(false);
         let (mut d, mut tp, mut result) = (V3x::ZERO, V3x::ZERO, V3x::ZERO);
-        let (mut prev_pdf, mut prev_delta) = (zero, Mx::splat(false));
+        let (mut prev_pdf, mut prev_delta) = (zero, M16::splat(false));
         for (l, &i) in batch.iter().enumerate() {
             let i = i as usize;
             show.0[l] = !(pool.depth[i] == 0 && pt.hide_emitters);
@@ -36,10 +36,10 @@ fn escaped(rs: &RenderScene, pool: &mut PathPool, slots: &[u32]) {
             prev_delta.0[l] = pool.prev_delta[i];
         }
         if show.0.contains(&true) {
-            let no_mis = prev_delta.or(Mx::splat(!pt.nee));
+            let no_mis = prev_delta.or(M16::splat(!pt.nee));
             for k in 0..lights.infinite_count() {
                 let (le, pdf_e) = lights.eval_infinite_x(k, d);
-                let em_pdf = Fx::select(no_mis, zero, pdf_e);
+                let em_pdf = F16::select(no_mis, zero, pdf_e);
                 let seen = result.add(tp.mul(le).scale(mis_weight_x(prev_pdf, em_pdf)));
                 result = V3x::select(show, seen, result);
             }

@@ -8,7 +8,7 @@ use super::chunk::{Chunk, FilmSample};
 use super::lane_stats::LANES;
 use super::pool::PathPool;
 use crate::math::Pcg32x;
-use crate::math::simd::wide::Fx;
+use crate::math::simd::f16::F16;
 use crate::render::RenderScene;
 use crate::render::integrator::TraceStats;
 
@@ -74,14 +74,14 @@ fn start(
     }
     let mut rng = Pcg32x::for_samples(chunk.seed, &pixel, &sample);
     let all = [true; LANES];
-    let fx = Fx(px) + Fx(rng.next_f32(&all));
-    let fy = Fx(py) + Fx(rng.next_f32(&all));
+    let fx = F16(px) + F16(rng.next_f32(&all));
+    let fy = F16(py) + F16(rng.next_f32(&all));
     // The thin lens's aperture sample: the next 2-D dimension, as the scalar path draws it.
     let (ux, uy) = if rs.camera.needs_aperture_sample() {
-        let ux = Fx(rng.next_f32(&all));
-        (ux, Fx(rng.next_f32(&all)))
+        let ux = F16(rng.next_f32(&all));
+        (ux, F16(rng.next_f32(&all)))
     } else {
-        (Fx::splat(0.5), Fx::splat(0.5))
+        (F16::splat(0.5), F16::splat(0.5))
     };
     let (o, d, tmax) = rs.camera.ray_x(fx, fy, ux, uy);
     for l in 0..n {

@@ -3,7 +3,7 @@
 //! comes from the scalar code), shaded in structure-of-arrays stage by stage (surface
 //! interaction → emission with MIS → emitter sample → BSDF evaluation → MIS and the shadow
 //! ray → BSDF sample → throughput and Russian roulette → continuation ray). The BSDF-independent
-//! stages are straight-line code on 16-lane values ([`crate::math::simd::wide`]), one AVX-512
+//! stages are straight-line code on 16-lane values ([`crate::math::simd::f16`]), one AVX-512
 //! instruction (two AVX2 ones) per operation in the build [`crate::isa_dispatch`] picks. The
 //! BSDF's own stages go through the batched BSDF interface ([`BsdfBatch`]), which runs each
 //! kind's batched kernel or its scalar code lane by lane; this kernel names no BSDF model.
@@ -31,7 +31,7 @@ use crate::geometry::shading::triangle_surface_x;
 use crate::light::area::{sample_toward_x, tri_point_x};
 use crate::light::{AreaLight, Light, LightSampleX};
 use crate::math::frame::FrameX;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Frame, Pcg32x, Spectrum, warp};
 use crate::render::RenderScene;
 use crate::render::integrator::{TraceStats, mis_weight, mis_weight_x, shadow_segment_from_x};
@@ -69,7 +69,7 @@ fn shade(
     let pt = &rs.integrator;
     let meshes = &rs.scene.meshes;
     let lights = &rs.lights;
-    let zero = Fx::splat(0.0);
+    let zero = F16::splat(0.0);
 
     // ------------------------------ gather (scalar) ------------------------------
     // Lanes past n keep zeros: the SoA stages compute them too, and nothing reads the results.
@@ -77,16 +77,16 @@ fn shade(
     let mut tp = [V3x::ZERO; 3];
     let mut tn = [V3x::ZERO; 3];
     let mut tuv = [V2x::ZERO; 3];
-    let mut has_n = Mx::splat(false);
-    let mut has_uv = Mx::splat(false);
+    let mut has_n = M16::splat(false);
+    let mut has_uv = M16::splat(false);
     let mut bary = V2x::ZERO;
     let mut hit_t = [0f32; L];
     let mut mesh_id = [0u32; L];
     let mut prim = [0u32; L];
     let mut ray_d = V3x::ZERO;
     let mut throughput = V3x::ZERO;
-    let mut eta = Fx::splat(1.0);
-    let mut is_sphere = Mx::splat(false);
+    let mut eta = F16::splat(1.0);
+    let mut is_sphere = M16::splat(false);
     let (mut sph_p, mut sph_n, mut sph_du, mut sph_dv) =
         (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
     let mut sph_uv = V2x::ZERO;
@@ -168,19 +168,19 @@ fn shade(
     let mut nee = [false; L];
     // Lanes whose emitter sample is an area light's triangle, placed in the SoA stage below,
     // and lanes with the finished sample of any other emitter (in `other`).
-    let mut is_area = Mx::splat(false);
-    let mut is_other = Mx::splat(false);
+    let mut is_area = M16::splat(false);
+    let mut is_other = M16::splat(false);
     let mut other = LightSampleX {
         wi: V3x::splat(crate::math::Vec3::Z),
-        dist: Fx::splat(1.0),
+        dist: F16::splat(1.0),
         n_geo: V3x::ZERO,
         weight: V3x::ZERO,
-        pdf: Fx::splat(1.0),
-        delta: Mx::splat(false),
+        pdf: F16::splat(1.0),
+        delta: M16::splat(false),
     };
     let (mut lp0, mut le1, mut le2, mut lng) = (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
     let mut ln = [V3x::ZERO; 3];
-    let mut l_has_n = Mx::splat(false);
+    let mut l_has_n = M16::splat(false);
     let mut l_rad = V3x::ZERO;
     let mut l_inv_area = zero;
     // The area light each lane's emitter sample picked, if it picked one.
@@ -219,20 +219,20 @@ fn shade(
     let mut rng = Pcg32x::gather(&pool.rng, &slot, n);
     let u_sel = rng.next_f32(&nee);
     let mut u_light = V2x {
-        x: Fx(rng.next_f32(&nee)),
-        y: Fx(rng.next_f32(&nee)),
+        x: F16(rng.next_f32(&nee)),
+        y: F16(rng.next_f32(&nee)),
     };
-    let u_lobe = Fx(rng.next_f32(&live));
+    let u_lobe = F16(rng.next_f32(&live));
     let u_bsdf = V2x {
-        x: Fx(rng.next_f32(&live)),
-        y: Fx(rng.next_f32(&live)),
+        x: F16(rng.next_f32(&live)),
+        y: F16(rng.next_f32(&live)),
     };
 
     // -------------- emitter choice (scalar); other emitters' samples (SoA) --------------
     // Each emitter other than a triangle-mesh area light samples the lanes that chose it
     // together (`LightSet::sample_x`); area lights follow below.
     let mut chosen = [0u32; L];
-    let mut want_other = Mx::splat(false);
+    let mut want_other = M16::splat(false);
     for l in 0..n {
         if !nee[l] {
             continue;
@@ -306,7 +306,7 @@ fn shade(
     let (f, bsdf_pdf) = batch.eval_for_light(has_light, wi, wo, delta, si_at);
 
     // ---------------------- MIS and the shadow ray (SoA) ----------------------
-    let mis = Fx::select(delta, Fx::splat(1.0), mis_weight_x(ls.pdf, bsdf_pdf));
+    let mis = F16::select(delta, F16::splat(1.0), mis_weight_x(ls.pdf, bsdf_pdf));
     let shadow_on = has_light.and(f.is_zero().or(ls.weight.is_zero()).not());
     let contribution = throughput.mul(f).mul(ls.weight).scale(mis);
     let (sh_o, sh_d, sh_t, sh_test) = shadow_segment_from_x(p, ng, &ls);
@@ -321,7 +321,7 @@ fn shade(
     let new_tp = throughput.mul(weight);
     let eta = eta * s_eta;
     let t_max = new_tp.max_element();
-    let q = (t_max * eta * eta).min(Fx::splat(0.95));
+    let q = (t_max * eta * eta).min(F16::splat(0.95));
     let rr_tp = new_tp.div(q);
     let new_o = offset_origin_x(p, ng, wo_world);
 

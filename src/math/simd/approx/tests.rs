@@ -2,11 +2,11 @@ use super::*;
 use crate::math::simd::{Isa, isa};
 
 /// Runs `f` over `xs` in 16-lane batches (the tail padded with the last value).
-fn batched(xs: &[f32], mut f: impl FnMut(Fx, usize)) {
+fn batched(xs: &[f32], mut f: impl FnMut(F16, usize)) {
     for (k, c) in xs.chunks(WIDTH).enumerate() {
         let mut x = [*c.last().unwrap(); WIDTH];
         x[..c.len()].copy_from_slice(c);
-        f(Fx(x), k * WIDTH);
+        f(F16(x), k * WIDTH);
     }
 }
 
@@ -25,7 +25,7 @@ fn sin_cos_matches_f64_and_is_identical_on_every_isa() {
         let mut bits = Vec::new();
         let mut worst = 0.0f64;
         batched(&xs, |x, _| {
-            let (Fx(s), Fx(c)) = sin_cos_isa(isa, x);
+            let (F16(s), F16(c)) = sin_cos_isa(isa, x);
             let x = x.0;
             for i in 0..WIDTH {
                 let (rs, rc) = (x[i] as f64).sin_cos();
@@ -98,7 +98,7 @@ fn special_values() {
     let i = isa();
     let mut x = [1.0f32; WIDTH];
     x[..6].copy_from_slice(&[0.0, -1.0, f32::INFINITY, f32::NAN, 1e-45, -0.0]);
-    let l = log2_isa(i, Fx(x)).0;
+    let l = log2_isa(i, F16(x)).0;
     assert_eq!(l[0], f32::NEG_INFINITY);
     assert!(l[1].is_nan() && l[3].is_nan());
     assert_eq!(l[2], f32::INFINITY);
@@ -106,7 +106,7 @@ fn special_values() {
     assert_eq!(l[5], f32::NEG_INFINITY);
     assert_eq!(l[6], 0.0);
     x[..5].copy_from_slice(&[-200.0, 200.0, f32::NAN, 0.0, 10.0]);
-    let e = exp2_isa(i, Fx(x)).0;
+    let e = exp2_isa(i, F16(x)).0;
     assert_eq!(e[0], 0.0);
     assert_eq!(e[1], f32::INFINITY);
     assert!(e[2].is_nan());

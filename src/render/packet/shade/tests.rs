@@ -12,7 +12,7 @@ use crate::geometry::shading::{triangle_surface, triangle_surface_x};
 use crate::light::area::{sample_toward, sample_toward_x, tri_point, tri_point_x};
 use crate::light::{LightSample, LightSampleX};
 use crate::math::frame::FrameX;
-use crate::math::simd::wide::{Fx, Mx, V2x, V3x};
+use crate::math::simd::f16::{F16, M16, V2x, V3x};
 use crate::math::{Frame, Pcg32, Vec2, Vec3, warp};
 use crate::render::integrator::{
     mis_weight, mis_weight_x, shadow_segment_from, shadow_segment_from_x,
@@ -44,7 +44,7 @@ fn twins_match_their_scalar_helpers() {
         let mut tp = [V3x::ZERO; 3];
         let mut tn = [V3x::ZERO; 3];
         let mut tuv = [V2x::ZERO; 3];
-        let (mut has_n, mut has_uv) = (Mx::splat(false), Mx::splat(false));
+        let (mut has_n, mut has_uv) = (M16::splat(false), M16::splat(false));
         let (mut b, mut u) = (V2x::ZERO, V2x::ZERO);
         let (mut d, mut extra) = (V3x::ZERO, V3x::ZERO);
         let mut scalar_in = Vec::new();
@@ -90,7 +90,7 @@ fn twins_match_their_scalar_helpers() {
         let tb = warp::square_to_uniform_triangle_x(u);
         let at = tri_point_x(p, du, dv, ng, has_n, tn, tb);
         let rad = V3x::splat(Vec3::new(1.0, 2.0, 3.0));
-        let (ls, ok) = sample_toward_x(rad, Fx::splat(0.25), extra, at);
+        let (ls, ok) = sample_toward_x(rad, F16::splat(0.25), extra, at);
         let off = offset_origin_x(p, ng, d);
         let mut lsx = ls;
         for l in 0..L {
@@ -190,7 +190,7 @@ fn twins_match_their_scalar_helpers() {
         nl.set(l, c);
     }
     let r = Vec3::ONE;
-    let (_, ok) = sample_toward_x(V3x::splat(r), Fx::splat(1.0), pr, (pl, nl, nl));
+    let (_, ok) = sample_toward_x(V3x::splat(r), F16::splat(1.0), pr, (pl, nl, nl));
     for l in 0..L {
         let s = sample_toward(r, 1.0, pr.get(l), (pl.get(l), nl.get(l), nl.get(l)));
         assert_eq!(ok.0[l], s.is_some(), "edge case {}", l % cases.len());
@@ -198,17 +198,17 @@ fn twins_match_their_scalar_helpers() {
     // LightSampleX::select keeps each side's delta flag.
     let a = LightSampleX {
         wi: V3x::ZERO,
-        dist: Fx::splat(1.0),
+        dist: F16::splat(1.0),
         n_geo: V3x::ZERO,
         weight: V3x::ZERO,
-        pdf: Fx::splat(1.0),
-        delta: Mx::splat(true),
+        pdf: F16::splat(1.0),
+        delta: M16::splat(true),
     };
     let b = LightSampleX {
-        delta: Mx::splat(false),
+        delta: M16::splat(false),
         ..a
     };
-    let mut m = Mx::splat(false);
+    let mut m = M16::splat(false);
     m.0[3] = true;
     let s = LightSampleX::select(m, &a, &b);
     assert!((0..L).all(|l| s.delta.0[l] == (l == 3)));

@@ -1,12 +1,12 @@
-//! Sixteen-lane values for the packet kernels written as straight-line code: [`Fx`] (f32),
-//! [`Mx`] (a lane mask), [`V2x`] and [`V3x`] (vectors, one [`Fx`] per component). Every
+//! Sixteen-lane values for the packet kernels written as straight-line code: [`F16`] (f32),
+//! [`M16`] (a lane mask), [`V2x`] and [`V3x`] (vectors, one [`F16`] per component). Every
 //! operation is a loop over the 16 lanes marked `#[inline(always)]`, which LLVM turns into one
 //! AVX-512 instruction (two AVX2 ones) inside a `#[target_feature]` build
 //! ([`crate::isa_dispatch`]) and into plain loops elsewhere.
 //!
 //! The vector operations round exactly like glam's scalar `Vec3`/`Vec2` ones (the same
 //! operations in the same order, no fused multiply-adds), so a lane computes the bits the scalar
-//! code computes; branches become [`Fx::select`] of both sides, which is the same value.
+//! code computes; branches become [`F16::select`] of both sides, which is the same value.
 
 use super::WIDTH;
 use glam::{Vec2, Vec3};
@@ -14,13 +14,13 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 
 const W: usize = WIDTH;
 
-/// 16 f32 lanes.
+/// 16 f32 lanes (sixteen single-precision lanes, not a half-precision float: that is `half::f16`).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Fx(pub [f32; W]);
+pub struct F16(pub [f32; W]);
 
 /// A per-lane condition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Mx(pub [bool; W]);
+pub struct M16(pub [bool; W]);
 
 // Plain loops rather than `std::array::from_fn`, whose inner `try_from_fn` LLVM does not
 // always inline into the large kernels (a call per lane operation).
@@ -35,37 +35,37 @@ pub fn lanes<T: Copy + Default>(f: impl Fn(usize) -> T) -> [T; W] {
 }
 
 #[inline(always)]
-fn map(f: impl Fn(usize) -> f32) -> Fx {
-    Fx(lanes(f))
+fn map(f: impl Fn(usize) -> f32) -> F16 {
+    F16(lanes(f))
 }
 
 #[inline(always)]
-fn mask(f: impl Fn(usize) -> bool) -> Mx {
-    Mx(lanes(f))
+fn mask(f: impl Fn(usize) -> bool) -> M16 {
+    M16(lanes(f))
 }
 
-impl Fx {
+impl F16 {
     /// Every lane `v`.
     #[inline(always)]
-    pub fn splat(v: f32) -> Fx {
-        Fx([v; W])
+    pub fn splat(v: f32) -> F16 {
+        F16([v; W])
     }
 
     /// √ per lane (correctly rounded, as `f32::sqrt`).
     #[inline(always)]
-    pub fn sqrt(self) -> Fx {
+    pub fn sqrt(self) -> F16 {
         map(|i| self.0[i].sqrt())
     }
 
     /// |x| per lane.
     #[inline(always)]
-    pub fn abs(self) -> Fx {
+    pub fn abs(self) -> F16 {
         map(|i| self.0[i].abs())
     }
 
     /// `if a < b { a } else { b }`: `f32::min(a, b)` for a non-NaN `b`.
     #[inline(always)]
-    pub fn min(self, b: Fx) -> Fx {
+    pub fn min(self, b: F16) -> F16 {
         map(|i| {
             if self.0[i] < b.0[i] {
                 self.0[i]
@@ -77,7 +77,7 @@ impl Fx {
 
     /// `if a > b { a } else { b }`: glam's `max_element` step, `f32::max(a, b)` for a non-NaN `b`.
     #[inline(always)]
-    pub fn max(self, b: Fx) -> Fx {
+    pub fn max(self, b: F16) -> F16 {
         map(|i| {
             if self.0[i] > b.0[i] {
                 self.0[i]
@@ -89,37 +89,37 @@ impl Fx {
 
     /// Lanes of `a` where `m`, of `b` elsewhere.
     #[inline(always)]
-    pub fn select(m: Mx, a: Fx, b: Fx) -> Fx {
+    pub fn select(m: M16, a: F16, b: F16) -> F16 {
         map(|i| if m.0[i] { a.0[i] } else { b.0[i] })
     }
 
     #[inline(always)]
-    pub fn lt(self, b: Fx) -> Mx {
+    pub fn lt(self, b: F16) -> M16 {
         mask(|i| self.0[i] < b.0[i])
     }
 
     #[inline(always)]
-    pub fn le(self, b: Fx) -> Mx {
+    pub fn le(self, b: F16) -> M16 {
         mask(|i| self.0[i] <= b.0[i])
     }
 
     #[inline(always)]
-    pub fn gt(self, b: Fx) -> Mx {
+    pub fn gt(self, b: F16) -> M16 {
         mask(|i| self.0[i] > b.0[i])
     }
 
     #[inline(always)]
-    pub fn ge(self, b: Fx) -> Mx {
+    pub fn ge(self, b: F16) -> M16 {
         mask(|i| self.0[i] >= b.0[i])
     }
 
     #[inline(always)]
-    pub fn eq(self, b: Fx) -> Mx {
+    pub fn eq(self, b: F16) -> M16 {
         mask(|i| self.0[i] == b.0[i])
     }
 
     #[inline(always)]
-    pub fn ne(self, b: Fx) -> Mx {
+    pub fn ne(self, b: F16) -> M16 {
         mask(|i| self.0[i] != b.0[i])
     }
 
@@ -127,38 +127,38 @@ impl Fx {
     /// Written plainly (as a float or a bit test), LLVM folds it with a neighbouring `x > 0`
     /// into one `is.fpclass` test, which the x86 backend scalarises lane by lane.
     #[inline(always)]
-    pub fn is_finite(self) -> Mx {
-        let inf = Fx::splat(std::hint::black_box(f32::INFINITY));
+    pub fn is_finite(self) -> M16 {
+        let inf = F16::splat(std::hint::black_box(f32::INFINITY));
         self.abs().lt(inf)
     }
 
     /// `f32::copysign(1.0, x)` per lane.
     #[inline(always)]
-    pub fn sign_of(self) -> Fx {
+    pub fn sign_of(self) -> F16 {
         map(|i| 1.0f32.copysign(self.0[i]))
     }
 }
 
 macro_rules! fx_op {
     ($tr:ident, $f:ident, $op:tt) => {
-        impl $tr for Fx {
-            type Output = Fx;
+        impl $tr for F16 {
+            type Output = F16;
             #[inline(always)]
-            fn $f(self, b: Fx) -> Fx {
+            fn $f(self, b: F16) -> F16 {
                 map(|i| self.0[i] $op b.0[i])
             }
         }
-        impl $tr<f32> for Fx {
-            type Output = Fx;
+        impl $tr<f32> for F16 {
+            type Output = F16;
             #[inline(always)]
-            fn $f(self, b: f32) -> Fx {
+            fn $f(self, b: f32) -> F16 {
                 map(|i| self.0[i] $op b)
             }
         }
-        impl $tr<Fx> for f32 {
-            type Output = Fx;
+        impl $tr<F16> for f32 {
+            type Output = F16;
             #[inline(always)]
-            fn $f(self, b: Fx) -> Fx {
+            fn $f(self, b: F16) -> F16 {
                 map(|i| self $op b.0[i])
             }
         }
@@ -169,10 +169,10 @@ fx_op!(Sub, sub, -);
 fx_op!(Mul, mul, *);
 fx_op!(Div, div, /);
 
-impl Neg for Fx {
-    type Output = Fx;
+impl Neg for F16 {
+    type Output = F16;
     #[inline(always)]
-    fn neg(self) -> Fx {
+    fn neg(self) -> F16 {
         map(|i| -self.0[i])
     }
 }
@@ -180,34 +180,34 @@ impl Neg for Fx {
 // Named methods, not operator traits: the twins of scalar code read left to right in the
 // order glam evaluates, and a mask is not an integer.
 #[allow(clippy::should_implement_trait)]
-impl Mx {
+impl M16 {
     /// Every lane `v`.
     #[inline(always)]
-    pub fn splat(v: bool) -> Mx {
-        Mx([v; W])
+    pub fn splat(v: bool) -> M16 {
+        M16([v; W])
     }
 
     #[inline(always)]
-    pub fn and(self, b: Mx) -> Mx {
+    pub fn and(self, b: M16) -> M16 {
         mask(|i| self.0[i] & b.0[i])
     }
 
     #[inline(always)]
-    pub fn or(self, b: Mx) -> Mx {
+    pub fn or(self, b: M16) -> M16 {
         mask(|i| self.0[i] | b.0[i])
     }
 
     #[inline(always)]
-    pub fn not(self) -> Mx {
+    pub fn not(self) -> M16 {
         mask(|i| !self.0[i])
     }
 }
 
-/// 16 2-vectors, one [`Fx`] per component.
+/// 16 2-vectors, one [`F16`] per component.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V2x {
-    pub x: Fx,
-    pub y: Fx,
+    pub x: F16,
+    pub y: F16,
 }
 
 // Named methods, not operator traits: the twins of scalar code read left to right in the
@@ -215,8 +215,8 @@ pub struct V2x {
 #[allow(clippy::should_implement_trait)]
 impl V2x {
     pub const ZERO: V2x = V2x {
-        x: Fx([0.0; W]),
-        y: Fx([0.0; W]),
+        x: F16([0.0; W]),
+        y: F16([0.0; W]),
     };
 
     #[inline(always)]
@@ -232,7 +232,7 @@ impl V2x {
 
     /// `Vec2 * f32` per lane.
     #[inline(always)]
-    pub fn scale(self, s: Fx) -> V2x {
+    pub fn scale(self, s: F16) -> V2x {
         V2x {
             x: self.x * s,
             y: self.y * s,
@@ -257,20 +257,20 @@ impl V2x {
 
     /// Lanes of `a` where `m`, of `b` elsewhere.
     #[inline(always)]
-    pub fn select(m: Mx, a: V2x, b: V2x) -> V2x {
+    pub fn select(m: M16, a: V2x, b: V2x) -> V2x {
         V2x {
-            x: Fx::select(m, a.x, b.x),
-            y: Fx::select(m, a.y, b.y),
+            x: F16::select(m, a.x, b.x),
+            y: F16::select(m, a.y, b.y),
         }
     }
 }
 
-/// 16 3-vectors, one [`Fx`] per component.
+/// 16 3-vectors, one [`F16`] per component.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct V3x {
-    pub x: Fx,
-    pub y: Fx,
-    pub z: Fx,
+    pub x: F16,
+    pub y: F16,
+    pub z: F16,
 }
 
 // Named methods, not operator traits: the twins of scalar code read left to right in the
@@ -278,23 +278,23 @@ pub struct V3x {
 #[allow(clippy::should_implement_trait)]
 impl V3x {
     pub const ZERO: V3x = V3x {
-        x: Fx([0.0; W]),
-        y: Fx([0.0; W]),
-        z: Fx([0.0; W]),
+        x: F16([0.0; W]),
+        y: F16([0.0; W]),
+        z: F16([0.0; W]),
     };
 
     /// Every lane `v`.
     #[inline(always)]
     pub fn splat(v: Vec3) -> V3x {
         V3x {
-            x: Fx::splat(v.x),
-            y: Fx::splat(v.y),
-            z: Fx::splat(v.z),
+            x: F16::splat(v.x),
+            y: F16::splat(v.y),
+            z: F16::splat(v.z),
         }
     }
 
     #[inline(always)]
-    pub fn new(x: Fx, y: Fx, z: Fx) -> V3x {
+    pub fn new(x: F16, y: F16, z: F16) -> V3x {
         V3x { x, y, z }
     }
 
@@ -312,13 +312,13 @@ impl V3x {
 
     /// `Vec3 * f32` per lane.
     #[inline(always)]
-    pub fn scale(self, s: Fx) -> V3x {
+    pub fn scale(self, s: F16) -> V3x {
         V3x::new(self.x * s, self.y * s, self.z * s)
     }
 
     /// `Vec3 / f32` per lane (a division per component, as glam).
     #[inline(always)]
-    pub fn div(self, s: Fx) -> V3x {
+    pub fn div(self, s: F16) -> V3x {
         V3x::new(self.x / s, self.y / s, self.z / s)
     }
 
@@ -345,7 +345,7 @@ impl V3x {
 
     /// (x·x' + y·y') + z·z', glam's order.
     #[inline(always)]
-    pub fn dot(self, b: V3x) -> Fx {
+    pub fn dot(self, b: V3x) -> F16 {
         (self.x * b.x) + (self.y * b.y) + (self.z * b.z)
     }
 
@@ -360,12 +360,12 @@ impl V3x {
     }
 
     #[inline(always)]
-    pub fn length_squared(self) -> Fx {
+    pub fn length_squared(self) -> F16 {
         self.dot(self)
     }
 
     #[inline(always)]
-    pub fn length(self) -> Fx {
+    pub fn length(self) -> F16 {
         self.dot(self).sqrt()
     }
 
@@ -373,26 +373,26 @@ impl V3x {
     #[inline(always)]
     pub fn normalize_or_zero(self) -> V3x {
         let rcp = 1.0 / self.length();
-        let ok = rcp.is_finite().and(rcp.gt(Fx::splat(0.0)));
+        let ok = rcp.is_finite().and(rcp.gt(F16::splat(0.0)));
         V3x::select(ok, self.scale(rcp), V3x::ZERO)
     }
 
     /// All three components are 0 (`v == Vec3::ZERO`).
     #[inline(always)]
-    pub fn is_zero(self) -> Mx {
-        let z = Fx::splat(0.0);
+    pub fn is_zero(self) -> M16 {
+        let z = F16::splat(0.0);
         self.x.eq(z).and(self.y.eq(z)).and(self.z.eq(z))
     }
 
     /// glam's `abs().max_element()`: max(|x|, max(|y|, |z|)).
     #[inline(always)]
-    pub fn abs_max_element(self) -> Fx {
+    pub fn abs_max_element(self) -> F16 {
         self.x.abs().max(self.y.abs().max(self.z.abs()))
     }
 
     /// glam's `max_element`: max(x, max(y, z)).
     #[inline(always)]
-    pub fn max_element(self) -> Fx {
+    pub fn max_element(self) -> F16 {
         self.x.max(self.y.max(self.z))
     }
 
@@ -400,13 +400,13 @@ impl V3x {
     #[inline(always)]
     pub fn transform(self, m: &glam::Mat3) -> V3x {
         let (a, b, c) = (m.x_axis, m.y_axis, m.z_axis);
-        let col = |v: glam::Vec3, s: Fx| V3x::new(s * v.x, s * v.y, s * v.z);
+        let col = |v: glam::Vec3, s: F16| V3x::new(s * v.x, s * v.y, s * v.z);
         col(a, self.x).add(col(b, self.y)).add(col(c, self.z))
     }
 
     /// Every component finite (`Vec3::is_finite`).
     #[inline(always)]
-    pub fn is_finite(self) -> Mx {
+    pub fn is_finite(self) -> M16 {
         self.x
             .is_finite()
             .and(self.y.is_finite())
@@ -415,11 +415,11 @@ impl V3x {
 
     /// Lanes of `a` where `m`, of `b` elsewhere.
     #[inline(always)]
-    pub fn select(m: Mx, a: V3x, b: V3x) -> V3x {
+    pub fn select(m: M16, a: V3x, b: V3x) -> V3x {
         V3x::new(
-            Fx::select(m, a.x, b.x),
-            Fx::select(m, a.y, b.y),
-            Fx::select(m, a.z, b.z),
+            F16::select(m, a.x, b.x),
+            F16::select(m, a.y, b.y),
+            F16::select(m, a.z, b.z),
         )
     }
 }
@@ -463,7 +463,7 @@ mod tests {
                 assert_eq!(a.max_element().0[l], av[l].max_element());
                 assert_eq!(a.length().0[l], av[l].length());
                 assert_eq!(a.is_zero().0[l], av[l] == Vec3::ZERO);
-                assert_eq!(a.x.min(Fx::splat(0.95)).0[l], av[l].x.min(0.95));
+                assert_eq!(a.x.min(F16::splat(0.95)).0[l], av[l].x.min(0.95));
                 let m = glam::Mat3::from_cols(av[(l + 1) % W], bv[l], av[(l + 5) % W]);
                 assert_eq!(bits(b.transform(&m).get(l)), bits(m * bv[l]));
             }
