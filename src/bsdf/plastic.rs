@@ -11,8 +11,8 @@ use super::plugin::BsdfProperties;
 use super::{BsdfFlags, BsdfSample, Bxdf, Texture};
 use crate::Result;
 use crate::geometry::SurfaceInteraction;
-use crate::math::simd::real::{Real, V2, V3};
 use crate::math::simd::f16::{F16, M16, V2x, V3x};
+use crate::math::simd::real::{Real, V2, V3};
 use crate::math::{Spectrum, Vec2, Vec3, warp};
 
 /// A coated base's albedo `d` divided by what the coating's internal reflections (diffuse

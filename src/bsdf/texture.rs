@@ -5,8 +5,8 @@ use super::plugin::BsdfProperties;
 use crate::Result;
 use crate::io::RgbImage;
 use crate::math::color::luminance;
-use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::simd::f16::{F16, V2x, V3x};
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::transform::is_finite;
 use crate::math::{Mat4, Spectrum, Vec2, Vec3};
 use crate::plugin::Properties;
@@ -230,6 +230,24 @@ impl Checkerboard {
         let b = (t.y - t.y.floor()).gt(half);
         a.and(b).or(a.not().and(b.not()))
     }
+}
+
+/// Mitsuba's `rawconstant`: a uniform `value` (float, or a 3-vector given as vector, point or
+/// rgb) used as written, without the colour conversion a reflectance gets, e.g. a constant
+/// normal map. The value is required.
+pub fn raw_constant_from_props(p: &mut dyn BsdfProperties) -> Result<Texture> {
+    use crate::plugin::Value;
+    let v = match p.value("value") {
+        None => return Err(p.err("rawconstant: missing required parameter \"value\"")),
+        Some(Value::Float(f)) => Vec3::splat(*f),
+        Some(Value::Integer(i)) => Vec3::splat(*i as f32),
+        Some(Value::Vector(v) | Value::Point(v) | Value::Rgb(v)) => *v,
+        Some(v) => return Err(p.wrong_type("value", v, "float, vector or rgb")),
+    };
+    if !v.is_finite() {
+        return Err(p.err_at("value", "rawconstant: \"value\" must be finite"));
+    }
+    Ok(Texture::Constant(v))
 }
 
 impl Texture {

@@ -148,7 +148,13 @@ impl LightSet {
     /// have one — the same bits per lane. The lanes that chose one emitter are sampled together
     /// in SoA (an analytic sphere's lane by lane).
     #[inline(always)]
-    pub fn sample_x(&self, p: V3x, chosen: &[u32; WIDTH], want: M16, u: V2x) -> (LightSampleX, M16) {
+    pub fn sample_x(
+        &self,
+        p: V3x,
+        chosen: &[u32; WIDTH],
+        want: M16,
+        u: V2x,
+    ) -> (LightSampleX, M16) {
         let mut out = LightSampleX {
             wi: V3x::splat(Vec3::Z),
             dist: F16::splat(1.0),

@@ -2,8 +2,8 @@
 
 use super::{INV_FOUR_PI, INV_PI, INV_TWO_PI, PI};
 use crate::math::simd::approx::sin_cos;
-use crate::math::simd::real::{Cond, Real, V2, V3};
 use crate::math::simd::f16::{F16, V2x, V3x};
+use crate::math::simd::real::{Cond, Real, V2, V3};
 use glam::{Vec2, Vec3};
 
 /// Concentric (Shirley–Chiu) map to the unit disk: low distortion, continuous.

@@ -130,16 +130,17 @@ pub fn resolve_model_file(filename: &Path, model: Option<BtfModel>) -> Result<Bt
             if is_plmc && kind_of(filename).is_none_or(|k| k == kind) {
                 return Ok(BtfFile::Model(filename.to_path_buf()));
             }
+            // The named file was looked at above (or is raw data): only the stem's model files
+            // remain, each header read once.
+            tried.push(name.to_string());
             let own = format!("{stem}.{}.plmc", kind.name());
             let plain = format!("{stem}.plmc");
-            for c in [name.to_string(), own, plain] {
+            for c in [own, plain].into_iter().filter(|c| *c != name) {
                 let p = PathBuf::from(&c);
                 if is_model_file(&p) && kind_of(&p) == Some(kind) {
                     return Ok(BtfFile::Model(p));
                 }
-                if !tried.contains(&c) {
-                    tried.push(c);
-                }
+                tried.push(c);
             }
         }
     }

@@ -15,7 +15,7 @@ use btfpt::math::Spectrum;
 use btfpt::metrics::{Comparison, Criteria, predicted_variance};
 use btfpt::render::RenderScene;
 use btfpt::render::film::{RenderSettings, RenderState};
-use btfpt::scene::{Emitter, LoadOptions, Scene};
+use btfpt::scene::{Emitter, LoadOptions, Projection, Scene};
 use std::path::Path;
 use std::sync::OnceLock;
 use std::sync::atomic::AtomicBool;
@@ -283,6 +283,49 @@ fn mitsuba_metals_match_mitsuba() {
     assert!(f.is_empty(), "{f:?}");
 }
 
+const PRINCIPLED: &str = "scenes/mitsuba-principled/scene.xml";
+const THINLENS: &str = "scenes/mitsuba-sensors/thinlens.xml";
+const ORTHOGRAPHIC: &str = "scenes/mitsuba-sensors/orthographic.xml";
+
+/// `principled` (an anisotropic metal, a rough transmissive one, a checkerboard base colour
+/// with clearcoat and sheen) and `principledthin` (diffuse and specular transmission); bounds
+/// from reference-images/mitsuba-principled/mitsuba-principled_calibration.json.
+#[test]
+fn mitsuba_principled_matches_mitsuba() {
+    let r = reference("mitsuba-principled");
+    let s = load(PRINCIPLED, &[]);
+    let count = |f: fn(&Bsdf) -> bool| s.bsdfs.iter().filter(|b| f(b)).count();
+    assert_eq!(count(|b| matches!(b, Bsdf::Principled(_))), 3);
+    assert_eq!(count(|b| matches!(b, Bsdf::PrincipledThin(_))), 1);
+    let f = failures(&r, &render(s), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
+/// `thinlens` (aperture 0.2 focused on the middle sphere) over the sensor stage; bounds from
+/// reference-images/mitsuba-sensors-thinlens/mitsuba-sensors-thinlens_calibration.json.
+#[test]
+fn mitsuba_thinlens_matches_mitsuba() {
+    let r = reference("mitsuba-sensors-thinlens");
+    let s = load(THINLENS, &[]);
+    assert!(matches!(
+        s.camera.projection,
+        Projection::ThinLens { aperture_radius, .. } if aperture_radius == 0.2
+    ));
+    let f = failures(&r, &render(s), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
+/// `orthographic` with its view extent set by the to_world scale; bounds from
+/// reference-images/mitsuba-sensors-orthographic/mitsuba-sensors-orthographic_calibration.json.
+#[test]
+fn mitsuba_orthographic_matches_mitsuba() {
+    let r = reference("mitsuba-sensors-orthographic");
+    let s = load(ORTHOGRAPHIC, &[]);
+    assert!(matches!(s.camera.projection, Projection::Orthographic));
+    let f = failures(&r, &render(s), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
 // ------------------------------------------------------------------------------------------
 // Negative tests: each breaks one convention and must make the comparison fail.
 
@@ -531,4 +574,28 @@ fn mitsuba_features_direct_fail_with_delta_light_weighted_per_sample() {
         }
     }
     assert!(!failures(features_direct_ref(), &render(s), "delta / emitter_samples").is_empty());
+}
+
+#[test]
+fn mitsuba_principled_fails_with_less_metallic() {
+    // The back-left sphere metallic 0.6 instead of 0.8.
+    let r = reference("mitsuba-principled");
+    let img = render(load(PRINCIPLED, &[("metallic", "0.6")]));
+    assert!(!failures(&r, &img, "metallic 0.6").is_empty());
+}
+
+#[test]
+fn mitsuba_thinlens_fails_with_smaller_aperture() {
+    // The lens radius 0.1 instead of 0.2: the near and far spheres less blurred.
+    let r = reference("mitsuba-sensors-thinlens");
+    let img = render(load(THINLENS, &[("aperture", "0.1")]));
+    assert!(!failures(&r, &img, "aperture 0.1").is_empty());
+}
+
+#[test]
+fn mitsuba_orthographic_fails_with_another_extent() {
+    // The to_world scale 1.15 instead of 1.1: the view 5 % wider.
+    let r = reference("mitsuba-sensors-orthographic");
+    let img = render(load(ORTHOGRAPHIC, &[("extent", "1.15")]));
+    assert!(!failures(&r, &img, "extent 1.15").is_empty());
 }

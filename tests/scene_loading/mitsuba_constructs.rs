@@ -525,6 +525,49 @@ fn textures_bitmap_options_and_checkerboard() {
 }
 
 #[test]
+fn rawconstant_texture_is_used_as_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let p = write(
+        d,
+        "r.xml",
+        &scene_text(
+            r#"<shape type="sphere"><bsdf type="diffuse">
+                 <texture type="rawconstant" name="reflectance"><vector name="value" value="0.5, 0.25, 1"/></texture>
+               </bsdf></shape>
+               <shape type="sphere"><bsdf type="diffuse">
+                 <texture type="rawconstant" name="reflectance"><float name="value" value="0.7"/></texture>
+               </bsdf></shape>"#,
+        ),
+    );
+    let s = load(&p);
+    let uv = Vec2::new(0.3, 0.6);
+    assert_eq!(
+        diffuse_reflectance(&s, 0).eval(uv),
+        Spectrum::new(0.5, 0.25, 1.0)
+    );
+    assert_eq!(diffuse_reflectance(&s, 1).eval(uv), Spectrum::splat(0.7));
+    // A missing value is reported at the element, a wrong type at the property.
+    for (name, body, line, needle) in [
+        (
+            "missing.xml",
+            "<texture type=\"rawconstant\" id=\"t\">\n</texture>",
+            7,
+            "missing required parameter \"value\"",
+        ),
+        (
+            "string.xml",
+            "<texture type=\"rawconstant\" id=\"t\">\n<string name=\"value\" value=\"red\"/></texture>",
+            8,
+            "expected float, vector or rgb, got string",
+        ),
+    ] {
+        let p = write(d, name, &scene_text(body));
+        expect_err(&p, name, line, needle);
+    }
+}
+
+#[test]
 fn samplers_integrators_and_default_film() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

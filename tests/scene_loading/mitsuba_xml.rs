@@ -919,7 +919,7 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
     for (body, needle) in [
         (
             "<texture type=\"noise\" id=\"t\"/>",
-            "unsupported texture type (btfpt implements bitmap, checkerboard)",
+            "unsupported texture type (btfpt implements bitmap, checkerboard, rawconstant)",
         ),
         (
             "<shape type=\"torus\"/>",

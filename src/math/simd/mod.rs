@@ -16,12 +16,12 @@
 //! the levels returns the same bits (the image does not depend on the CPU it ran on).
 
 pub mod approx;
+pub mod f16;
 pub mod f4;
 pub mod f8;
 pub mod real;
 #[cfg(target_arch = "x86_64")]
 pub mod transpose;
-pub mod f16;
 
 use std::sync::OnceLock;
 

@@ -1,12 +1,12 @@
 //! `<texture>`: the table from plugin name to the constructor in the texture's own file
-//! (`crate::bsdf::texture`: `bitmap`, `checkerboard`), nested in a BSDF parameter or
+//! (`crate::bsdf::texture`: `bitmap`, `checkerboard`, `rawconstant`), nested in a BSDF parameter or
 //! referenced by id, built once per element.
 
 use super::bsdf::Element;
 use super::properties::Props;
 use super::{Builder, N, plugin_constructor};
 use crate::Result;
-use crate::bsdf::texture::{BitmapTexture, Checkerboard};
+use crate::bsdf::texture::{BitmapTexture, Checkerboard, raw_constant_from_props};
 use crate::bsdf::{BsdfProperties, Texture};
 
 /// A texture plugin's constructor: reads the element's properties, builds what it nests.
@@ -16,6 +16,7 @@ type TextureConstructor = fn(&mut dyn BsdfProperties) -> Result<Texture>;
 const TEXTURE_PLUGINS: &[(&str, TextureConstructor)] = &[
     ("bitmap", BitmapTexture::from_props),
     ("checkerboard", Checkerboard::from_props),
+    ("rawconstant", raw_constant_from_props),
 ];
 
 impl<'a, 'x> Builder<'a, 'x> {
