@@ -117,13 +117,19 @@ impl BatchSample {
 }
 
 /// The albedo textures of a BSDF the diffuse SoA stages run: (front, back) of a `twosided`
-/// over two `diffuse` models, (albedo, None) of a `diffuse` one, None for any other model.
+/// over two `diffuse` models, (albedo, None) of a `diffuse` one, None for any other model and
+/// for an albedo that is a mesh attribute (looked up per hit, lane by lane).
 #[inline]
 fn diffuse_sides(b: &Bsdf) -> Option<(&Texture, Option<&Texture>)> {
+    let by_uv = |t: &Texture| !matches!(t, Texture::MeshAttribute(_));
     match b {
-        Bsdf::Diffuse(d) => Some((&d.reflectance, None)),
+        Bsdf::Diffuse(d) if by_uv(&d.reflectance) => Some((&d.reflectance, None)),
         Bsdf::TwoSided(t) => match (&*t.front, &*t.back) {
-            (Bsdf::Diffuse(f), Bsdf::Diffuse(k)) => Some((&f.reflectance, Some(&k.reflectance))),
+            (Bsdf::Diffuse(f), Bsdf::Diffuse(k))
+                if by_uv(&f.reflectance) && by_uv(&k.reflectance) =>
+            {
+                Some((&f.reflectance, Some(&k.reflectance)))
+            }
             _ => None,
         },
         _ => None,

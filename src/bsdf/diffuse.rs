@@ -29,7 +29,7 @@ impl Bxdf for Diffuse {
     }
 
     fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        eval_local(self.reflectance.eval(si.uv), si.wi, wo)
+        eval_local(self.reflectance.eval_at(si), si.wi, wo)
     }
 
     fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
@@ -49,7 +49,7 @@ impl Bxdf for Diffuse {
             eta: 1.0,
             sampled: BsdfFlags::DIFFUSE_REFLECTION,
         };
-        Some((s, self.reflectance.eval(si.uv)))
+        Some((s, self.reflectance.eval_at(si)))
     }
 }
 

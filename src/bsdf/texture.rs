@@ -3,6 +3,7 @@
 
 use super::plugin::BsdfProperties;
 use crate::Result;
+use crate::geometry::{Mesh, MeshAttribute, SurfaceInteraction};
 use crate::io::RgbImage;
 use crate::math::color::luminance;
 use crate::math::simd::f16::{F16, V2x, V3x};
@@ -24,6 +25,86 @@ pub enum Texture {
     Mapped(Arc<BitmapTexture>),
     /// Mitsuba `checkerboard`.
     Checkerboard(Arc<Checkerboard>),
+    /// Mitsuba `mesh_attribute`: an attribute of the mesh that was hit (see
+    /// [`MeshAttributeTexture`]); evaluated only through [`Texture::eval_at`].
+    MeshAttribute(Arc<MeshAttributeTexture>),
+}
+
+/// Mitsuba's `mesh_attribute`: the attribute `name` (`vertex_color`, `face_weight`, ...) of
+/// the mesh that was hit, interpolated at the hit, times `scale`. The scene loader binds it
+/// to one mesh's attribute ([`MeshAttributeTexture::bind`]); only the BSDFs that look their
+/// textures up through the hit ([`Texture::eval_at`]: `diffuse`'s reflectance) accept it.
+#[derive(Clone, Debug)]
+pub struct MeshAttributeTexture {
+    /// The attribute's name, starting with `vertex_` or `face_`.
+    pub name: String,
+    /// Factor applied to the attribute's value.
+    pub scale: f32,
+    /// The attribute of the mesh this texture is bound to, with that mesh's triangles.
+    pub bound: Option<(MeshAttribute, Arc<Vec<[u32; 3]>>)>,
+}
+
+impl MeshAttributeTexture {
+    /// Mitsuba's `mesh_attribute`: `name` (required, `vertex_…` or `face_…`) and `scale` (1).
+    pub fn from_props(p: &mut dyn BsdfProperties) -> Result<Texture> {
+        let name = p.string_req("name")?;
+        if !name.starts_with("vertex_") && !name.starts_with("face_") {
+            return Err(p.err_at(
+                "name",
+                &format!(
+                    "mesh_attribute: invalid attribute name \"{name}\" (it must start with \"vertex_\" or \"face_\")"
+                ),
+            ));
+        }
+        let scale = p.float("scale", 1.0)?;
+        Ok(Texture::MeshAttribute(Arc::new(MeshAttributeTexture {
+            name,
+            scale,
+            bound: None,
+        })))
+    }
+
+    /// This texture bound to `mesh`'s attribute of its name; an error message naming the
+    /// attributes the mesh has if it has none of that name.
+    pub fn bind(&self, mesh: &Mesh) -> std::result::Result<MeshAttributeTexture, String> {
+        let Some(a) = mesh.attributes.iter().find(|a| a.name == self.name) else {
+            let names: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+            return Err(format!(
+                "mesh_attribute: the mesh \"{}\" has no attribute \"{}\" (it has {})",
+                mesh.name,
+                self.name,
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ));
+        };
+        Ok(MeshAttributeTexture {
+            bound: Some((a.clone(), Arc::new(mesh.indices.clone()))),
+            ..self.clone()
+        })
+    }
+
+    /// The scalar value at the hit `si` (Mitsuba's `eval_1`): a one-value attribute's value,
+    /// 0 for any other (and while unbound).
+    pub fn eval_1_at(&self, si: &SurfaceInteraction) -> f32 {
+        match &self.bound {
+            Some((a, _)) if a.dim == 1 => self.eval_at(si).x,
+            _ => 0.0,
+        }
+    }
+
+    /// The value at the hit `si` (0 while unbound).
+    pub fn eval_at(&self, si: &SurfaceInteraction) -> Spectrum {
+        match &self.bound {
+            Some((a, tris)) => {
+                let tri = tris.get(si.prim as usize).copied().unwrap_or_default();
+                a.eval(si.prim, tri, si.bary) * self.scale
+            }
+            None => Spectrum::ZERO,
+        }
+    }
 }
 
 /// Texel filtering of a bitmap (`filter_type`).
@@ -264,11 +345,22 @@ impl Texture {
         }
     }
 
+    /// The value at the hit `si`: a mesh attribute's at the hit's triangle and barycentrics,
+    /// any other texture's at the hit's uv.
+    pub fn eval_at(&self, si: &SurfaceInteraction) -> Spectrum {
+        match self {
+            Texture::MeshAttribute(m) => m.eval_at(si),
+            _ => self.eval(si.uv),
+        }
+    }
+
     /// [`Self::eval`] for one lane or sixteen: the lanes' texels gathered, the filters and
-    /// tests in SoA (a checkerboard evaluates both colours and selects).
+    /// tests in SoA (a checkerboard evaluates both colours and selects). A mesh attribute has
+    /// no value at a uv alone: 0 (the BSDFs that accept one use [`Self::eval_at`]).
     #[inline]
     pub fn eval_t<T: Real>(&self, uv: V2<T>) -> V3<T> {
         match self {
+            Texture::MeshAttribute(_) => V3::new(T::splat(0.0), T::splat(0.0), T::splat(0.0)),
             Texture::Constant(c) => V3::new(T::splat(c.x), T::splat(c.y), T::splat(c.z)),
             Texture::Bitmap(img) => bilinear(img, uv, Wrap::Repeat),
             Texture::Mapped(b) => b.eval_t(uv),
@@ -307,6 +399,7 @@ impl Texture {
                 c.color1.eval_1_t(uv),
                 c.color0.eval_1_t(uv),
             ),
+            Texture::MeshAttribute(_) => T::splat(0.0),
         }
     }
 
@@ -337,6 +430,19 @@ impl Texture {
             Texture::Bitmap(img) => luminance_mean(img),
             Texture::Mapped(b) => b.mean,
             Texture::Checkerboard(c) => 0.5 * (c.color0.mean() + c.color1.mean()),
+            Texture::MeshAttribute(m) => m.bound.as_ref().map_or(0.0, |(a, _)| {
+                let n = (a.data.len() / a.dim.max(1)).max(1);
+                let lum: f32 = match a.dim {
+                    1 => a.data.iter().sum(),
+                    3 => a
+                        .data
+                        .chunks_exact(3)
+                        .map(|c| luminance(Spectrum::new(c[0], c[1], c[2])))
+                        .sum(),
+                    _ => 0.0,
+                };
+                lum / n as f32 * m.scale
+            }),
         }
     }
 

@@ -66,6 +66,7 @@ pub fn sphere_displaced(
         bsdf: 0,
         emitter: None,
         sphere: None,
+        attributes: Vec::new(),
     }
 }
 
@@ -97,6 +98,7 @@ pub fn quad(corner: Vec3, e1: Vec3, e2: Vec3) -> Mesh {
         bsdf: 0,
         emitter: None,
         sphere: None,
+        attributes: Vec::new(),
     }
 }
 

@@ -23,6 +23,9 @@ pub struct SurfaceInteraction {
     /// Mesh index in the scene and triangle index in the mesh.
     pub mesh: u32,
     pub prim: u32,
+    /// Barycentric weights (b1, b2) of the triangle's 2nd and 3rd vertices at the hit (what
+    /// per-vertex mesh attributes are interpolated with; zero on an analytic sphere).
+    pub bary: Vec2,
 }
 
 impl SurfaceInteraction {
@@ -55,6 +58,7 @@ impl SurfaceInteraction {
             wi,
             mesh: 0,
             prim: 0,
+            bary: Vec2::ZERO,
         }
     }
 }

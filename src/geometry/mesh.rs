@@ -1,6 +1,7 @@
 //! Triangle meshes: every shape of a scene (OBJ, PLY, glTF, rectangle, cube, sphere, disk) ends up
 //! as one of these, already transformed to world space.
 
+use super::mesh_attribute::MeshAttribute;
 use super::sphere::Sphere;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -26,6 +27,9 @@ pub struct Mesh {
     /// An analytic sphere (Mitsuba `sphere`): then the mesh has no triangles and this is its
     /// whole surface.
     pub sphere: Option<Sphere>,
+    /// Per-vertex and per-triangle attributes from the mesh file (vertex colours, ...), for
+    /// `mesh_attribute` textures.
+    pub attributes: Vec<MeshAttribute>,
 }
 
 impl Mesh {

@@ -5,8 +5,10 @@ pub mod accel;
 pub mod generate;
 pub mod intersection;
 pub mod mesh;
+pub mod mesh_attribute;
 pub mod shading;
 pub mod sphere;
 
 pub use intersection::SurfaceInteraction;
 pub use mesh::Mesh;
+pub use mesh_attribute::MeshAttribute;

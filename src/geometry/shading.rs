@@ -171,6 +171,11 @@ pub fn surface_interaction(meshes: &[Mesh], o: Vec3, d: Vec3, hit: &Hit) -> Surf
         wi: sh_frame.to_local(-d),
         mesh: hit.mesh,
         prim: hit.prim,
+        bary: if mesh.sphere.is_some() {
+            Vec2::ZERO
+        } else {
+            hit.b
+        },
     }
 }
 

@@ -406,6 +406,7 @@ fn parse(
         normals,
         uvs,
         indices,
+        attributes: Vec::new(),
     })
 }
 

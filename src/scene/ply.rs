@@ -4,6 +4,8 @@
 //! (or `vertex_index`) list, polygons fan-triangulated; other elements and properties skipped.
 
 use super::shapes::{LocalMesh, Shape};
+use crate::geometry::MeshAttribute;
+use crate::geometry::mesh_attribute::group_fields;
 use crate::math::{Vec2, Vec3};
 use crate::plugin::Properties;
 use crate::{Error, Result};
@@ -259,6 +261,35 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
         let iv = find(&["v", "t", "texture_v", "texture_t"]);
         let is_vertex = el.name == "vertex";
         let is_face = el.name == "face";
+        // Extra fields of the vertex and face records become mesh attributes, named and
+        // grouped as Mitsuba names them.
+        let groups = if is_vertex || is_face {
+            let names: Vec<&str> = el
+                .props
+                .iter()
+                .map(|p| {
+                    if p.list_count.is_some() {
+                        ""
+                    } else {
+                        p.name.as_str()
+                    }
+                })
+                .collect();
+            let mut reserved = vec!["x", "y", "z", "nx", "ny", "nz", ""];
+            reserved.extend([iu, iv].iter().flatten().map(|&i| names[i]));
+            let kind = if is_vertex { "vertex_" } else { "face_" };
+            group_fields(kind, &names, &reserved)
+        } else {
+            Vec::new()
+        };
+        let first_attribute = out.attributes.len();
+        for (name, fields) in &groups {
+            out.attributes.push(MeshAttribute {
+                name: name.clone(),
+                dim: fields.len(),
+                data: Vec::new(),
+            });
+        }
         if is_vertex {
             if ix.is_none() || iy.is_none() || iz.is_none() {
                 return Err(Error::format(path, "vertex element lacks x, y, z"));
@@ -276,7 +307,7 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
                 "face element lacks a vertex_indices list",
             ));
         }
-        if let Source::Binary { data, pos } = &mut src {
+        if let (Source::Binary { data, pos }, true) = (&mut src, groups.is_empty()) {
             let rest = &data[(*pos).min(data.len())..];
             let used = if is_vertex && !out.positions.is_empty() {
                 None
@@ -341,6 +372,7 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
                     ));
                 }
                 out.positions.push(p);
+                push_attributes(&mut out.attributes[first_attribute..], &groups, &vals, 1);
                 if has_n {
                     out.normals.push(Vec3::new(g(inx), g(iny), g(inz)));
                 }
@@ -362,6 +394,9 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
                 for i in 1..poly.len() - 1 {
                     out.indices.push([poly[0], poly[i], poly[i + 1]]);
                 }
+                // A face's attributes hold for each triangle of its fan.
+                let fan = poly.len() - 2;
+                push_attributes(&mut out.attributes[first_attribute..], &groups, &vals, fan);
             }
         }
     }
@@ -383,7 +418,33 @@ pub fn load(path: &Path, flip_tex_coords: bool) -> Result<LocalMesh> {
     if out.indices.is_empty() {
         return Err(Error::format(path, "PLY file contains no faces"));
     }
+    if let Some(a) = out
+        .attributes
+        .iter()
+        .find(|a| a.data.iter().any(|v| !v.is_finite()))
+    {
+        return Err(Error::format(
+            path,
+            format!("attribute \"{}\" holds a non-finite value", a.name),
+        ));
+    }
     Ok(out)
+}
+
+/// Appends one record's attribute values (`times` copies: one per triangle of a face's fan)
+/// to the attributes of `groups`: integer fields as their values, as Mitsuba 3.9.1 keeps them
+/// (it warns that colours are expected in [0, 1]); non-finite values are refused later.
+fn push_attributes(
+    attrs: &mut [MeshAttribute],
+    groups: &[(String, Vec<usize>)],
+    vals: &[f64],
+    times: usize,
+) {
+    for (a, (_, fields)) in attrs.iter_mut().zip(groups) {
+        for _ in 0..times {
+            a.data.extend(fields.iter().map(|&f| vals[f] as f32));
+        }
+    }
 }
 
 /// Rejects, before anything is allocated for them, element counts that the file cannot hold

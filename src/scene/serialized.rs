@@ -295,6 +295,7 @@ fn parse(b: &[u8], path: &Path, index: u32, avail: Option<u64>) -> Result<Serial
             normals,
             uvs,
             indices,
+            attributes: Vec::new(),
         },
         face_normals: flags & FACE_NORMALS != 0,
         name,

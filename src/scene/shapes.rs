@@ -5,8 +5,8 @@
 //! parameterisations, and the common step that turns any object-space mesh into a world-space
 //! [`Mesh`] (transform, normals, degenerate triangles, flips).
 
-use crate::geometry::Mesh;
 use crate::geometry::sphere::Sphere;
+use crate::geometry::{Mesh, MeshAttribute};
 use crate::math::transform::{normal_matrix, xf_point};
 use crate::math::{Frame, Mat3, Mat4, Vec2, Vec3};
 use crate::plugin::Properties;
@@ -36,6 +36,8 @@ pub struct LocalMesh {
     pub uvs: Vec<Vec2>,
     /// Triangles (counter-clockwise = front, geometric normal (p1 − p0) × (p2 − p0)).
     pub indices: Vec<[u32; 3]>,
+    /// Per-vertex and per-triangle attributes (PLY files), kept with their triangles.
+    pub attributes: Vec<MeshAttribute>,
 }
 
 /// How [`to_world`] treats normals.
@@ -274,6 +276,7 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
         normals: mut nrm,
         uvs,
         mut indices,
+        mut attributes,
     } = local;
     let nm = normal_matrix(m).ok_or("to_world is singular (zero scale?)")?;
     let n = pos.len();
@@ -334,8 +337,19 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
         let area2 = (b - a).cross(c - a).length();
         area2 > 0.0 && area2.is_finite()
     };
-    // Most meshes have no zero-area triangle: test in parallel, compact only if needed.
+    // Most meshes have no zero-area triangle: test in parallel, compact only if needed (with
+    // the per-triangle attributes of the dropped triangles).
     if !indices.par_iter().all(keep) {
+        let kept: Vec<bool> = indices.iter().map(keep).collect();
+        for a in attributes.iter_mut().filter(|a| !a.per_vertex()) {
+            let d = a.dim;
+            let mut t = 0;
+            a.data.retain(|_| {
+                let k = kept[t / d];
+                t += 1;
+                k
+            });
+        }
         indices.retain(keep);
     }
     if opts.keep_orientation && nrm.len() == n {
@@ -369,6 +383,7 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
         bsdf: 0,
         emitter: None,
         sphere: None,
+        attributes,
     })
 }
 
@@ -431,6 +446,7 @@ pub fn rectangle() -> LocalMesh {
             .map(|&(x, y)| Vec2::new((x + 1.0) * 0.5, (y + 1.0) * 0.5))
             .collect(),
         indices: vec![[0, 1, 2], [0, 2, 3]],
+        attributes: Vec::new(),
     }
 }
 

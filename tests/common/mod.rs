@@ -148,3 +148,37 @@ pub fn write_two_view_btf(path: &std::path::Path, w: usize, h: usize, tex: &[f32
     let btf = RawBtf::from_f32(views, lights, w, h, StoredEncoding::Linear, &data).unwrap();
     cache::write_raw(&btf, path).unwrap();
 }
+
+/// An ASCII PLY grid of `n`×`n` quads over [-1, 1]² (z = 0) with per-vertex colours (uchar
+/// r, g, b: Mitsuba's `vertex_color`) and a per-face `weight_0` (`face_weight`).
+pub fn attributed_grid_ply(n: usize) -> String {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nproperty uchar r\nproperty uchar g\nproperty uchar b\n\
+         element face {}\nproperty list uchar int vertex_indices\nproperty float weight_0\nend_header\n",
+        (n + 1) * (n + 1),
+        n * n
+    );
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (
+                2.0 * i as f32 / n as f32 - 1.0,
+                2.0 * j as f32 / n as f32 - 1.0,
+            );
+            let (r, g, b) = (
+                (i * 255 / n) as u8,
+                (j * 255 / n) as u8,
+                ((i + j) * 40 % 256) as u8,
+            );
+            s += &format!("{x} {y} 0 {r} {g} {b}\n");
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let v = j * (n + 1) + i;
+            let w = ((i * 7 + j * 3) % 10) as f32 / 9.0;
+            s += &format!("4 {} {} {} {} {w}\n", v, v + 1, v + n + 2, v + n + 1);
+        }
+    }
+    s
+}

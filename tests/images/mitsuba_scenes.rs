@@ -326,6 +326,29 @@ fn mitsuba_orthographic_matches_mitsuba() {
     assert!(f.is_empty(), "{f:?}");
 }
 
+const MESH_ATTRIBUTE: &str = "scenes/mitsuba-mesh-attribute/scene.xml";
+
+/// `mesh_attribute`: a PLY's uchar vertex colours as a diffuse reflectance and its float face
+/// weight as a blendbsdf's weight; bounds from
+/// reference-images/mitsuba-mesh-attribute/mitsuba-mesh-attribute_calibration.json.
+#[test]
+fn mitsuba_mesh_attribute_matches_mitsuba() {
+    let r = reference("mitsuba-mesh-attribute");
+    let s = load(MESH_ATTRIBUTE, &[]);
+    let names: Vec<&str> = s
+        .meshes
+        .iter()
+        .flat_map(|m| &m.attributes)
+        .map(|a| a.name.as_str())
+        .collect();
+    assert!(
+        names.contains(&"vertex_color") && names.contains(&"face_weight"),
+        "{names:?}"
+    );
+    let f = failures(&r, &render(s), "btfpt");
+    assert!(f.is_empty(), "{f:?}");
+}
+
 // ------------------------------------------------------------------------------------------
 // Negative tests: each breaks one convention and must make the comparison fail.
 
@@ -598,4 +621,12 @@ fn mitsuba_orthographic_fails_with_another_extent() {
     let r = reference("mitsuba-sensors-orthographic");
     let img = render(load(ORTHOGRAPHIC, &[("extent", "1.15")]));
     assert!(!failures(&r, &img, "extent 1.15").is_empty());
+}
+
+#[test]
+fn mitsuba_mesh_attribute_fails_with_dimmer_vertex_colours() {
+    // The vertex colours scaled by 0.85 (the texture's `scale`).
+    let r = reference("mitsuba-mesh-attribute");
+    let img = render(load(MESH_ATTRIBUTE, &[("color_scale", "0.85")]));
+    assert!(!failures(&r, &img, "vertex colours × 0.85").is_empty());
 }

@@ -497,3 +497,41 @@ fn packet_equals_scalar_on_principled() {
     );
     packet_equals_scalar_on_xml(&xml, 13);
 }
+
+#[test]
+fn packet_equals_scalar_on_mesh_attributes() {
+    // Vertex colours as a diffuse reflectance (lane-by-lane fallback) beside a blend weighted
+    // by a face attribute, under a point light and an environment.
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("grid.ply");
+    std::fs::write(&ply, crate::common::attributed_grid_ply(6)).unwrap();
+    let root = env!("CARGO_MANIFEST_DIR");
+    let ply = ply.display();
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <transform name="to_world"><lookat origin="0, -1.5, 3" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="36"/></film>
+    </sensor>
+    <shape type="ply"><string name="filename" value="{ply}"/>
+        <transform name="to_world"><translate x="-1.05"/></transform>
+        <bsdf type="twosided"><bsdf type="diffuse">
+            <texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture>
+        </bsdf></bsdf>
+    </shape>
+    <shape type="ply"><string name="filename" value="{ply}"/>
+        <transform name="to_world"><translate x="1.05"/></transform>
+        <bsdf type="blendbsdf">
+            <texture type="mesh_attribute" name="weight"><string name="name" value="face_weight"/></texture>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.1, 0.6, 0.6"/></bsdf>
+            <bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf>
+        </bsdf>
+    </shape>
+    <emitter type="point"><point name="position" x="0.5" y="-1" z="2"/><rgb name="intensity" value="6"/></emitter>
+    <emitter type="envmap"><string name="filename" value="{root}/scenes/cornell-box-all/envmap.exr"/></emitter>
+</scene>"#
+    );
+    packet_equals_scalar_on_xml(&xml, 17);
+}

@@ -2,7 +2,10 @@
 //! `Scene`, their error messages, and every scene committed to the repository.
 
 mod committed_scenes;
+#[path = "../common/mod.rs"]
+mod common;
 mod gltf;
+mod mesh_attributes;
 mod mitsuba_constructs;
 mod mitsuba_xml;
 mod named_conductors;

@@ -158,6 +158,11 @@ fn shade(
         wi: wi.get(l),
         mesh: mesh_id[l],
         prim: prim[l],
+        bary: if is_sphere.0[l] {
+            crate::math::Vec2::ZERO
+        } else {
+            bary.get(l)
+        },
     };
 
     // ------- emission with MIS, depth limit, random numbers, emitter choice (scalar) -------

@@ -147,6 +147,7 @@ fn read_with(
         normals,
         uvs,
         indices,
+        attributes: Vec::new(),
     })
 }
 

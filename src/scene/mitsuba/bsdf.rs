@@ -94,13 +94,23 @@ impl<'a, 'x> Builder<'a, 'x> {
                     ),
                 ));
             }
-            return self.texture(c.node);
+            let t = self.texture(c.node)?;
+            let looked_up_at_hit = (p.ty == "diffuse" && name == "reflectance")
+                || (p.ty == "blendbsdf" && name == "weight");
+            if matches!(t, Texture::MeshAttribute(_)) && !looked_up_at_hit {
+                return Err(self.x.err(c.at, MESH_ATTRIBUTE_USE));
+            }
+            return Ok(t);
         }
         Ok(Texture::Constant(
             p.color_opt_as(name, usage)?.unwrap_or(default),
         ))
     }
 }
+
+/// Where a `mesh_attribute` texture may stand: the BSDFs that look a texture up through the
+/// hit (the mesh attribute needs the hit's triangle, not only its uv).
+const MESH_ATTRIBUTE_USE: &str = "mesh_attribute textures are supported as a diffuse BSDF's reflectance and a blendbsdf's weight";
 
 /// A BSDF plugin's constructor: reads the element's properties, builds what it nests.
 type BsdfConstructor = fn(&mut dyn BsdfProperties) -> Result<Bsdf>;
@@ -210,7 +220,11 @@ impl BsdfProperties for Element<'_, '_, '_> {
 
     fn nested_texture(&mut self, i: usize) -> Result<Texture> {
         let node = self.nested("texture", i)?;
-        self.b.texture(node)
+        let t = self.b.texture(node)?;
+        if matches!(t, Texture::MeshAttribute(_)) {
+            return Err(self.b.x.err(node, MESH_ATTRIBUTE_USE));
+        }
+        Ok(t)
     }
 
     fn measured(&mut self, filename: &str, uv_scale: f32, model: Option<BtfModel>) -> Result<Bsdf> {

@@ -1,12 +1,14 @@
 //! `<texture>`: the table from plugin name to the constructor in the texture's own file
-//! (`crate::bsdf::texture`: `bitmap`, `checkerboard`, `rawconstant`), nested in a BSDF parameter or
+//! (`crate::bsdf::texture`: `bitmap`, `checkerboard`, `rawconstant`, `mesh_attribute`), nested in a BSDF parameter or
 //! referenced by id, built once per element.
 
 use super::bsdf::Element;
 use super::properties::Props;
 use super::{Builder, N, plugin_constructor};
 use crate::Result;
-use crate::bsdf::texture::{BitmapTexture, Checkerboard, raw_constant_from_props};
+use crate::bsdf::texture::{
+    BitmapTexture, Checkerboard, MeshAttributeTexture, raw_constant_from_props,
+};
 use crate::bsdf::{BsdfProperties, Texture};
 
 /// A texture plugin's constructor: reads the element's properties, builds what it nests.
@@ -17,6 +19,7 @@ const TEXTURE_PLUGINS: &[(&str, TextureConstructor)] = &[
     ("bitmap", BitmapTexture::from_props),
     ("checkerboard", Checkerboard::from_props),
     ("rawconstant", raw_constant_from_props),
+    ("mesh_attribute", MeshAttributeTexture::from_props),
 ];
 
 impl<'a, 'x> Builder<'a, 'x> {
