@@ -26,6 +26,7 @@ pub mod perturbed;
 pub mod plastic;
 pub mod plmc;
 pub mod plugin;
+pub mod pplastic;
 pub mod principled;
 pub mod principled_lobes;
 pub mod principledthin;
@@ -54,6 +55,7 @@ pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use plugin::BsdfProperties;
+pub use pplastic::PPlastic;
 pub use principled::Principled;
 pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
@@ -241,6 +243,8 @@ bsdf_enum! {
     RoughPlastic(RoughPlastic),
     /// Rough (Beckmann or GGX) dielectric interface.
     RoughDielectric(RoughDielectric),
+    /// Polarized plastic's unpolarized response (Mitsuba `pplastic`).
+    PPlastic(PPlastic),
     /// Weighted blend of two BSDFs (also Mitsuba 0.6's two-component `mixturebsdf`).
     Blend(BlendBsdf),
     /// Opacity mask: a null (straight-through) lobe around a nested BSDF.

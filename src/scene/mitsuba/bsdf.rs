@@ -7,7 +7,7 @@ use super::properties::Props;
 use super::{Builder, N, plugin_constructor};
 use crate::bsdf::{
     BlendBsdf, Bsdf, BsdfProperties, BumpMap, Conductor, Dielectric, Diffuse, Mask, NormalMap,
-    Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Texture,
+    PPlastic, Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Texture,
     ThinDielectric, TwoSided,
 };
 use crate::math::Spectrum;
@@ -123,6 +123,7 @@ const BSDF_PLUGINS: &[(&str, BsdfConstructor)] = &[
     ("roughplastic", |p| {
         RoughPlastic::from_props(p).map(Bsdf::from)
     }),
+    ("pplastic", |p| PPlastic::from_props(p).map(Bsdf::from)),
     ("twosided", |p| TwoSided::from_props(p).map(Bsdf::from)),
     ("blendbsdf", |p| BlendBsdf::from_props(p).map(Bsdf::from)),
     ("mixturebsdf", |p| {
