@@ -52,9 +52,9 @@ impl PPlastic {
         };
         let eta = if p.has("eta") {
             if p.has("int_ior") || p.has("ext_ior") {
-                return Err(p.err(
-                    "specify either \"eta\" or \"int_ior\" and \"ext_ior\", not both",
-                ));
+                return Err(
+                    p.err("specify either \"eta\" or \"int_ior\" and \"ext_ior\", not both")
+                );
             }
             let eta = p.texture_as("eta", Vec3::ZERO, SpectrumUse::Unbounded)?;
             if let Texture::Constant(c) = &eta
@@ -198,10 +198,7 @@ impl Bxdf for PPlastic {
         }
         let (wo, sampled) = if sample1 < self.specular_sampling_weight {
             let (m, _) = self.distr(si.uv).sample(wi, sample2);
-            (
-                m * (2.0 * wi.dot(m)) - wi,
-                BsdfFlags::GLOSSY_REFLECTION,
-            )
+            (m * (2.0 * wi.dot(m)) - wi, BsdfFlags::GLOSSY_REFLECTION)
         } else {
             (
                 warp::square_to_cosine_hemisphere(sample2),

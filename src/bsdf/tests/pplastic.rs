@@ -176,7 +176,10 @@ fn furnace_importance_and_uniform_estimates_agree() {
                 (mi - mu).abs() <= tol,
                 "{name} θ_i = {theta}: importance {mi} ± {si_} vs uniform {mu} ± {su}"
             );
-            assert!(mi <= 1.0 + 3.0 * si_, "{name} θ_i = {theta}: albedo {mi} > 1");
+            assert!(
+                mi <= 1.0 + 3.0 * si_,
+                "{name} θ_i = {theta}: albedo {mi} > 1"
+            );
         }
     }
 }

@@ -7,8 +7,8 @@ use super::properties::Props;
 use super::{Builder, N, plugin_constructor};
 use crate::bsdf::{
     BlendBsdf, Bsdf, BsdfProperties, BumpMap, Conductor, Dielectric, Diffuse, Mask, NormalMap,
-    PPlastic, Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic, Texture,
-    ThinDielectric, TwoSided,
+    PPlastic, Plastic, Principled, PrincipledThin, RoughConductor, RoughDielectric, RoughPlastic,
+    Texture, ThinDielectric, TwoSided,
 };
 use crate::math::Spectrum;
 use crate::math::Vec3;
