@@ -10,6 +10,9 @@ use crate::math::{Pcg32, warp};
 
 const GOLDEN: &str = include_str!("../../../reference-images/pplastic_golden.txt");
 
+/// Mitsuba's `ext_ior` default, "air": the relative IOR is int_ior / this.
+const AIR: f32 = 1.00028;
+
 /// Chi-square tests in this file (the Šidák family).
 const CHI2_TESTS: usize = 5 * 3;
 
@@ -25,7 +28,9 @@ fn u(v: f32) -> Texture {
 fn config(name: &str) -> Bsdf {
     let beckmann = MicrofacetType::Beckmann;
     Bsdf::PPlastic(match name {
-        "pplastic_default" => PPlastic::new(u(0.5), None, u(1.49), beckmann, u(0.1), u(0.1), true),
+        "pplastic_default" => {
+            PPlastic::new(u(0.5), None, u(1.49 / AIR), beckmann, u(0.1), u(0.1), true)
+        }
         "pplastic_ggx_specular" => PPlastic::new(
             c(0.1, 0.5, 0.8),
             Some(c(0.9, 0.7, 0.5)),
@@ -44,9 +49,15 @@ fn config(name: &str) -> Bsdf {
             u(0.4),
             true,
         ),
-        "pplastic_beckmann_all_normals" => {
-            PPlastic::new(u(0.5), None, u(1.5046), beckmann, u(0.2), u(0.2), false)
-        }
+        "pplastic_beckmann_all_normals" => PPlastic::new(
+            u(0.5),
+            None,
+            u(1.5046 / AIR),
+            beckmann,
+            u(0.2),
+            u(0.2),
+            false,
+        ),
         "pplastic_textured" => {
             let rough = texels(
                 |i, j| 0.15 + 0.6 * ((2 * i + j) % 5) as f64 / 5.0,
