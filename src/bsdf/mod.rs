@@ -26,6 +26,8 @@ pub mod perturbed;
 pub mod plastic;
 pub mod plmc;
 pub mod plugin;
+pub mod polarizer;
+pub mod pplastic;
 pub mod principled;
 pub mod principled_lobes;
 pub mod principledthin;
@@ -54,6 +56,8 @@ pub use normalmap::NormalMap;
 pub use plastic::Plastic;
 pub use plmc::{PlmcBsdf, PlmcHit};
 pub use plugin::BsdfProperties;
+pub use polarizer::Polarizer;
+pub use pplastic::PPlastic;
 pub use principled::Principled;
 pub use principledthin::PrincipledThin;
 pub use roughconductor::RoughConductor;
@@ -241,6 +245,11 @@ bsdf_enum! {
     RoughPlastic(RoughPlastic),
     /// Rough (Beckmann or GGX) dielectric interface.
     RoughDielectric(RoughDielectric),
+    /// Polarized plastic's unpolarized response (Mitsuba `pplastic`).
+    PPlastic(PPlastic),
+    /// Linear polarizer seen by unpolarized light: a null interface passing half (Mitsuba
+    /// `polarizer`).
+    Polarizer(Polarizer),
     /// Weighted blend of two BSDFs (also Mitsuba 0.6's two-component `mixturebsdf`).
     Blend(BlendBsdf),
     /// Opacity mask: a null (straight-through) lobe around a nested BSDF.

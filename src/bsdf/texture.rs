@@ -446,6 +446,19 @@ impl Texture {
         }
     }
 
+    /// (width, height) in texels (Mitsuba's `Texture::resolution`): a bitmap's image size, 1 × 1
+    /// for every other texture.
+    pub fn resolution(&self) -> (u32, u32) {
+        let img = match self {
+            Texture::Bitmap(img) => img.as_ref(),
+            Texture::Mapped(b) => &b.image,
+            Texture::Constant(_) | Texture::Checkerboard(_) | Texture::MeshAttribute(_) => {
+                return (1, 1);
+            }
+        };
+        (img.width as u32, img.height as u32)
+    }
+
     /// True if the value depends on uv.
     pub fn is_spatially_varying(&self) -> bool {
         !matches!(self, Texture::Constant(_))

@@ -26,12 +26,14 @@ pub fn read_image_as(path: &Path, srgb_decode: bool) -> Result<RgbImage> {
     }
     match extension(path).as_str() {
         "exr" => read_exr(path),
-        "png" | "jpg" | "jpeg" => read_ldr(path, srgb_decode),
+        "png" | "jpg" | "jpeg" | "bmp" => read_ldr(path, srgb_decode),
         "hdr" => read_hdr(path),
         "pfm" => super::pfm::read_pfm(path),
         other => Err(Error::format(
             path,
-            format!("unsupported image format '.{other}' (expected .exr, .hdr, .pfm, .png, .jpg)"),
+            format!(
+                "unsupported image format '.{other}' (expected .exr, .hdr, .pfm, .png, .jpg, .bmp)"
+            ),
         )),
     }
 }

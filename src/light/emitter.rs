@@ -1,12 +1,15 @@
 //! What a scene says about its emitters that are not attached to a shape (area emitters live on
 //! [`Mesh::emitter`](crate::geometry::Mesh)), and the constructors that read each one's
-//! properties (Mitsuba 3's `point`, `spot`, `directional`, `constant`, `envmap`); [`LightSet`]
+//! properties (Mitsuba 3's `point`, `spot`, `projector`, `directional`, `constant`, `envmap`);
+//! [`LightSet`]
 //! makes the lights the integrators sample from these descriptions.
 //!
 //! [`LightSet`]: super::LightSet
 
 use crate::Result;
+use crate::bsdf::{BsdfProperties, Texture};
 use crate::io::RgbImage;
+use crate::math::cie1931::SpectrumUse;
 use crate::math::transform::xf_point;
 use crate::math::{Mat4, Spectrum, Vec3};
 use crate::plugin::Properties;
@@ -18,12 +21,23 @@ use std::sync::Arc;
 pub enum Emitter {
     /// Isotropic point light; `intensity` in W/sr.
     Point { position: Vec3, intensity: Spectrum },
-    /// Spot light shining along +z of `to_world`; angles in degrees (Mitsuba defaults 20 and 0.75·cutoff).
+    /// Spot light shining along +z of `to_world`; angles in degrees (Mitsuba defaults 20 and
+    /// 0.75·cutoff); `texture` (spatially varying) is projected over the cutoff cone.
     Spot {
         to_world: Mat4,
         intensity: Spectrum,
         cutoff_angle: f32,
         beam_width: f32,
+        texture: Option<Texture>,
+    },
+    /// Projector looking along +z of `to_world`: `irradiance` (W/m² on the image plane at
+    /// distance 1) times `scale`, over a frustum of horizontal field of view `fov_x` (degrees)
+    /// and the texture's aspect ratio.
+    Projector {
+        to_world: Mat4,
+        irradiance: Texture,
+        scale: f32,
+        fov_x: f32,
     },
     /// Distant light; `direction` is the unit direction of travel (world), `irradiance` in W/m².
     Directional {
@@ -70,8 +84,9 @@ impl Emitter {
         })
     }
 
-    /// Mitsuba's `spot`: `intensity`, `cutoff_angle`, `beam_width` (degrees), `to_world`.
-    pub fn spot_from_props(p: &dyn Properties) -> Result<Emitter> {
+    /// Mitsuba's `spot`: `intensity`, `cutoff_angle`, `beam_width` (degrees), `to_world` and an
+    /// optional spatially varying `texture`.
+    pub fn spot_from_props(p: &mut dyn BsdfProperties) -> Result<Emitter> {
         let intensity = p.emission("intensity", Vec3::ONE)?;
         let cutoff_angle = p.float("cutoff_angle", 20.0)?;
         let mut beam_width = p.float("beam_width", cutoff_angle * 0.75)?;
@@ -82,11 +97,46 @@ impl Emitter {
             return Err(p.err("cutoff_angle must be in (0, 180] degrees"));
         }
         let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        let texture = if p.has("texture") {
+            let t = p.texture_as("texture", Vec3::ONE, SpectrumUse::Reflectance)?;
+            if !t.is_spatially_varying() {
+                return Err(p.err_at(
+                    "texture",
+                    "the parameter \"texture\" must be spatially varying (e.g. a bitmap)",
+                ));
+            }
+            Some(t)
+        } else {
+            None
+        };
         Ok(Emitter::Spot {
             to_world,
             intensity,
             cutoff_angle,
             beam_width,
+            texture,
+        })
+    }
+
+    /// Mitsuba's `projector`: `irradiance` (a colour or a texture, typically a bitmap), `scale`,
+    /// `to_world`, and `fov` + `fov_axis` or `focal_length` for a film of the texture's aspect.
+    pub fn projector_from_props(p: &mut dyn BsdfProperties) -> Result<Emitter> {
+        let scale = p.float("scale", 1.0)?;
+        if !scale.is_finite() {
+            return Err(p.err_at("scale", "\"scale\" must be finite"));
+        }
+        let to_world = p.transform_opt("to_world")?.unwrap_or(Mat4::IDENTITY);
+        if !crate::math::transform::is_finite(&to_world) {
+            return Err(p.err_at("to_world", "to_world contains NaN or infinite values"));
+        }
+        let irradiance = p.texture_as("irradiance", Vec3::ONE, SpectrumUse::Emission)?;
+        let (w, h) = irradiance.resolution();
+        let fov_x = crate::plugin::horizontal_fov(p, w as f64 / h as f64)?;
+        Ok(Emitter::Projector {
+            to_world,
+            irradiance,
+            scale,
+            fov_x,
         })
     }
 

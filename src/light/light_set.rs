@@ -6,7 +6,7 @@
 
 use super::{
     AreaLight, ConstantLight, DirectionalLight, Emitter, EnvMapLight, Light, LightSample,
-    LightSampleX, PointLight, SphereAreaLight, SpotLight,
+    LightSampleX, PointLight, ProjectorLight, SphereAreaLight, SpotLight,
 };
 use crate::Result;
 use crate::geometry::{Mesh, SurfaceInteraction};
@@ -70,11 +70,24 @@ impl LightSet {
                     intensity,
                     cutoff_angle,
                     beam_width,
+                    texture,
                 } => Light::Spot(SpotLight::new(
                     *to_world,
                     *intensity,
                     *cutoff_angle,
                     *beam_width,
+                    texture.clone(),
+                )?),
+                Emitter::Projector {
+                    to_world,
+                    irradiance,
+                    scale,
+                    fov_x,
+                } => Light::Projector(ProjectorLight::new(
+                    *to_world,
+                    irradiance.clone(),
+                    *scale,
+                    *fov_x,
                 )?),
                 Emitter::Directional {
                     direction,
@@ -130,23 +143,29 @@ impl LightSet {
             return None;
         }
         let idx = self.select(u_sel);
-        let sel = self.select_pdf();
-        let s = match &self.lights[idx] {
-            Light::Area(l) => l.sample_li(p, u)?,
-            Light::SphereArea(l) => l.sample_li(p, u)?,
-            Light::Point(l) => l.sample_li(p)?,
-            Light::Spot(l) => l.sample_li(p)?,
-            Light::Directional(l) => l.sample_li(p, self.bsphere),
-            Light::Constant(l) => l.sample_li(u),
-            Light::EnvMap(l) => l.sample_li(u)?,
-        };
-        Some(with_selection(s, sel))
+        let s = self.sample_light(idx, p, u)?;
+        Some(with_selection(s, self.select_pdf()))
+    }
+
+    /// A direction toward light `idx` from `p` (selection not included).
+    #[inline]
+    fn sample_light(&self, idx: usize, p: Vec3, u: Vec2) -> Option<LightSample> {
+        match &self.lights[idx] {
+            Light::Area(l) => l.sample_li(p, u),
+            Light::SphereArea(l) => l.sample_li(p, u),
+            Light::Point(l) => l.sample_li(p),
+            Light::Spot(l) => l.sample_li(p),
+            Light::Projector(l) => l.sample_li(p),
+            Light::Directional(l) => Some(l.sample_li(p, self.bsphere)),
+            Light::Constant(l) => Some(l.sample_li(u)),
+            Light::EnvMap(l) => l.sample_li(u),
+        }
     }
 
     /// [`LightSet::sample`] for the 16 lanes of `want`, each with the emitter `chosen[l]` (from
     /// [`LightSet::select`] of its `u_sel`): the samples, selection included, and the lanes that
     /// have one — the same bits per lane. The lanes that chose one emitter are sampled together
-    /// in SoA (an analytic sphere's lane by lane).
+    /// in SoA (an analytic sphere, a projector and a textured spot lane by lane).
     #[inline(always)]
     pub fn sample_x(
         &self,
@@ -175,20 +194,15 @@ impl LightSet {
             left = left.and(m.not());
             let (s, has) = match &self.lights[idx as usize] {
                 Light::Point(l) => l.sample_li_x(p),
-                Light::Spot(l) => l.sample_li_x(p),
+                Light::Spot(l) if !l.is_textured() => l.sample_li_x(p),
                 Light::Directional(l) => (l.sample_li_x(p, self.bsphere), M16::splat(true)),
                 Light::Constant(l) => (l.sample_li_x(u), M16::splat(true)),
                 Light::EnvMap(l) => l.sample_li_x(u),
-                Light::Area(_) | Light::SphereArea(_) => {
+                Light::Area(_) | Light::SphereArea(_) | Light::Spot(_) | Light::Projector(_) => {
                     let mut s = out;
                     let mut has = M16::splat(false);
                     for l in (0..WIDTH).filter(|&l| m.0[l]) {
-                        let got = match &self.lights[idx as usize] {
-                            Light::Area(a) => a.sample_li(p.get(l), u.get(l)),
-                            Light::SphereArea(a) => a.sample_li(p.get(l), u.get(l)),
-                            _ => None,
-                        };
-                        if let Some(ls) = got {
+                        if let Some(ls) = self.sample_light(idx as usize, p.get(l), u.get(l)) {
                             s.set(l, &ls);
                             has.0[l] = true;
                         }

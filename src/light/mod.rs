@@ -1,5 +1,5 @@
 //! Light sources with Mitsuba 3 semantics, one file per type — area (one-sided, on a mesh or an
-//! analytic sphere), point, spot, directional, constant and lat-long environment map — and
+//! analytic sphere), point, spot, projector, directional, constant and lat-long environment map — and
 //! uniform emitter selection ([`LightSet`]); [`Emitter`] is what a scene says about a light.
 
 pub mod area;
@@ -9,6 +9,7 @@ pub mod emitter;
 pub mod envmap;
 pub mod light_set;
 pub mod point;
+pub mod projector;
 pub mod sphere_area;
 pub mod spot;
 
@@ -21,6 +22,7 @@ pub use emitter::Emitter;
 pub use envmap::EnvMapLight;
 pub use light_set::LightSet;
 pub use point::PointLight;
+pub use projector::ProjectorLight;
 pub use sphere_area::SphereAreaLight;
 pub use spot::SpotLight;
 
@@ -31,6 +33,7 @@ pub enum Light {
     SphereArea(SphereAreaLight),
     Point(PointLight),
     Spot(SpotLight),
+    Projector(ProjectorLight),
     Directional(DirectionalLight),
     Constant(ConstantLight),
     EnvMap(Box<EnvMapLight>),

@@ -1,12 +1,15 @@
 //! Spot light (Mitsuba `spot`): shines along +z of its `to_world`, full intensity inside
-//! `beam_width`, a linear-in-angle falloff to zero at `cutoff_angle`.
+//! `beam_width`, a linear-in-angle falloff to zero at `cutoff_angle`, optionally times a texture
+//! projected over the cutoff cone (uv ∈ [0, 1]² spans the square of half-width tan(cutoff) at
+//! local z = 1).
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{LightSample, LightSampleX};
+use crate::bsdf::Texture;
 use crate::math::simd::f16::{F16, M16, V3x, lanes};
-use crate::math::{Mat3, Mat4, Spectrum, Vec3};
+use crate::math::{Mat3, Mat4, Spectrum, Vec2, Vec3};
 use crate::{Error, Result};
 
 /// A spot light, with its angles precomputed.
@@ -23,15 +26,21 @@ pub struct SpotLight {
     cutoff: f32,
     /// 1 / (cutoff − beam) in 1/radians (0 when they are equal).
     inv_transition: f32,
+    /// The projected texture (Mitsuba's `texture`, spatially varying), if any.
+    texture: Option<Texture>,
+    /// tan(cutoff): the half-width of the texture's square at local z = 1.
+    uv_factor: f32,
 }
 
 impl SpotLight {
-    /// Builds the light; angles in degrees (the beam is clamped to the cutoff).
+    /// Builds the light; angles in degrees (the beam is clamped to the cutoff); `texture`
+    /// multiplies the intensity by direction.
     pub fn new(
         to_world: Mat4,
         intensity: Spectrum,
         cutoff_angle: f32,
         beam_width: f32,
+        texture: Option<Texture>,
     ) -> Result<SpotLight> {
         let cutoff = cutoff_angle.to_radians();
         let beam = beam_width.to_radians().min(cutoff);
@@ -47,7 +56,14 @@ impl SpotLight {
             } else {
                 0.0
             },
+            texture,
+            uv_factor: cutoff.tan(),
         })
+    }
+
+    /// True if a texture is projected (the packet kernel then samples the light lane by lane).
+    pub fn is_textured(&self) -> bool {
+        self.texture.is_some()
     }
 
     /// The (delta) direction toward the light from `p`; weight = intensity · falloff / d².
@@ -72,18 +88,29 @@ impl SpotLight {
         if !(falloff > 0.0) {
             return None;
         }
+        let radiance = match &self.texture {
+            None => self.intensity,
+            Some(t) => {
+                // Mitsuba's `direction_to_uv` of the (unnormalised) local direction.
+                let l = self.to_local * -wi;
+                let zf = l.z * self.uv_factor;
+                let uv = Vec2::new(0.5 + 0.5 * l.x / zf, 0.5 + 0.5 * l.y / zf);
+                self.intensity * t.eval(uv)
+            }
+        };
         Some(LightSample {
             wi,
             dist,
             n_geo: Vec3::ZERO,
-            weight: self.intensity * (falloff / d2),
+            weight: radiance * (falloff / d2),
             pdf: 1.0,
             delta: true,
         })
     }
 
-    /// [`SpotLight::sample_li`] for 16 reference points: the samples and the lanes that have
-    /// one (the same bits per lane; the transition band's acos is libm's, lane by lane).
+    /// [`SpotLight::sample_li`] of an untextured spot for 16 reference points: the samples and
+    /// the lanes that have one (the same bits per lane; the transition band's acos is libm's,
+    /// lane by lane).
     #[inline(always)]
     pub fn sample_li_x(&self, p: V3x) -> (LightSampleX, M16) {
         let to = V3x::splat(self.position).sub(p);
@@ -145,6 +172,7 @@ mod tests {
             intensity: Spectrum::ONE,
             cutoff_angle: 20.0,
             beam_width: 10.0,
+            texture: None,
         }];
         let ls = LightSet::new(&[], &emitters, (Vec3::ZERO, Vec3::ONE)).unwrap();
         let at = |deg: f32| {

@@ -4,6 +4,7 @@
 //! outside and on the edge of a spot's cone, zero and non-finite directions).
 
 use super::*;
+use crate::bsdf::Texture;
 use crate::io::RgbImage;
 use crate::math::simd::f16::{M16, V2x, V3x};
 use crate::math::{Mat4, Pcg32, Spectrum, Vec2};
@@ -38,6 +39,22 @@ fn light_set() -> LightSet {
             intensity: Spectrum::splat(5.0),
             cutoff_angle: 40.0,
             beam_width: 25.0,
+            texture: None,
+        },
+        Emitter::Spot {
+            to_world: Mat4::from_translation(Vec3::new(0.3, -2.0, 0.1))
+                * Mat4::from_rotation_x(-1.4),
+            intensity: Spectrum::new(4.0, 3.0, 2.0),
+            cutoff_angle: 50.0,
+            beam_width: 30.0,
+            texture: Some(Texture::Bitmap(Arc::new(sky()))),
+        },
+        Emitter::Projector {
+            to_world: Mat4::from_translation(Vec3::new(-0.5, 0.2, 2.5))
+                * Mat4::from_rotation_y(2.9),
+            irradiance: Texture::Bitmap(Arc::new(sky())),
+            scale: 2.5,
+            fov_x: 70.0,
         },
         Emitter::Directional {
             direction: Vec3::new(0.3, -1.0, 0.2),

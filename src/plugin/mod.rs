@@ -3,6 +3,10 @@
 //! A scene format provides the values, the queried-property tracking and errors that name
 //! where the plugin was written; the typed readers here are the same for every format.
 
+mod fov;
+
+pub use fov::horizontal_fov;
+
 use crate::math::Mat4;
 use crate::math::Vec3;
 use crate::math::cie1931::{SpectrumUse, spectrum_list_to_srgb, uniform_emission_rgb};

@@ -319,6 +319,7 @@ impl GltfBuilder<'_> {
                     intensity: power,
                     cutoff_angle: cutoff,
                     beam_width: inner_cone_angle.to_degrees().min(cutoff),
+                    texture: None,
                 })
             }
         }

@@ -513,6 +513,56 @@ fn cases(dir: &Path) -> Vec<Case> {
         },
         vec!["nan.exr", "finite"],
     );
+    add(
+        "projector-texture-missing",
+        "projector whose irradiance bitmap does not exist",
+        &|d, o| {
+            let body = format!(
+                r#"{}<emitter type="projector"><float name="fov" value="30"/>
+                <texture type="bitmap" name="irradiance"><string name="filename" value="gone.png"/></texture></emitter>"#,
+                rect("")
+            );
+            let s = write(&d.join("s.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["gone.png", "s.xml", "not found"],
+    );
+    add(
+        "projector-fov",
+        "projector field of view out of range",
+        &|d, o| {
+            let body = format!(
+                r#"{}<emitter type="projector"><float name="fov" value="190"/></emitter>"#,
+                rect("")
+            );
+            let s = write(&d.join("s.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["s.xml", "projector", "field of view"],
+    );
+    add(
+        "spot-constant-texture",
+        "spot emitter whose texture is a constant",
+        &|d, o| {
+            let body = format!(
+                r#"{}<emitter type="spot"><rgb name="texture" value="0.5"/></emitter>"#,
+                rect("")
+            );
+            let s = write(&d.join("s.xml"), scene(&body, "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["s.xml", "spot", "spatially varying"],
+    );
+    add(
+        "pplastic-eta",
+        "pplastic with a negative eta",
+        &|d, o| {
+            let body = r#"<shape type="rectangle"><bsdf type="pplastic"><float name="eta" value="-1.5"/></bsdf></shape>"#;
+            let s = write(&d.join("s.xml"), scene(&format!("{body}{LIGHT}"), "8", "8"));
+            render(&s, o, &[])
+        },
+        vec!["s.xml", "pplastic", "eta"],
+    );
     // ---- film, samples, output ----
     add(
         "resolution-absurd",

@@ -535,3 +535,28 @@ fn packet_equals_scalar_on_mesh_attributes() {
     );
     packet_equals_scalar_on_xml(&xml, 17);
 }
+
+#[test]
+fn packet_equals_scalar_on_projector_spot_texture_and_pplastic() {
+    // The projector, the textured spot (both sampled lane by lane in the packet kernel) and
+    // `pplastic` (the per-lane BSDF fallback), over the committed mitsuba-emitters scene.
+    let scene = btfpt::scene::load(
+        std::path::Path::new(&format!(
+            "{}/scenes/mitsuba-emitters/scene.xml",
+            env!("CARGO_MANIFEST_DIR")
+        )),
+        &LoadOptions::default(),
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    let mut rs = RenderScene::new(scene).unwrap();
+    let st = window(&rs, [0, 0, 64, 48], (0, 4), 17);
+    let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
+    for kind in [packet(256, true), packet(16, false)] {
+        let p = render_with(&mut rs, kind, st);
+        assert!(
+            p == scalar,
+            "{kind:?}: the packet render differs from the scalar one"
+        );
+    }
+    assert!(scalar.rays() > 0);
+}

@@ -184,6 +184,7 @@ fn gltf_scene_maps_to_expected_values() {
             cutoff_angle,
             beam_width,
             intensity,
+            ..
         } => {
             // rotation −90° about x turns −z into −y: the spot shines down
             assert!(close(to_world.transform_vector3(Vec3::Z), -Vec3::Y));

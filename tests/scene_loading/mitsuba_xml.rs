@@ -262,6 +262,7 @@ fn full_scene_parses_into_expected_values() {
             cutoff_angle,
             beam_width,
             intensity,
+            ..
         } => {
             assert_eq!((*cutoff_angle, *beam_width), (40.0, 30.0));
             assert_eq!(*intensity, Vec3::ONE);

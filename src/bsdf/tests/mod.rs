@@ -6,4 +6,5 @@ mod batch_vs_scalar;
 mod beckmann_sampling;
 mod conductor_materials;
 mod physics;
+mod pplastic;
 mod principled;

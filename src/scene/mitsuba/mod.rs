@@ -217,8 +217,7 @@ impl<'a, 'x> Builder<'a, 'x> {
                         area_emitters.push(ch);
                         continue;
                     }
-                    let e = emitter::emitter(&p)?;
-                    p.finish()?;
+                    let e = self.emitter(p)?;
                     self.emitters.push(e);
                 }
                 other => {
