@@ -53,7 +53,8 @@ idx = {n: i for i, n in enumerate(names)}
 out_names, planes = [], []
 for n in names:
     m = re.fullmatch(r"m\.(.*)", n)
-    if not m or m.group(1).startswith("image.") and m.group(1) != "image.A":
+    # Skip the moment's XYZ of the aov's colour (m.X, m.Y, m.Z) and the nested image's colour.
+    if not m or "." not in m.group(1) or m.group(1) in ("image.R", "image.G", "image.B"):
         continue
     c = m.group(1)
     mean = a[:, :, idx[n]].astype(np.float64)
