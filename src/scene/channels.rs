@@ -135,13 +135,17 @@ impl ImageChannels {
             let [name, ty] = item[..] else {
                 return Err(p.err_at(
                     "aovs",
-                    &format!("invalid AOV \"{token}\" in \"{spec}\": expected <name>:<type>"),
+                    &format!(
+                        "\"aovs\": invalid AOV \"{token}\" in \"{spec}\": expected <name>:<type>"
+                    ),
                 ));
             };
             if AOV_TYPES_MISSING.contains(&ty) {
                 return Err(p.err_at(
                     "aovs",
-                    &format!("AOV type \"{ty}\" (in \"{token}\") is not implemented in btfpt"),
+                    &format!(
+                        "\"aovs\": AOV type \"{ty}\" (in \"{token}\") is not implemented in btfpt"
+                    ),
                 ));
             }
             let Some((_, suffixes)) = AOV_TYPES.iter().find(|(t, _)| *t == ty) else {
@@ -149,7 +153,7 @@ impl ImageChannels {
                 return Err(p.err_at(
                     "aovs",
                     &format!(
-                        "invalid AOV type \"{ty}\" (in \"{token}\"; btfpt implements {})",
+                        "\"aovs\": invalid AOV type \"{ty}\" (in \"{token}\"; btfpt implements {})",
                         known.join(", ")
                     ),
                 ));
