@@ -62,6 +62,7 @@ pub fn box_scene(bsdfs: Vec<Bsdf>, walls: [u32; 5]) -> RenderScene {
     let left = Vec3::Y.cross(dir).normalize();
     let up = dir.cross(left);
     let scene = Scene {
+        channels: Default::default(),
         btf_uses: Vec::new(),
         inputs: Vec::new(),
         source: "box (in code)".into(),

@@ -1,7 +1,9 @@
 //! `btfpt merge`: combine partial renders (crop windows and/or sample ranges of one film and
 //! seed) into the image a single render would have produced.
 
-use btfpt::render::partial::{merge, missing_parts, read_partial_exr, write_partial_exr};
+use btfpt::render::partial::{
+    merge_with, missing_parts, read_partial_exr_with, write_partial_exr_with,
+};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -25,15 +27,15 @@ pub fn run(args: MergeArgs) -> anyhow::Result<()> {
     let parts = args
         .inputs
         .iter()
-        .map(|p| read_partial_exr(p))
+        .map(|p| read_partial_exr_with(p))
         .collect::<Result<Vec<_>, _>>()?;
     let names: Vec<String> = args
         .inputs
         .iter()
         .map(|p| p.display().to_string())
         .collect();
-    let (img, meta) = merge(&parts, &names)?;
-    write_partial_exr(&args.output, &img, &meta)?;
+    let (img, extra, meta) = merge_with(&parts, &names)?;
+    write_partial_exr_with(&args.output, &img, &extra, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;
     if let Some(m) = missing_parts(&meta) {
         eprintln!("warning: {m}");

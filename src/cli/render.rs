@@ -7,7 +7,7 @@ use btfpt::render::driver::{self, Checkpointing, DriverOptions, Outcome};
 use btfpt::render::film::{RenderSettings, RenderState};
 use btfpt::render::packet::PacketOptions;
 use btfpt::render::partial::{
-    PartialMeta, inputs_fingerprint, scene_fingerprint, write_partial_exr,
+    PartialMeta, inputs_fingerprint, scene_fingerprint, write_partial_exr, write_partial_exr_with,
 };
 use btfpt::render::{IntegratorKind, RenderScene, checkpoint};
 use clap::Args;
@@ -305,8 +305,15 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         out.display()
     );
 
+    let extra_channels = rs.scene.channels.per_sample.len();
     let mut state = if args.resume {
-        let s = checkpoint::load_filtered(&ckpt, &settings, &rs.scene.camera.filter, fp)?;
+        let s = checkpoint::load_channels(
+            &ckpt,
+            &settings,
+            &rs.scene.camera.filter,
+            extra_channels,
+            fp,
+        )?;
         eprintln!(
             "resuming from {} ({:.1}% done)",
             ckpt.display(),
@@ -320,7 +327,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ckpt.display()
             );
         }
-        RenderState::with_filter(settings, rs.scene.camera.filter)?
+        RenderState::with_channels(settings, rs.scene.camera.filter, extra_channels)?
     };
 
     let interrupt = super::interrupt::stop_flag();
@@ -375,7 +382,9 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
         scene: scene_fp,
         whole: Some(whole),
     };
-    write_partial_exr(&out, &img, &meta)?;
+    let extra =
+        btfpt::render::channels::output_channels(&rs.scene.channels, &img, &state.extra_means());
+    write_partial_exr_with(&out, &img, &extra, &meta)?;
     btfpt::io::write_png_srgb(&png, &img)?;
     if let Some(v) = &args.variance {
         let var = state.variance_image()?;

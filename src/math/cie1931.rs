@@ -373,6 +373,19 @@ pub fn xyz_to_srgb(xyz: [f64; 3]) -> [f64; 3] {
     XYZ_TO_SRGB.map(|r| r[0] as f64 * xyz[0] + r[1] as f64 * xyz[1] + r[2] as f64 * xyz[2])
 }
 
+/// Linear Rec.709 RGB → CIE XYZ (Mitsuba's `srgb_to_xyz` matrix, f32 entries).
+const SRGB_TO_XYZ: [[f32; 3]; 3] = [
+    [0.412453, 0.357580, 0.180423],
+    [0.212671, 0.715160, 0.072169],
+    [0.019334, 0.119193, 0.950227],
+];
+
+/// CIE XYZ of linear Rec.709 RGB, in f32 as Mitsuba's `srgb_to_xyz` (what its `moment`
+/// integrator records).
+pub fn srgb_to_xyz(rgb: [f32; 3]) -> [f32; 3] {
+    SRGB_TO_XYZ.map(|r| r[0] * rgb[0] + r[1] * rgb[1] + r[2] * rgb[2])
+}
+
 /// The RGB of a uniform spectrum of value 1 used as an emitter in Mitsuba's RGB variants
 /// (`xyz_to_srgb(1, 1, 1)` in f32: the D65 white point makes it purplish, ≈ (1.205, 0.948, 0.909)).
 pub fn uniform_emission_rgb() -> [f32; 3] {

@@ -57,7 +57,7 @@ pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
                 b.f64(v);
             }
         }
-        for &v in t.weight.iter().chain(&t.weight2) {
+        for &v in t.weight.iter().chain(&t.weight2).chain(&t.extra) {
             b.f64(v);
         }
     }
@@ -79,6 +79,18 @@ pub fn load_filtered(
     path: &Path,
     expected: &RenderSettings,
     filter: &Filter,
+    fingerprint: u64,
+) -> Result<RenderState> {
+    load_channels(path, expected, filter, 0, fingerprint)
+}
+
+/// [`load_filtered`] of a render that also accumulates `extra` channels per pixel (the
+/// scene's `channels.per_sample`; the fingerprint covers the scene that defines them).
+pub fn load_channels(
+    path: &Path,
+    expected: &RenderSettings,
+    filter: &Filter,
+    extra: usize,
     fingerprint: u64,
 ) -> Result<RenderState> {
     let b = std::fs::read(path).map_err(|e| Error::io(path, e))?;
@@ -152,7 +164,7 @@ pub fn load_filtered(
             ));
         }
     }
-    let mut state = RenderState::with_filter(settings, *filter)?;
+    let mut state = RenderState::with_channels(settings, *filter, extra)?;
     let n = r.len32("tile count")?;
     if n != state.tiles.len() {
         return Err(Error::format(path, "checkpoint tile layout differs"));
@@ -190,6 +202,9 @@ pub fn load_filtered(
         }
         for v in t.weight.iter_mut().chain(t.weight2.iter_mut()) {
             *v = r.f64("filter weights")?;
+        }
+        for v in t.extra.iter_mut() {
+            *v = r.f64("extra channel sums")?;
         }
     }
     r.finish()?;

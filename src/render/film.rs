@@ -98,6 +98,10 @@ pub struct Tile {
     pub sum_w2: Vec<[f64; 3]>,
     pub weight: Vec<f64>,
     pub weight2: Vec<f64>,
+    /// Extra channels (Mitsuba's `aov`, `moment`) per buffer pixel, `extra_channels` at a
+    /// time: Σ w·v of each channel's sample values v (w = 1 for the box filter).
+    pub extra: Vec<f64>,
+    pub extra_channels: usize,
     /// Rays traced and sample values discarded as NaN/Inf.
     pub rays: u64,
     pub invalid: u64,
@@ -140,8 +144,34 @@ impl Tile {
         fy: f32,
         l: crate::math::Spectrum,
     ) -> bool {
+        self.add_sample_with(s, filter, px, py, fx, fy, l, &[])
+    }
+
+    /// [`Tile::add_sample`] that also adds the sample's values of the extra channels
+    /// (`extra_channels` of them, or none), with the same filter weights; a NaN or infinite
+    /// value counts as 0.
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_sample_with(
+        &mut self,
+        s: &RenderSettings,
+        filter: &Filter,
+        px: u32,
+        py: u32,
+        fx: f32,
+        fy: f32,
+        l: crate::math::Spectrum,
+        extra: &[f32],
+    ) -> bool {
+        let n = self.extra_channels;
+        let extra = &extra[..extra.len().min(n)];
         if filter.is_box() {
             let i = ((py - self.y0) * self.w + (px - self.x0)) as usize;
+            for (k, &v) in extra.iter().enumerate() {
+                if v.is_finite() {
+                    self.extra[i * n + k] += v as f64;
+                }
+            }
             return self.add_box_sample(i, l);
         }
         let finite = l.is_finite();
@@ -181,6 +211,11 @@ impl Tile {
                 }
                 self.weight[q] += w;
                 self.weight2[q] += w2;
+                for (k, &v) in extra.iter().enumerate() {
+                    if v.is_finite() {
+                        self.extra[q * n + k] += w * v as f64;
+                    }
+                }
             }
         }
         finite
@@ -230,6 +265,16 @@ impl RenderState {
     /// A fresh render with reconstruction filter `filter`. A filtered window also renders the
     /// samples of the `filter.border()` pixels around it (within the film).
     pub fn with_filter(settings: RenderSettings, filter: Filter) -> Result<RenderState> {
+        RenderState::with_channels(settings, filter, 0)
+    }
+
+    /// A fresh render with reconstruction filter `filter` that also accumulates `extra`
+    /// channels per pixel (the scene's `channels.per_sample`).
+    pub fn with_channels(
+        settings: RenderSettings,
+        filter: Filter,
+        extra: usize,
+    ) -> Result<RenderState> {
         settings.validate()?;
         let [cx, cy, cw, ch] = settings.crop;
         let b = filter.border();
@@ -267,6 +312,8 @@ impl RenderState {
                     sum_w2: vec![[0.0; 3]; m],
                     weight: vec![0.0; m],
                     weight2: vec![0.0; m],
+                    extra: vec![0.0; n * extra],
+                    extra_channels: extra,
                     rays: 0,
                     invalid: 0,
                 });
@@ -333,6 +380,44 @@ impl RenderState {
             let mean = sum / n;
             ((sum2 - n * mean * mean) / (n - 1.0)).max(0.0) / n
         }))
+    }
+
+    /// The window's mean of each extra channel, Σ w·v / Σ w (the box filter: Σ v / n), pixels
+    /// row-major with the channels of a pixel together; requires a complete render.
+    pub fn extra_means(&self) -> Vec<f32> {
+        let [cx, cy, cw, ch] = self.settings.crop;
+        let (cw, ch) = (cw as usize, ch as usize);
+        let n = self.tiles.first().map_or(0, |t| t.extra_channels);
+        let mut acc = vec![0f64; cw * ch * n];
+        let mut wsum = vec![0f64; cw * ch];
+        for t in &self.tiles {
+            let b = t.border as i64;
+            let bw = (t.w + 2 * t.border) as usize;
+            let pixels = t.extra.len() / n.max(1);
+            for i in 0..pixels {
+                let x = t.x0 as i64 - b + (i % bw) as i64 - cx as i64;
+                let y = t.y0 as i64 - b + (i / bw) as i64 - cy as i64;
+                if x < 0 || y < 0 || x >= cw as i64 || y >= ch as i64 {
+                    continue;
+                }
+                let j = y as usize * cw + x as usize;
+                for k in 0..n {
+                    acc[j * n + k] += t.extra[i * n + k];
+                }
+                wsum[j] += if self.filter.is_box() {
+                    t.done as f64
+                } else {
+                    t.weight[i]
+                };
+            }
+        }
+        acc.iter()
+            .enumerate()
+            .map(|(i, &a)| {
+                let w = wsum[i / n.max(1)];
+                if w == 0.0 { 0.0 } else { (a / w) as f32 }
+            })
+            .collect()
     }
 
     /// Adds the tiles' buffers over the window in tile order, then the mean or its variance.

@@ -4,6 +4,7 @@
 //! exactly.
 
 pub mod camera;
+pub mod channels;
 pub mod checkpoint;
 pub mod direct;
 pub mod driver;

@@ -190,8 +190,22 @@ impl PartialMeta {
     }
 }
 
+/// A partial render's channels beside R, G, B (Mitsuba's `aov` and `moment` outputs): name
+/// and the window's values, row-major.
+pub type ExtraChannels = Vec<(String, Vec<f32>)>;
+
 /// Writes the window image `img` (size crop w × h) with its metadata, atomically.
 pub fn write_partial_exr(path: &Path, img: &RgbImage, meta: &PartialMeta) -> crate::Result<()> {
+    write_partial_exr_with(path, img, &[], meta)
+}
+
+/// [`write_partial_exr`] with extra channels, each of the window's size.
+pub fn write_partial_exr_with(
+    path: &Path,
+    img: &RgbImage,
+    extra: &[(String, Vec<f32>)],
+    meta: &PartialMeta,
+) -> crate::Result<()> {
     use exr::prelude::*;
     let [x, y, w, h] = meta.crop;
     if img.width != w as usize || img.height != h as usize {
@@ -200,11 +214,23 @@ pub fn write_partial_exr(path: &Path, img: &RgbImage, meta: &PartialMeta) -> cra
             img.width, img.height
         )));
     }
+    let npix = img.width * img.height;
+    let mut list = SmallVec::new();
+    for (c, name) in ["R", "G", "B"].iter().enumerate() {
+        let v: Vec<f32> = (0..npix).map(|i| img.data[i * 3 + c]).collect();
+        list.push(AnyChannel::new(*name, FlatSamples::F32(v)));
+    }
+    for (name, v) in extra {
+        if v.len() != npix || ["R", "G", "B"].contains(&name.as_str()) {
+            return Err(E::Invalid(format!(
+                "extra channel \"{name}\" has {} values or clashes with R, G, B (window of {npix} pixels)",
+                v.len()
+            )));
+        }
+        list.push(AnyChannel::new(name.as_str(), FlatSamples::F32(v.clone())));
+    }
     write_atomic(path, |out| {
-        let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
-            let p = img.get(pos.x(), pos.y());
-            (p[0], p[1], p[2])
-        });
+        let channels = AnyChannels::sort(list);
         let attrs = LayerAttributes {
             layer_position: Vec2(x as i32, y as i32),
             ..LayerAttributes::default()
@@ -235,18 +261,24 @@ pub fn write_partial_exr(path: &Path, img: &RgbImage, meta: &PartialMeta) -> cra
 
 /// Reads a partial render written by [`write_partial_exr`].
 pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
+    let (img, _, meta) = read_partial_exr_with(path)?;
+    Ok((img, meta))
+}
+
+/// Reads a partial render with its extra channels (sorted by name, as the EXR holds them).
+pub fn read_partial_exr_with(path: &Path) -> crate::Result<(RgbImage, ExtraChannels, PartialMeta)> {
     use exr::prelude::*;
     if !path.exists() {
         return Err(E::format(path, "file not found"));
     }
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |res: Vec2<usize>, _| RgbImage::new(res.width(), res.height()),
-        |img: &mut RgbImage, pos: Vec2<usize>, (r, g, b, _a): (f32, f32, f32, f32)| {
-            img.set(pos.x(), pos.y(), [r, g, b]);
-        },
-    )
-    .map_err(|e| E::format(path, format!("cannot read EXR: {e}")))?;
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_file(path)
+        .map_err(|e| E::format(path, format!("cannot read EXR: {e}")))?;
     let key = Text::from(ATTR);
     let found = image
         .attributes
@@ -264,12 +296,12 @@ pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
     };
     let meta = PartialMeta::parse(&text, path)?;
     let pos = image.layer_data.attributes.layer_position;
-    let img = image.layer_data.channel_data.pixels;
+    let size = image.layer_data.size;
     if [
         pos.x() as i64,
         pos.y() as i64,
-        img.width as i64,
-        img.height as i64,
+        size.width() as i64,
+        size.height() as i64,
     ] != meta.crop.map(|v| v as i64)
     {
         return Err(E::format(
@@ -277,7 +309,80 @@ pub fn read_partial_exr(path: &Path) -> crate::Result<(RgbImage, PartialMeta)> {
             "EXR data window does not match the recorded render window",
         ));
     }
-    Ok((img, meta))
+    let mut img = RgbImage::new(size.width(), size.height());
+    let mut extra = ExtraChannels::new();
+    let mut found_rgb = [false; 3];
+    for ch in &image.layer_data.channel_data.list {
+        let name = ch.name.to_string();
+        let values: Vec<f32> = ch.sample_data.values_as_f32().collect();
+        match ["R", "G", "B"].iter().position(|c| *c == name) {
+            Some(c) => {
+                found_rgb[c] = true;
+                for (i, v) in values.into_iter().enumerate() {
+                    img.data[i * 3 + c] = v;
+                }
+            }
+            None if name == "A" => {}
+            None => extra.push((name, values)),
+        }
+    }
+    if found_rgb.contains(&false) {
+        return Err(E::format(path, "the EXR has no R, G and B channels"));
+    }
+    Ok((img, extra, meta))
+}
+
+/// [`merge`] of parts with extra channels: each channel is merged as R, G and B are (by sample
+/// count), and every part must hold the same channel names.
+pub fn merge_with(
+    parts: &[(RgbImage, ExtraChannels, PartialMeta)],
+    names: &[String],
+) -> Result<(RgbImage, ExtraChannels, PartialMeta)> {
+    let label = |i: usize| {
+        names
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| format!("input {i}"))
+    };
+    let channel_names = |p: &ExtraChannels| p.iter().map(|c| c.0.clone()).collect::<Vec<_>>();
+    let first: Vec<String> = parts
+        .first()
+        .map(|p| channel_names(&p.1))
+        .unwrap_or_default();
+    for (i, p) in parts.iter().enumerate() {
+        if channel_names(&p.1) != first {
+            return Err(Error::Invalid(format!(
+                "{}: extra channels {:?} differ from {}'s {:?}; parts of one render hold the same channels",
+                label(i),
+                channel_names(&p.1),
+                label(0),
+                first
+            )));
+        }
+    }
+    let rgb: Vec<(RgbImage, PartialMeta)> = parts.iter().map(|p| (p.0.clone(), p.2)).collect();
+    let (img, meta) = merge(&rgb, names)?;
+    // The extra channels three at a time, through the same merge as the image.
+    let mut extra: ExtraChannels = first.iter().map(|n| (n.clone(), Vec::new())).collect();
+    for group in (0..first.len()).collect::<Vec<_>>().chunks(3) {
+        let packed: Vec<(RgbImage, PartialMeta)> = parts
+            .iter()
+            .map(|(im, ch, m)| {
+                let mut g = RgbImage::new(im.width, im.height);
+                for (c, &k) in group.iter().enumerate() {
+                    for (i, &v) in ch[k].1.iter().enumerate() {
+                        g.data[i * 3 + c] = v;
+                    }
+                }
+                (g, *m)
+            })
+            .collect();
+        let (g, _) = merge(&packed, names)?;
+        for (c, &k) in group.iter().enumerate() {
+            extra[k].1 = (0..g.width * g.height).map(|i| g.data[i * 3 + c]).collect();
+        }
+    }
+    Ok((img, extra, meta))
 }
 
 /// Combines partial renders of one film and seed into one (see the module docs). Every pixel of

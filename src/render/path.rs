@@ -35,6 +35,7 @@ impl Integrator {
         interrupt: &AtomicBool,
         progress: &(dyn Fn(u64, u64) + Sync),
     ) {
+        let mut extra = Vec::new();
         while tile.done < end {
             if interrupt.load(Ordering::Relaxed) {
                 return;
@@ -48,7 +49,12 @@ impl Integrator {
                     let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
                     let (o, d, tmax) = rs.camera.sample_ray_rng(fx, fy, &mut rng);
                     let l = self.li(rs, o, d, tmax, &mut rng, &mut stats);
-                    if !tile.add_sample(s, filter, px, py, fx, fy, l) {
+                    extra.clear();
+                    extra.resize(tile.extra_channels, 0.0);
+                    if !extra.is_empty() {
+                        super::channels::sample_values(rs, s, px, py, sample, l, &mut extra);
+                    }
+                    if !tile.add_sample_with(s, filter, px, py, fx, fy, l, &extra) {
                         invalid += 1;
                     }
                 }

@@ -167,6 +167,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
             max_depth: settings.max_depth,
             ..Default::default()
         },
+        channels: Default::default(),
         spp: settings.spp,
         meshes: b.meshes,
         bsdfs: b.bsdfs,

@@ -1,5 +1,6 @@
 //! The scene description: what the Mitsuba-XML and glTF loaders produce and the renderer consumes.
 
+pub mod channels;
 pub mod gltf;
 pub mod load_options;
 pub mod measured_material;
@@ -115,6 +116,8 @@ pub struct Scene {
     pub source: PathBuf,
     pub camera: Camera,
     pub integrator: IntegratorSettings,
+    /// Channels written beside the image (Mitsuba's `aov` and `moment`; empty otherwise).
+    pub channels: channels::ImageChannels,
     /// `sampler.sample_count`.
     pub spp: u32,
     pub meshes: Vec<Mesh>,

@@ -250,6 +250,44 @@ fn cases(dir: &Path) -> Vec<Case> {
         },
         vec!["blend.xml", "weight", "[0, 1]"],
     );
+    for (id, what, integrator, file, expect) in [
+        (
+            "aov-unknown-type",
+            "`aov` integrator with an AOV type Mitsuba does not have",
+            r#"<integrator type="aov"><string name="aovs" value="dd:depth, nn:normals"/><integrator type="path" name="img"/></integrator>"#,
+            "aov-type.xml",
+            vec!["aov-type.xml:2", "aovs", "invalid AOV type \"normals\""],
+        ),
+        (
+            "aov-malformed",
+            "`aov` integrator whose `aovs` item is not `<name>:<type>`",
+            r#"<integrator type="aov"><string name="aovs" value="dd:depth, depth"/></integrator>"#,
+            "aov-malformed.xml",
+            vec!["aov-malformed.xml:2", "aovs", "\"depth\"", "<name>:<type>"],
+        ),
+        (
+            "moment-two-nested",
+            "`moment` integrator around two nested integrators",
+            r#"<integrator type="moment"><integrator type="path" name="a"/><integrator type="direct" name="b"/></integrator>"#,
+            "moment-two.xml",
+            vec!["moment-two.xml:2", "moment", "one nested integrator"],
+        ),
+    ] {
+        add(
+            id,
+            what,
+            &move |d, o| {
+                let body = format!("{}{LIGHT}", rect(""));
+                let text = scene(&body, "8", "8").replace(
+                    r#"<integrator type="path"><integer name="max_depth" value="3"/></integrator>"#,
+                    integrator,
+                );
+                let s = write(&d.join(file), text);
+                render(&s, o, &[])
+            },
+            expect,
+        );
+    }
     add(
         "mixture-three",
         "Mitsuba 0.6 `mixturebsdf` with three components",

@@ -65,6 +65,7 @@ pub fn scene(
             filter: btfpt::math::filter::Filter::BOX,
         },
         integrator: IntegratorSettings::default(),
+        channels: Default::default(),
         spp: 4,
         meshes,
         bsdfs,

@@ -139,3 +139,105 @@ fn parts_rendered_with_another_btf_or_mesh_file_are_refused() {
     let (ok, err) = merge(&[&b0, &b1], &d.join("m.exr"));
     assert!(ok, "{err}");
 }
+
+#[test]
+fn aov_channels_merge_like_the_image_and_resume_bit_exactly() {
+    use btfpt::render::partial::read_partial_exr_with;
+    let dir = tempfile::tempdir().unwrap();
+    let scene = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/mitsuba-aov/scene.xml");
+    let out = |n: &str| dir.path().join(n);
+    let render = |o: &Path, extra: &[&str]| {
+        let mut a = vec![
+            "render",
+            s(&scene),
+            "-o",
+            s(o),
+            "--spp",
+            "6",
+            "--threads",
+            "2",
+        ];
+        a.extend_from_slice(extra);
+        let (ok, _, err) = btfpt_output(&a);
+        assert!(ok, "{err}");
+    };
+    render(&out("full.exr"), &[]);
+    render(&out("b0.exr"), &["--band", "0/2"]);
+    render(&out("b1.exr"), &["--band", "1/2"]);
+    render(&out("s0.exr"), &["--spp-range", "0..2"]);
+    render(&out("s1.exr"), &["--spp-range", "2..6"]);
+    let merge = |parts: &[&str], o: &str| {
+        let mut a = vec!["merge"];
+        let paths: Vec<PathBuf> = parts.iter().map(|p| out(p)).collect();
+        a.extend(paths.iter().map(|p| s(p)));
+        let o = out(o);
+        a.extend(["-o", s(&o)]);
+        btfpt_output(&a)
+    };
+    let (full_img, full, _) = read_partial_exr_with(&out("full.exr")).unwrap();
+    assert_eq!(
+        full.len(),
+        23,
+        "{:?}",
+        full.iter().map(|c| &c.0).collect::<Vec<_>>()
+    );
+    // Bands (crop windows) merge into the same bits, every channel.
+    let (ok, _, err) = merge(&["b0.exr", "b1.exr"], "bands.exr");
+    assert!(ok, "{err}");
+    let (img, ch, _) = read_partial_exr_with(&out("bands.exr")).unwrap();
+    assert_eq!((img, &ch), (full_img.clone(), &full));
+    // Sample ranges merge to float rounding.
+    let (ok, _, err) = merge(&["s0.exr", "s1.exr"], "ranges.exr");
+    assert!(ok, "{err}");
+    let (_, ch, _) = read_partial_exr_with(&out("ranges.exr")).unwrap();
+    for ((name, a), (_, b)) in ch.iter().zip(&full) {
+        for (x, y) in a.iter().zip(b) {
+            assert!(
+                (x - y).abs() <= 1e-5 * (1.0 + y.abs()),
+                "{name}: {x} vs {y}"
+            );
+        }
+    }
+    // A part without the channels (another render) is refused.
+    let plain = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box/scene.xml");
+    let (ok, _, _) = btfpt_output(&[
+        "render",
+        s(&plain),
+        "-o",
+        s(&out("p.exr")),
+        "--spp",
+        "1",
+        "--threads",
+        "1",
+    ]);
+    assert!(ok);
+    let (ok, _, err) = merge(&["b0.exr", "p.exr"], "bad.exr");
+    assert!(!ok && !out("bad.exr").exists(), "{err}");
+
+    // A checkpoint of the channel sums resumes to the same state.
+    use btfpt::render::film::{RenderSettings, RenderState};
+    use btfpt::render::{RenderScene, checkpoint};
+    let sc = btfpt::scene::load(&scene, &Default::default()).unwrap();
+    let n = sc.channels.per_sample.len();
+    let rs = RenderScene::new(sc).unwrap();
+    let st = RenderSettings {
+        width: 40,
+        height: 30,
+        crop: [0, 0, 40, 30],
+        spp_begin: 0,
+        spp_end: 4,
+        seed: 3,
+    };
+    let filter = rs.scene.camera.filter;
+    let mut whole = RenderState::with_channels(st, filter, n).unwrap();
+    btfpt::render::driver::render_all(&rs, &mut whole);
+    let mut part = RenderState::with_channels(st, filter, n).unwrap();
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    btfpt::render::driver::run_pass(&rs, &mut part, 1, &stop, &|_, _| {});
+    let ck = out("a.ckpt");
+    checkpoint::save(&ck, &part, 9).unwrap();
+    let mut resumed = checkpoint::load_channels(&ck, &st, &filter, n, 9).unwrap();
+    assert!(resumed == part);
+    btfpt::render::driver::render_all(&rs, &mut resumed);
+    assert!(resumed == whole, "resumed channel sums differ");
+}

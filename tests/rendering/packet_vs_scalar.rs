@@ -560,3 +560,60 @@ fn packet_equals_scalar_on_projector_spot_texture_and_pplastic() {
     }
     assert!(scalar.rays() > 0);
 }
+
+#[test]
+fn packet_equals_scalar_on_aov_and_moment_channels() {
+    // The extra channels of Mitsuba's `aov` (first-hit values, the nested image's alpha) and
+    // `moment` (XYZ and its square), box and Gaussian filter, a window across tile borders.
+    let moment = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/tmp-moment-scene.xml");
+    let aov = std::fs::read_to_string(
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/mitsuba-aov/scene.xml"),
+    )
+    .unwrap();
+    let start = aov.find("<string name=\"aovs\"").unwrap();
+    let end = aov[start..].find("/>").unwrap() + start + 2;
+    let text = aov[..start].to_string() + &aov[end..];
+    std::fs::write(
+        &moment,
+        text.replace("type=\"aov\"", "type=\"moment\"")
+            .replace("<shape type=\"cube\">", "<shape type=\"cube\" id=\"c\">"),
+    )
+    .unwrap();
+    let moment = moment.to_string_lossy().to_string();
+    for (path, filter) in [
+        ("scenes/mitsuba-aov/scene.xml", "box"),
+        ("scenes/mitsuba-aov/scene.xml", "gaussian"),
+        (moment.as_str(), "tent"),
+    ] {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(path);
+        let d = vec![("filter".to_string(), filter.to_string())];
+        let scene = btfpt::scene::load(&path, &LoadOptions::with_defines(&d))
+            .unwrap_or_else(|e| panic!("{e}"));
+        let n = scene.channels.per_sample.len();
+        assert!(n >= 6, "{}: {n} per-sample channels", path.display());
+        let filt = scene.camera.filter;
+        let mut rs = RenderScene::new(scene).unwrap();
+        let st = window(&rs, [5, 3, 33, 27], (2, 6), 11);
+        let run = |rs: &mut RenderScene, kind| {
+            rs.kind = kind;
+            let mut state = RenderState::with_channels(st, filt, n).unwrap();
+            btfpt::render::driver::render_all(rs, &mut state);
+            state
+        };
+        let scalar = run(&mut rs, IntegratorKind::Scalar);
+        assert!(
+            scalar
+                .tiles
+                .iter()
+                .any(|t| t.extra.iter().any(|&v| v != 0.0))
+        );
+        for kind in [packet(256, true), packet(16, false)] {
+            let p = run(&mut rs, kind);
+            assert!(
+                p == scalar,
+                "{} ({filter}) with {kind:?}: the packet render's channels differ from the scalar one's",
+                path.display()
+            );
+        }
+    }
+}

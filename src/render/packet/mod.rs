@@ -49,6 +49,7 @@ pub fn render_tile(
     let mut scratch = Scratch::default();
     let mut out = vec![FilmSample::default(); CHUNK_SAMPLES as usize * npix];
     let mut lane_stats = LaneStats::default();
+    let mut extra = vec![0f32; tile.extra_channels];
     while tile.done < end {
         if interrupt.load(Ordering::Relaxed) {
             break;
@@ -82,7 +83,11 @@ pub fn render_tile(
             for (i, fs) in sample.iter().enumerate() {
                 let (px, py) = (tile.x0 + i as u32 % tile.w, tile.y0 + i as u32 / tile.w);
                 let [fx, fy] = fs.pos;
-                if !tile.add_sample(s, filter, px, py, fx, fy, fs.l) {
+                if !extra.is_empty() {
+                    let sample = (chunk.sample0 + k as u32) as u64;
+                    super::channels::sample_values(rs, s, px, py, sample, fs.l, &mut extra);
+                }
+                if !tile.add_sample_with(s, filter, px, py, fx, fy, fs.l, &extra) {
                     invalid += 1;
                 }
             }

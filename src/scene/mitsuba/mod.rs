@@ -21,6 +21,7 @@ mod transform;
 
 use crate::bsdf::{Bsdf, Texture};
 use crate::model::BtfModel;
+use crate::scene::channels::ImageChannels;
 use crate::scene::measured_material::BtfUse;
 use crate::scene::{Camera, Emitter, IntegratorSettings, LoadOptions, Scene};
 use crate::{Error, Result};
@@ -171,7 +172,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
         }
         let mut camera: Option<(Camera, crate::scene::sensor::Sampler)> = None;
-        let mut integrator: Option<IntegratorSettings> = None;
+        let mut integrator: Option<(IntegratorSettings, ImageChannels)> = None;
         if let Some(t) = root
             .children()
             .find(|c| c.is_text() && !c.text().unwrap_or("").trim().is_empty())
@@ -239,12 +240,13 @@ impl<'a, 'x> Builder<'a, 'x> {
             ));
         }
         let (camera, sampler) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
-        let mut integrator = integrator.unwrap_or_default();
+        let (mut integrator, channels) = integrator.unwrap_or_default();
         integrator.sampler = sampler.kind;
         Ok(Scene {
             source: x.file.clone(),
             camera,
             integrator,
+            channels,
             spp: sampler.spp,
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),

@@ -8,12 +8,22 @@ use crate::Result;
 use crate::math::filter::Filter;
 use crate::plugin::Properties;
 use crate::scene::IntegratorSettings;
+use crate::scene::channels::{ImageChannels, Nested};
 use crate::scene::sensor::{Camera, Film, Sampler, SamplerType, rfilter};
 
 /// Every `<integrator>` plugin btfpt implements, by Mitsuba plugin name.
 const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
     ("path", IntegratorSettings::path_from_props),
     ("direct", IntegratorSettings::direct_from_props),
+];
+
+/// The integrators that wrap one nested integrator and add image channels beside its image.
+type WrapperConstructor = fn(&dyn Properties, Option<Nested>) -> Result<ImageChannels>;
+
+/// Every wrapping `<integrator>` plugin btfpt implements, by Mitsuba plugin name.
+const WRAPPER_PLUGINS: &[(&str, WrapperConstructor)] = &[
+    ("aov", ImageChannels::aov_from_props),
+    ("moment", ImageChannels::moment_from_props),
 ];
 
 /// A constructor that also takes the object its plugin owns, built first (a sensor's film, a
@@ -61,12 +71,65 @@ const SAMPLER_PLUGINS: &[(&str, Constructor<Sampler>)] = &[
 ];
 
 impl<'a, 'x> Builder<'a, 'x> {
-    pub(super) fn integrator(&mut self, node: N<'a>) -> Result<IntegratorSettings> {
-        let p = Props::parse(self.x, node)?;
-        let construct = plugin_constructor(INTEGRATOR_PLUGINS, &p, "integrator type", &[])?;
-        let integrator = construct(&p)?;
+    /// The integrator and the extra image channels it writes. `aov` and `moment` wrap at most
+    /// one nested `path` or `direct`, which renders the image; an `aov` without one renders
+    /// a black image beside its AOVs, as Mitsuba's.
+    pub(super) fn integrator(
+        &mut self,
+        node: N<'a>,
+    ) -> Result<(IntegratorSettings, ImageChannels)> {
+        let x = self.x;
+        let p = Props::parse(x, node)?;
+        let wrappers: Vec<&str> = WRAPPER_PLUGINS.iter().map(|(n, _)| *n).collect();
+        let Some((_, wrap)) = WRAPPER_PLUGINS.iter().find(|(n, _)| *n == p.ty) else {
+            let construct =
+                plugin_constructor(INTEGRATOR_PLUGINS, &p, "integrator type", &wrappers)?;
+            let integrator = construct(&p)?;
+            p.finish()?;
+            return Ok((integrator, ImageChannels::default()));
+        };
+        let nested = p.children_tagged("integrator");
+        if let Some(extra) = nested.get(1) {
+            return Err(x.err(
+                extra.at,
+                format!(
+                    "integrator \"{}\": btfpt renders one nested integrator (this is the second)",
+                    p.ty
+                ),
+            ));
+        }
+        let inner = match nested.first() {
+            None => None,
+            Some(c) => {
+                let q = Props::parse(x, c.node)?;
+                if wrappers.contains(&q.ty.as_str()) {
+                    return Err(q.err(format!(
+                        "btfpt does not nest \"{}\" inside \"{}\" (nest path or direct)",
+                        q.ty, p.ty
+                    )));
+                }
+                let construct = plugin_constructor(INTEGRATOR_PLUGINS, &q, "integrator type", &[])?;
+                let settings = construct(&q)?;
+                q.finish()?;
+                let name = c.name.clone().unwrap_or_else(|| "_arg_0".to_string());
+                Some((name, settings))
+            }
+        };
+        let channels = wrap(
+            &p,
+            inner
+                .as_ref()
+                .map(|(name, settings)| Nested { name, settings }),
+        )?;
         p.finish()?;
-        Ok(integrator)
+        let settings = match inner {
+            Some((_, s)) => s,
+            None => IntegratorSettings {
+                max_depth: 0,
+                ..Default::default()
+            },
+        };
+        Ok((settings, channels))
     }
 
     /// The camera and its sampler. No `<film>`: Mitsuba's default hdrfilm; no `<rfilter>`:

@@ -1,0 +1,89 @@
+//! What one camera sample adds to the extra image channels (Mitsuba's `aov` and `moment`):
+//! values of the surface its camera ray hits first and functions of its radiance. Both
+//! integrators call [`sample_values`] with the sample's pixel, index and radiance; it redraws
+//! the camera ray as the scalar integrator does, so the values are the same bits whoever
+//! traced the path.
+
+use super::RenderScene;
+use super::film::RenderSettings;
+use super::integrator::film_sample_start;
+use crate::geometry::shading::surface_interaction;
+use crate::io::RgbImage;
+use crate::math::Spectrum;
+use crate::math::cie1931::srgb_to_xyz;
+use crate::scene::channels::{ChannelValue, ImageChannels, SampleValue};
+
+/// Writes the scene's per-sample channel values (`rs.scene.channels.per_sample`) of sample
+/// `sample` of film pixel (`px`, `py`), whose path brought radiance `l`, into `out`. A ray that
+/// escapes gives 0 for every surface value, as Mitsuba's `aov`.
+pub fn sample_values(
+    rs: &RenderScene,
+    s: &RenderSettings,
+    px: u32,
+    py: u32,
+    sample: u64,
+    l: Spectrum,
+    out: &mut [f32],
+) {
+    let values = &rs.scene.channels.per_sample;
+    let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
+    let (o, d, tmax) = rs.camera.sample_ray_rng(fx, fy, &mut rng);
+    let needs_hit = values
+        .iter()
+        .any(|v| v.needs_hit() || *v == SampleValue::Alpha);
+    let hit = if needs_hit {
+        rs.accel.intersect(o, d, tmax)
+    } else {
+        None
+    };
+    let si = hit
+        .as_ref()
+        .map(|h| surface_interaction(&rs.scene.meshes, o, d, h));
+    let xyz = srgb_to_xyz([l[0], l[1], l[2]]);
+    for (slot, v) in out.iter_mut().zip(values) {
+        let a = |v: crate::math::Vec3, axis: usize| v[axis];
+        *slot = match (*v, &si) {
+            (SampleValue::Xyz(i), _) => xyz[i],
+            (SampleValue::XyzSquared(i), _) => xyz[i] * xyz[i],
+            (SampleValue::Alpha, _) => {
+                let env = rs.integrator.direct.is_none()
+                    && !rs.integrator.hide_emitters
+                    && rs.lights.infinite_count() > 0;
+                if hit.is_some() || env { 1.0 } else { 0.0 }
+            }
+            (_, None) => 0.0,
+            (SampleValue::Depth, Some(si)) => si.t,
+            (SampleValue::Position(i), Some(si)) => a(si.p, i),
+            (SampleValue::Uv(i), Some(si)) => si.uv[i],
+            (SampleValue::GeoNormal(i), Some(si)) => a(si.n, i),
+            (SampleValue::ShNormal(i), Some(si)) => a(si.sh_frame.n, i),
+            (SampleValue::DpDu(i), Some(si)) => a(si.dpdu, i),
+            (SampleValue::DpDv(i), Some(si)) => a(si.dpdv, i),
+            (SampleValue::PrimIndex, Some(si)) => si.prim as f32,
+            (SampleValue::ShapeIndex, Some(si)) => (si.mesh + 1) as f32,
+        };
+    }
+}
+
+/// The extra output channels of a finished render, named as Mitsuba names them: the image's
+/// own R, G, B where a nested integrator's colour is asked for, else the filtered means
+/// `means` ([`super::RenderState::extra_means`]).
+pub fn output_channels(
+    channels: &ImageChannels,
+    img: &RgbImage,
+    means: &[f32],
+) -> super::partial::ExtraChannels {
+    let npix = img.width * img.height;
+    let n = channels.per_sample.len();
+    channels
+        .outputs
+        .iter()
+        .map(|(name, v)| {
+            let values = match *v {
+                ChannelValue::Image(c) => (0..npix).map(|i| img.data[i * 3 + c]).collect(),
+                ChannelValue::Sample(k) => (0..npix).map(|i| means[i * n + k]).collect(),
+            };
+            (name.clone(), values)
+        })
+        .collect()
+}
