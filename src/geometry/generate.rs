@@ -66,6 +66,8 @@ pub fn sphere_displaced(
         bsdf: 0,
         emitter: None,
         sphere: None,
+        group: None,
+        instance: None,
     }
 }
 
@@ -97,6 +99,8 @@ pub fn quad(corner: Vec3, e1: Vec3, e2: Vec3) -> Mesh {
         bsdf: 0,
         emitter: None,
         sphere: None,
+        group: None,
+        instance: None,
     }
 }
 
