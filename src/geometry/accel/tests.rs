@@ -422,6 +422,7 @@ fn reinsertion_budget_falls_with_size() {
 #[test]
 fn instances_hit_as_world_space_copies() {
     use crate::geometry::mesh::Placement;
+    use crate::math::Mat4;
     let ball = crate::geometry::generate::sphere(Vec3::ZERO, 1.0, 12, 24, false, false);
     let placements = [
         Mat4::from_translation(Vec3::new(2.0, 0.0, 0.0)),
