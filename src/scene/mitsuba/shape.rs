@@ -97,10 +97,10 @@ impl<'a, 'x> Builder<'a, 'x> {
         let g = self.group_spheres.len() as u32;
         self.group_spheres.push(Vec::new());
         self.groups.insert(key, g);
-        for c in p.children_tagged("emitter") {
+        if let Some(c) = p.children_tagged("emitter").first() {
             return Err(x.err(c.at, "shape \"shapegroup\": instancing of emitters is not supported (Mitsuba refuses it)"));
         }
-        for c in p.children_tagged("sensor") {
+        if let Some(c) = p.children_tagged("sensor").first() {
             return Err(x.err(
                 c.at,
                 "shape \"shapegroup\": instancing of sensors is not supported (Mitsuba refuses it)",
