@@ -67,6 +67,8 @@ pub fn sphere_displaced(
         emitter: None,
         sphere: None,
         attributes: Vec::new(),
+        group: None,
+        instance: None,
     }
 }
 
@@ -99,6 +101,8 @@ pub fn quad(corner: Vec3, e1: Vec3, e2: Vec3) -> Mesh {
         emitter: None,
         sphere: None,
         attributes: Vec::new(),
+        group: None,
+        instance: None,
     }
 }
 

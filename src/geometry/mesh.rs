@@ -3,7 +3,7 @@
 
 use super::mesh_attribute::MeshAttribute;
 use super::sphere::Sphere;
-use crate::math::{Spectrum, Vec2, Vec3};
+use crate::math::{Mat3, Mat4, Spectrum, Vec2, Vec3};
 
 /// A world-space triangle mesh with optional per-vertex normals and uvs.
 ///
@@ -30,6 +30,72 @@ pub struct Mesh {
     /// Per-vertex and per-triangle attributes from the mesh file (vertex colours, ...), for
     /// `mesh_attribute` textures.
     pub attributes: Vec<MeshAttribute>,
+    /// The shapegroup (Mitsuba `shapegroup`) this mesh belongs to: it is then kept in object
+    /// space and rendered only where an instance places its group.
+    pub group: Option<u32>,
+    /// A Mitsuba `instance`: this mesh has no geometry of its own and places the meshes of
+    /// its group with this transform.
+    pub instance: Option<Box<Placement>>,
+}
+
+/// Where an instance puts its shapegroup: object → world and back, and the normal matrix.
+#[derive(Clone, Debug)]
+pub struct Placement {
+    /// The shapegroup placed (the `group` of its meshes).
+    pub group: u32,
+    /// Object (group) space → world, an affine transform.
+    pub to_world: Mat4,
+    /// World → object space (the inverse of `to_world`), for rays entering the group.
+    pub to_object: Mat4,
+    /// Inverse transpose of `to_world`'s linear part: how normals move to world space.
+    pub normal_matrix: Mat3,
+    /// True if `to_world` mirrors (negative determinant).
+    pub mirrors: bool,
+}
+
+impl Placement {
+    /// The placement of group `group` by the affine `to_world`; None if it is singular.
+    pub fn new(group: u32, to_world: Mat4) -> Option<Placement> {
+        let det = to_world.determinant();
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let to_object = to_world.inverse();
+        Some(Placement {
+            group,
+            to_world,
+            to_object,
+            normal_matrix: Mat3::from_mat4(to_object).transpose(),
+            mirrors: det < 0.0,
+        })
+    }
+
+    /// A triangle's gathered corners and optional normals in world space (shared by the scalar
+    /// and packet shading, so both see the same bits).
+    #[inline]
+    pub fn triangle_to_world(
+        &self,
+        p: [Vec3; 3],
+        n: Option<[Vec3; 3]>,
+    ) -> ([Vec3; 3], Option<[Vec3; 3]>) {
+        (
+            p.map(|q| self.to_world.transform_point3(q)),
+            n.map(|ns| ns.map(|v| (self.normal_matrix * v).normalize_or_zero())),
+        )
+    }
+
+    /// The geometric and shading normals of a hit computed from the world-space triangle,
+    /// turned as Mitsuba's instance turns them (object-space normals moved by the normal
+    /// matrix): a mirroring placement reverses the winding, so the winding normal flips back,
+    /// and so does a shading normal that is the winding one (`has_normals` false).
+    #[inline]
+    pub fn orient(&self, n: Vec3, ns: Vec3, has_normals: bool) -> (Vec3, Vec3) {
+        if self.mirrors {
+            (-n, if has_normals { ns } else { -ns })
+        } else {
+            (n, ns)
+        }
+    }
 }
 
 impl Mesh {

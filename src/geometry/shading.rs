@@ -2,7 +2,8 @@
 //! position re-interpolated from barycentrics, face normal from the winding, interpolated unit
 //! shading normal, uv interpolation and ∂p/∂u, ∂p/∂v from the uv parameterisation.
 
-use super::accel::Hit;
+use super::accel::{Hit, NO_INSTANCE};
+use super::mesh::Placement;
 use super::{Mesh, SurfaceInteraction};
 use crate::math::frame::FrameX;
 use crate::math::simd::f16::{F16, M16, V2x, V3x};
@@ -60,6 +61,30 @@ pub fn eval_triangle(mesh: &Mesh, prim: u32, b: Vec2) -> (Vec3, Vec3, Vec3, Vec2
         (!mesh.normals.is_empty()).then(|| [mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]]);
     let uvs = (!mesh.uvs.is_empty()).then(|| [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]]);
     triangle_surface(p, normals, uvs, b)
+}
+
+/// The placement of an instance hit (None for the scene's own geometry).
+#[inline]
+pub fn placement<'m>(meshes: &'m [Mesh], hit: &Hit) -> Option<&'m Placement> {
+    if hit.inst == NO_INSTANCE {
+        return None;
+    }
+    meshes[hit.inst as usize].instance.as_deref()
+}
+
+/// The corners of triangle `prim` with its vertex normals and uvs where the mesh has them.
+#[inline]
+#[allow(clippy::type_complexity)]
+pub fn triangle_vertices(
+    mesh: &Mesh,
+    prim: u32,
+) -> ([Vec3; 3], Option<[Vec3; 3]>, Option<[Vec2; 3]>) {
+    let [i0, i1, i2] = mesh.indices[prim as usize].map(|i| i as usize);
+    let p = [mesh.positions[i0], mesh.positions[i1], mesh.positions[i2]];
+    let normals =
+        (!mesh.normals.is_empty()).then(|| [mesh.normals[i0], mesh.normals[i1], mesh.normals[i2]]);
+    let uvs = (!mesh.uvs.is_empty()).then(|| [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]]);
+    (p, normals, uvs)
 }
 
 /// [`eval_triangle`] on a triangle's gathered vertices (positions, optional unit normals and
@@ -157,7 +182,16 @@ pub fn surface_interaction(meshes: &[Mesh], o: Vec3, d: Vec3, hit: &Hit) -> Surf
             let (p, n, uv, dpdu, dpdv) = s.surface(o, d, hit.t);
             (p, n, n, uv, dpdu, dpdv)
         }
-        None => eval_triangle(mesh, hit.prim, hit.b),
+        None => match placement(meshes, hit) {
+            None => eval_triangle(mesh, hit.prim, hit.b),
+            Some(pl) => {
+                let (p, normals, uvs) = triangle_vertices(mesh, hit.prim);
+                let (p, normals) = pl.triangle_to_world(p, normals);
+                let (p, n, ns, uv, dpdu, dpdv) = triangle_surface(p, normals, uvs, hit.b);
+                let (n, ns) = pl.orient(n, ns, normals.is_some());
+                (p, n, ns, uv, dpdu, dpdv)
+            }
+        },
     };
     let sh_frame = Frame::from_normal_tangent(ns, dpdu);
     SurfaceInteraction {
@@ -238,6 +272,7 @@ mod tests {
             mesh: 0,
             prim: 0,
             b,
+            inst: crate::geometry::accel::NO_INSTANCE,
         };
         let si = surface_interaction(&meshes, o, -Vec3::Z, &h);
         // uv(p) = (y/2, 1 - x/2)  ⇒ ∂p/∂u = (0, 2, 0), ∂p/∂v = (-2, 0, 0).

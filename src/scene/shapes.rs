@@ -167,6 +167,18 @@ impl Shape {
         Ok(s)
     }
 
+    /// True if `m`'s linear part is a rotation times a uniform scale (no shear, no
+    /// non-uniform scale): what keeps an analytic sphere a sphere.
+    pub fn scales_uniformly(m: &Mat4) -> bool {
+        let l = Mat3::from_mat4(*m);
+        let g = l.transpose() * l;
+        let s2 = g.x_axis.x;
+        !(g - Mat3::from_diagonal(Vec3::splat(s2)))
+            .to_cols_array()
+            .iter()
+            .any(|v| v.abs() > 1e-4 * s2)
+    }
+
     /// Mitsuba's `sphere`, analytic: `center` (origin), `radius` (1); `to_world` must scale
     /// uniformly (Mitsuba keeps only its centre, radius and orientation).
     pub fn sphere_from_props(p: &dyn Properties) -> crate::Result<Shape> {
@@ -179,14 +191,7 @@ impl Shape {
         s.to_world =
             s.to_world * Mat4::from_translation(center) * Mat4::from_scale(Vec3::splat(radius));
         // An ellipsoid here would not match Mitsuba's render, which warns and ignores the rest.
-        let l = Mat3::from_mat4(s.to_world);
-        let g = l.transpose() * l;
-        let s2 = g.x_axis.x;
-        if (g - Mat3::from_diagonal(Vec3::splat(s2)))
-            .to_cols_array()
-            .iter()
-            .any(|v| v.abs() > 1e-4 * s2)
-        {
+        if !Shape::scales_uniformly(&s.to_world) {
             return Err(p.err("to_world must not contain non-uniform scale or shear for a sphere (Mitsuba ignores it)"));
         }
         Ok(s)
@@ -384,6 +389,8 @@ pub fn to_world(local: LocalMesh, m: &Mat4, opts: MeshOptions) -> Result<Mesh, S
         emitter: None,
         sphere: None,
         attributes,
+        group: None,
+        instance: None,
     })
 }
 

@@ -238,6 +238,101 @@ fn cases(dir: &Path) -> Vec<Case> {
         },
         vec!["nan.xml", "finite"],
     );
+    // ---- instancing (shapegroup + instance): the body starts on line 13 ----
+    let group = r#"<shape type="shapegroup" id="g">
+<shape type="cube"><bsdf type="diffuse"/></shape>
+</shape>"#;
+    {
+        let body =
+            format!("{LIGHT}\n{group}\n<shape type=\"instance\">\n<ref id=\"nope\"/>\n</shape>");
+        add(
+            "instance-undefined",
+            "an instance referencing an undefined id",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:18", "nope"],
+        );
+    }
+    {
+        let body = format!(
+            "{LIGHT}\n<shape type=\"cube\" id=\"c\"/>\n<shape type=\"instance\">\n<ref id=\"c\"/>\n</shape>"
+        );
+        add(
+            "instance-not-group",
+            "an instance referencing a shape that is not a shapegroup",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:16", "only a shapegroup", "cube"],
+        );
+    }
+    {
+        let body = format!("{LIGHT}\n<shape type=\"instance\"/>");
+        add(
+            "instance-empty",
+            "an instance without a shapegroup",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:14", "instance", "shapegroup must be specified"],
+        );
+    }
+    {
+        let body = format!(
+            r#"{LIGHT}
+<shape type="shapegroup" id="g">
+<shape type="rectangle">
+<emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+</shape>
+</shape>"#
+        );
+        add(
+            "shapegroup-emitter",
+            "a shapegroup whose shape carries an area emitter (Mitsuba refuses it)",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:15", "emitters is not supported"],
+        );
+    }
+    {
+        let body = format!(
+            r#"{LIGHT}
+{group}
+<shape type="shapegroup" id="h">
+<shape type="instance"><ref id="g"/></shape>
+</shape>
+<shape type="instance"><ref id="h"/></shape>"#
+        );
+        add(
+            "instance-of-instance",
+            "a shapegroup holding an instance (nested instancing, Mitsuba refuses it)",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:18", "nested instancing"],
+        );
+    }
+    {
+        let body = format!(
+            r#"{LIGHT}
+<shape type="shapegroup" id="h">
+<shape type="instance"><ref id="h"/></shape>
+</shape>"#
+        );
+        add(
+            "instance-cycle",
+            "a shapegroup holding an instance of itself (a cycle)",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:15", "nested instancing"],
+        );
+    }
+    {
+        let body = format!(
+            r#"{LIGHT}
+<shape type="shapegroup" id="s"><shape type="sphere"/></shape>
+<shape type="instance"><ref id="s"/>
+<transform name="to_world"><scale x="1" y="2" z="1"/></transform>
+</shape>"#
+        );
+        add(
+            "instance-sphere-nonuniform",
+            "an analytic sphere of a shapegroup placed with a non-uniform scale",
+            &move |d, o| render(&write(&d.join("inst.xml"), scene(&body, "8", "8")), o, &[]),
+            vec!["inst.xml:15", "non-uniformly"],
+        );
+    }
     add(
         "blend-weight-range",
         "`blendbsdf` weight outside [0, 1]",

@@ -215,6 +215,56 @@ fn packet_two_sided_diffuse_replays_the_scalar_integrator_from_both_sides() {
     packet_equals_scalar_on_xml(xml, 5);
 }
 
+/// Instances (Mitsuba `shapegroup` + `instance`): the committed scene's rotated, non-uniformly
+/// scaled and nested placements, and a group of meshes with vertex normals and uvs (torus.obj,
+/// sheet.ply, textured) placed by a mirroring transform and a sheared one.
+#[test]
+fn packet_equals_scalar_on_instances() {
+    let mut rs = RenderScene::new(load(
+        "scenes/mitsuba-instances/scene.xml",
+        &[("width", "48"), ("height", "36")],
+    ))
+    .unwrap();
+    let st = window(&rs, [0, 0, 48, 36], (0, 4), 21);
+    let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
+    for kind in [packet(256, true), packet(16, false)] {
+        let p = render_with(&mut rs, kind, st);
+        assert!(
+            p == scalar,
+            "{kind:?}: the packet render differs from the scalar one"
+        );
+    }
+    let dir = env!("CARGO_MANIFEST_DIR");
+    let xml = format!(
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="4"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="50"/>
+        <transform name="to_world"><lookat origin="0, 1.5, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="48"/><integer name="height" value="36"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="shapegroup" id="g">
+        <shape type="obj"><string name="filename" value="{dir}/scenes/cornell-box-all/torus.obj"/>
+            <transform name="to_world"><scale value="0.5"/></transform>
+            <bsdf type="roughplastic"><texture type="bitmap" name="diffuse_reflectance">
+            <string name="filename" value="{dir}/scenes/cornell-box-all/checker.png"/></texture></bsdf></shape>
+        <shape type="ply"><string name="filename" value="{dir}/scenes/cornell-box-all/sheet.ply"/>
+            <transform name="to_world"><scale value="0.6"/><translate y="-0.4"/></transform>
+            <bsdf type="diffuse"/></shape>
+    </shape>
+    <shape type="instance"><ref id="g"/>
+        <transform name="to_world"><scale x="-1" y="1" z="1"/><rotate y="1" angle="25"/><translate x="-1"/></transform></shape>
+    <shape type="instance"><ref id="g"/>
+        <transform name="to_world"><matrix value="1 0.3 0 1  0 0.8 0.2 0  0 0 1.2 0  0 0 0 1"/></transform></shape>
+    <shape type="rectangle"><transform name="to_world"><scale value="5"/><rotate x="1" angle="-90"/><translate y="-1"/></transform>
+        <bsdf type="diffuse"/></shape>
+    <emitter type="envmap"><string name="filename" value="{dir}/scenes/cornell-box-all/envmap.exr"/></emitter>
+</scene>"#
+    );
+    packet_equals_scalar_on_xml(&xml, 9);
+}
+
 /// Renders the 48×36 scene `xml` (4 spp, `seed`) with the scalar integrator and the packet one
 /// (two pool shapes) and asserts the same sums bit for bit.
 fn packet_equals_scalar_on_xml(xml: &str, seed: u64) {

@@ -924,8 +924,8 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
         ),
         (
             "<shape type=\"torus\"/>",
-            "unsupported shape type (btfpt implements obj, ply, serialized, rectangle, cube, \
-             sphere, disk, cylinder)",
+            "unsupported shape type (btfpt implements shapegroup, instance, obj, ply, serialized, \
+             rectangle, cube, sphere, disk, cylinder)",
         ),
         (
             "<emitter type=\"sunsky\"/>",

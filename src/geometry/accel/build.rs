@@ -68,12 +68,15 @@ pub(super) struct TriIds<'a> {
 impl<'a> TriIds<'a> {
     /// Numbers the triangles of `meshes`. Panics if there are u32::MAX or more (callers check
     /// first: `RenderScene::new` reports that as an error).
-    pub fn new(meshes: &'a [Mesh]) -> TriIds<'a> {
+    /// Only the meshes `include` accepts count triangles (the others count none).
+    pub fn new_filtered(meshes: &'a [Mesh], include: impl Fn(&Mesh) -> bool) -> TriIds<'a> {
         let mut first = Vec::with_capacity(meshes.len());
         let mut total = 0usize;
         for m in meshes {
             first.push(total as u32);
-            total += m.indices.len();
+            if include(m) {
+                total += m.indices.len();
+            }
         }
         assert!(
             total < u32::MAX as usize,
@@ -84,6 +87,12 @@ impl<'a> TriIds<'a> {
             first,
             total,
         }
+    }
+
+    /// Number of triangles counted for mesh `mi`.
+    #[inline]
+    fn count(&self, mi: usize) -> usize {
+        self.first.get(mi + 1).map_or(self.total, |&f| f as usize) - self.first[mi] as usize
     }
 
     /// (mesh, triangle in the mesh) of global id `g`.
@@ -135,7 +144,7 @@ pub(super) fn build(ids: &TriIds, part_tris: usize) -> (Built, Option<(Vec3, Vec
     let mut bounds = Aabb::empty();
     for (mi, mesh) in ids.meshes.iter().enumerate() {
         let f = ids.first[mi] as usize;
-        let b = valid[f..f + mesh.indices.len()]
+        let b = valid[f..f + ids.count(mi)]
             .par_iter_mut()
             .zip(mesh.indices.par_iter())
             .enumerate()

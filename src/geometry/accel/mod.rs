@@ -15,6 +15,7 @@
 
 mod build;
 mod flatten;
+mod instances;
 mod node;
 mod stack;
 mod traverse;
@@ -42,7 +43,13 @@ pub struct Hit {
     pub prim: u32,
     /// Barycentric weights (b1, b2) of the triangle's 2nd and 3rd vertices at the hit point.
     pub b: Vec2,
+    /// The instance mesh whose group was hit ([`NO_INSTANCE`] for the scene's own geometry);
+    /// `mesh` and `prim` then name the group's object-space triangle.
+    pub inst: u32,
 }
+
+/// [`Hit::inst`] of a hit on geometry that no instance placed.
+pub const NO_INSTANCE: u32 = u32::MAX;
 
 /// The scene's bounding volume hierarchy (8-wide, built from obvhs's binary BVH).
 pub struct Accel {
@@ -61,6 +68,9 @@ pub struct Accel {
     spheres: Vec<(Sphere, u32)>,
     /// The instruction set the traversal runs in (`simd::isa()` at build time).
     isa: Isa,
+    /// Shapegroups and the instances that place them; None in a scene without instances,
+    /// which then runs the one-level traversal alone.
+    instances: Option<Box<instances::InstanceLevel>>,
 }
 
 impl Accel {
@@ -74,13 +84,15 @@ impl Accel {
 
     /// [`Accel::build`] with parts of at most `part_tris` triangles.
     fn build_in_parts(meshes: &[Mesh], part_tris: usize) -> Accel {
-        let ids = build::TriIds::new(meshes);
+        // Shapegroup members are stored once, in their group's own hierarchy.
+        let ids = build::TriIds::new_filtered(meshes, |m| m.group.is_none());
+        let instances = instances::InstanceLevel::build(meshes, part_tris).map(Box::new);
         let (built, tri_bounds) = build::build(&ids, part_tris);
         let mut spheres = Vec::new();
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for (mi, mesh) in meshes.iter().enumerate() {
-            if let Some(s) = mesh.sphere {
+            if let (Some(s), None) = (mesh.sphere, mesh.group) {
                 let (a, b) = s.bounds();
                 lo = lo.min(a);
                 hi = hi.max(b);
@@ -91,7 +103,12 @@ impl Accel {
             lo = lo.min(a);
             hi = hi.max(b);
         }
-        let bounds = if spheres.is_empty() && tri_bounds.is_none() {
+        let inst_bounds = instances.as_ref().and_then(|i| i.bounds);
+        if let Some((a, b)) = inst_bounds {
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        let bounds = if spheres.is_empty() && tri_bounds.is_none() && inst_bounds.is_none() {
             (Vec3::ZERO, Vec3::ZERO)
         } else {
             (lo, hi)
@@ -104,6 +121,7 @@ impl Accel {
             bounds,
             spheres,
             isa: simd::isa(),
+            instances,
         }
     }
 
@@ -113,6 +131,7 @@ impl Accel {
             + std::mem::size_of_val(self.tris.as_slice())
             + std::mem::size_of_val(self.ids.as_slice())
             + std::mem::size_of_val(self.mesh_first.as_slice())
+            + self.instances.as_ref().map_or(0, |i| i.resident_bytes())
     }
 
     /// Number of triangles in the hierarchy.
@@ -122,6 +141,7 @@ impl Accel {
             .flatten()
             .filter(|&&g| g != u32::MAX)
             .count()
+            + self.instances.as_ref().map_or(0, |i| i.triangle_count())
     }
 
     /// Axis-aligned bounds (min, max) of all geometry in world units.
@@ -155,24 +175,29 @@ impl Accel {
                     mesh: *mesh,
                     prim: 0,
                     b: Vec2::ZERO,
+                    inst: NO_INSTANCE,
                 });
             }
         }
-        if self.nodes.is_empty() {
-            return best;
+        if !self.nodes.is_empty() {
+            let h = traverse::run::<false>(isa, &self.nodes, &self.tris, o, d, tmax);
+            if h.is_hit() {
+                let g = self.ids[h.slot as usize / LANES][h.slot as usize % LANES];
+                let (mesh, prim) = build::TriIds::locate(&self.mesh_first, g);
+                tmax = h.t;
+                best = Some(Hit {
+                    t: h.t,
+                    mesh,
+                    prim,
+                    b: Vec2::new(h.u, h.v),
+                    inst: NO_INSTANCE,
+                });
+            }
         }
-        let h = traverse::run::<false>(isa, &self.nodes, &self.tris, o, d, tmax);
-        if !h.is_hit() {
-            return best;
+        match &self.instances {
+            None => best,
+            Some(level) => level.intersect(isa, o, d, tmax).or(best),
         }
-        let g = self.ids[h.slot as usize / LANES][h.slot as usize % LANES];
-        let (mesh, prim) = build::TriIds::locate(&self.mesh_first, g);
-        Some(Hit {
-            t: h.t,
-            mesh,
-            prim,
-            b: Vec2::new(h.u, h.v),
-        })
     }
 
     /// [`Accel::occluded`] with the traversal built for `isa` (one `simd::isa()` allows).
@@ -183,6 +208,10 @@ impl Accel {
             .any(|(s, _)| s.intersect(o, d, tmax).is_some())
             || (!self.nodes.is_empty()
                 && traverse::run::<true>(isa, &self.nodes, &self.tris, o, d, tmax).is_hit())
+            || self
+                .instances
+                .as_ref()
+                .is_some_and(|level| level.occluded(isa, o, d, tmax))
     }
 }
 

@@ -27,7 +27,7 @@ use crate::bsdf::Bsdf;
 use crate::bsdf::batch::BsdfBatch;
 use crate::geometry::SurfaceInteraction;
 use crate::geometry::accel::offset_origin_x;
-use crate::geometry::shading::triangle_surface_x;
+use crate::geometry::shading::{placement, triangle_surface_x, triangle_vertices};
 use crate::light::area::{sample_toward_x, tri_point_x};
 use crate::light::{AreaLight, Light, LightSampleX};
 use crate::math::frame::FrameX;
@@ -87,6 +87,7 @@ fn shade(
     let mut throughput = V3x::ZERO;
     let mut eta = F16::splat(1.0);
     let mut is_sphere = M16::splat(false);
+    let mut mirror = M16::splat(false);
     let (mut sph_p, mut sph_n, mut sph_du, mut sph_dv) =
         (V3x::ZERO, V3x::ZERO, V3x::ZERO, V3x::ZERO);
     let mut sph_uv = V2x::ZERO;
@@ -114,6 +115,29 @@ fn shade(
             sph_dv.set(l, sdv);
             continue;
         }
+        if let Some(pl) = placement(meshes, &h) {
+            // An instance's triangle: its corners and normals moved to world space first, as
+            // the scalar `surface_interaction` does.
+            let (p3, n3, uv3) = triangle_vertices(m, h.prim);
+            let (p3, n3) = pl.triangle_to_world(p3, n3);
+            mirror.0[l] = pl.mirrors;
+            for k in 0..3 {
+                tp[k].set(l, p3[k]);
+            }
+            if let Some(n3) = n3 {
+                has_n.0[l] = true;
+                for k in 0..3 {
+                    tn[k].set(l, n3[k]);
+                }
+            }
+            if let Some(uv3) = uv3 {
+                has_uv.0[l] = true;
+                for k in 0..3 {
+                    tuv[k].set(l, uv3[k]);
+                }
+            }
+            continue;
+        }
         let v = m.indices[h.prim as usize].map(|k| k as usize);
         for k in 0..3 {
             tp[k].set(l, m.positions[v[k]]);
@@ -134,6 +158,9 @@ fn shade(
 
     // ------------------------- surface interaction (SoA) -------------------------
     let (p, ng, ns, uv, dpdu, dpdv) = triangle_surface_x(tp, has_n, tn, has_uv, tuv, bary);
+    // A mirroring instance's normals as `Placement::orient` turns them.
+    let ng = V3x::select(mirror, ng.neg(), ng);
+    let ns = V3x::select(mirror.and(has_n.not()), ns.neg(), ns);
     // (A sphere's shading normal is its geometric one.)
     let p = V3x::select(is_sphere, sph_p, p);
     let ng = V3x::select(is_sphere, sph_n, ng);

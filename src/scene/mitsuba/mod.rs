@@ -61,6 +61,8 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                         meshes: Vec::new(),
                         emitters: Vec::new(),
                         area_emitters_used: HashSet::new(),
+                        groups: HashMap::new(),
+                        group_spheres: Vec::new(),
                     };
                     return b.scene(docs[0].root_element());
                 }
@@ -112,6 +114,11 @@ pub(super) struct Builder<'a, 'x> {
     emitters: Vec<Emitter>,
     /// Area `<emitter>` elements a shape has taken (nested or by `<ref>`).
     area_emitters_used: HashSet<Key>,
+    /// Each `shapegroup` built, by element: its group index.
+    groups: HashMap<Key, u32>,
+    /// The analytic spheres of each group (shape as read, BSDF, name): an instance places a
+    /// world-space copy of each.
+    group_spheres: Vec<Vec<(crate::scene::shapes::Shape, u32, String)>>,
 }
 
 pub(super) type N<'a> = Node<'a, 'a>;
