@@ -64,6 +64,13 @@ impl IntegratorSettings {
         })
     }
 
+    /// Mitsuba's `volpath` and `volpathmis` on a scene without participating media (btfpt
+    /// refuses `<medium>` where it appears): the same estimate as `path` (next-event estimation
+    /// and BSDF sampling with MIS, Russian roulette from `rr_depth`), so the same parameters.
+    pub fn volpath_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {
+        IntegratorSettings::path_from_props(p)
+    }
+
     /// Mitsuba's `direct`: `shading_samples` (1), or `emitter_samples` and `bsdf_samples`
     /// (each `shading_samples` by default; at most 65536, not both 0), `hide_emitters`.
     pub fn direct_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {

@@ -568,6 +568,29 @@ fn rawconstant_texture_is_used_as_written() {
 }
 
 #[test]
+fn volpath_without_media_reads_as_path() {
+    let dir = tempfile::tempdir().unwrap();
+    for ty in ["volpath", "volpathmis"] {
+        let p = write(
+            dir.path(),
+            &format!("{ty}.xml"),
+            &scene_text(&format!(
+                r#"<integrator type="{ty}"><integer name="max_depth" value="7"/><integer name="rr_depth" value="3"/>
+                     <boolean name="hide_emitters" value="true"/></integrator>
+                   <shape type="sphere"/>"#
+            )),
+        );
+        let i = load(&p).integrator;
+        assert_eq!(
+            (i.max_depth, i.rr_depth, i.hide_emitters),
+            (7, 3, true),
+            "{ty}"
+        );
+        assert!(i.direct.is_none(), "{ty} is a path tracer");
+    }
+}
+
+#[test]
 fn samplers_integrators_and_default_film() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

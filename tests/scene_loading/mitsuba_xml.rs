@@ -452,7 +452,7 @@ fn unknown_plugin_property_and_element() {
         "<shape type=\"cube\"><colour name=\"x\" value=\"1\"/></shape>",
     );
     expect_err(&p, &[], 7, "unexpected element <colour>");
-    let p = scene_with(dir.path(), "<integrator type=\"volpath\"/>");
+    let p = scene_with(dir.path(), "<integrator type=\"ptracer\"/>");
     expect_err(&p, &[], 7, "unsupported integrator type");
     let p = scene_with(dir.path(), "<emitter type=\"area\"/>");
     expect_err(&p, &[], 7, "must be nested inside a <shape>");
@@ -920,7 +920,7 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
     for (body, needle) in [
         (
             "<texture type=\"noise\" id=\"t\"/>",
-            "unsupported texture type (btfpt implements bitmap, checkerboard, rawconstant)",
+            "unsupported texture type (btfpt implements bitmap, checkerboard, rawconstant, mesh_attribute)",
         ),
         (
             "<shape type=\"torus\"/>",
@@ -929,7 +929,7 @@ fn unknown_plugins_are_named_with_what_btfpt_implements() {
         ),
         (
             "<emitter type=\"sunsky\"/>",
-            "unsupported emitter type (btfpt implements area, point, spot, directional, \
+            "unsupported emitter type (btfpt implements area, point, spot, projector, directional, \
              constant, envmap)",
         ),
     ] {

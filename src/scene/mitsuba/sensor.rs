@@ -15,6 +15,8 @@ use crate::scene::sensor::{Camera, Film, Sampler, SamplerType, rfilter};
 const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
     ("path", IntegratorSettings::path_from_props),
     ("direct", IntegratorSettings::direct_from_props),
+    ("volpath", IntegratorSettings::volpath_from_props),
+    ("volpathmis", IntegratorSettings::volpath_from_props),
 ];
 
 /// The integrators that wrap one nested integrator and add image channels beside its image.
