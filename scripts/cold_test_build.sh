@@ -14,8 +14,10 @@ for rev in "$@"; do
     export CARGO_TARGET_DIR="$dir/target"
     (cd "$dir/src" && /usr/bin/time -f "$rev build: user %U s, sys %S s, wall %e s" \
         nice -n 19 cargo build --release --locked --quiet)
-    (cd "$dir/src" && /usr/bin/time -f "$rev test --no-run: user %U s, sys %S s, wall %e s" \
-        nice -n 19 cargo test --release --locked --no-run 2> "$dir/test.log") 2>&1 | tail -1
+    (cd "$dir/src" && /usr/bin/time -o "$dir/time.txt" \
+        -f "$rev test --no-run: user %U s, sys %S s, wall %e s" \
+        nice -n 19 cargo test --release --locked --no-run 2> "$dir/test.log")
+    cat "$dir/time.txt"
     echo "$rev: $(grep -c Executable "$dir/test.log") test executables; worktree and target in $dir"
     git -C "$root" worktree remove --force "$dir/src"
 done
