@@ -64,6 +64,7 @@ pub fn box_scene(bsdfs: Vec<Bsdf>, walls: [u32; 5]) -> RenderScene {
     let scene = Scene {
         channels: Default::default(),
         btf_uses: Vec::new(),
+        emission_textures: Vec::new(),
         inputs: Vec::new(),
         source: "box (in code)".into(),
         camera: Camera {

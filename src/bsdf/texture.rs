@@ -40,7 +40,8 @@ pub struct MeshAttributeTexture {
     pub name: String,
     /// Factor applied to the attribute's value.
     pub scale: f32,
-    /// The attribute of the mesh this texture is bound to, with that mesh's triangles.
+    /// The attribute of the mesh this texture is bound to, with that mesh's triangles (for a
+    /// per-vertex attribute; empty for a per-face one).
     pub bound: Option<(MeshAttribute, Arc<Vec<[u32; 3]>>)>,
 }
 
@@ -80,8 +81,14 @@ impl MeshAttributeTexture {
                 }
             ));
         };
+        // A per-face attribute is looked up by triangle alone: no copy of the triangles.
+        let tris = if a.per_vertex() {
+            mesh.indices.clone()
+        } else {
+            Vec::new()
+        };
         Ok(MeshAttributeTexture {
-            bound: Some((a.clone(), Arc::new(mesh.indices.clone()))),
+            bound: Some((a.clone(), Arc::new(tris))),
             ..self.clone()
         })
     }

@@ -126,12 +126,7 @@ impl Sphere {
         let p = self.center + n_out * self.radius;
         let local = self.to_object * (p - self.center);
         let rd2 = local.x * local.x + local.y * local.y;
-        let theta = unit_angle_z(local);
-        let mut phi = local.y.atan2(local.x);
-        if phi < 0.0 {
-            phi += 2.0 * PI;
-        }
-        let uv = Vec2::new(phi * INV_TWO_PI, theta * INV_PI);
+        let uv = local_uv(local);
         let dpdu = self.to_world * Vec3::new(-local.y, local.x, 0.0) * (2.0 * PI);
         let rd = rd2.sqrt();
         let dpdv_local = if rd == 0.0 {
@@ -143,6 +138,12 @@ impl Sphere {
         let dpdv = self.to_world * dpdv_local * PI;
         let n = if self.flip_normals { -n_out } else { n_out };
         (p, n, uv, dpdu, dpdv)
+    }
+
+    /// The uv (φ/2π, θ/π in object space) of the point `p` of the sphere, as a hit there gets.
+    #[inline]
+    pub fn uv_at(&self, p: Vec3) -> Vec2 {
+        local_uv(self.to_object * (p - self.center))
     }
 
     /// Samples a point of the sphere seen from `p_ref` (Mitsuba `Sphere::sample_direction`):
@@ -226,6 +227,17 @@ impl Sphere {
 
 /// Mitsuba's `math::RayEpsilon<float>` (relative).
 const RAY_EPSILON: f32 = f32::EPSILON * 1500.0;
+
+/// (φ/2π, θ/π) of the object-space offset `local` from the centre.
+#[inline]
+fn local_uv(local: Vec3) -> Vec2 {
+    let theta = unit_angle_z(local);
+    let mut phi = local.y.atan2(local.x);
+    if phi < 0.0 {
+        phi += 2.0 * PI;
+    }
+    Vec2::new(phi * INV_TWO_PI, theta * INV_PI)
+}
 
 /// Polar angle θ of a unit vector, accurate near both poles (Mitsuba `unit_angle_z`).
 #[inline]

@@ -1,10 +1,12 @@
 //! Area light on a triangle mesh (Mitsuba `area` emitter): uniform sampling by area, one-sided
-//! emission toward the shading normal's side.
+//! emission toward the shading normal's side; the radiance a constant or a texture over the
+//! mesh's uvs.
 
 // `!(x > 0.0)` deliberately also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::{LightSample, LightSampleX};
+use crate::bsdf::Texture;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::distribution::Distribution1D;
 use crate::math::simd::f16::{F16, M16, V2x, V3x};
@@ -15,8 +17,14 @@ use crate::math::{Spectrum, Vec2, Vec3, warp};
 pub struct AreaLight {
     /// Index of the emissive mesh in the scene.
     pub mesh: u32,
-    /// Emitted radiance (W/(m²·sr)).
+    /// Emitted radiance (W/(m²·sr)) where `texture` is None.
     pub radiance: Spectrum,
+    /// A spatially varying radiance (Mitsuba: a `<texture name="radiance">`), looked up at the
+    /// uv of the emitting point; it replaces `radiance`.
+    texture: Option<Texture>,
+    /// Per triangle, the uvs of its corners when `texture` is set (the barycentric corners
+    /// for a mesh without uvs, as the hit's uv is then the barycentric); else empty.
+    uvs: Vec<[Vec2; 3]>,
     tris: Distribution1D,
     /// 1 / total area (1/m²).
     inv_area: f32,
@@ -25,18 +33,40 @@ pub struct AreaLight {
 }
 
 impl AreaLight {
-    /// The light of mesh `mi` with `radiance`; None for a zero-area mesh (it can neither be hit
-    /// nor sampled, so it contributes nothing).
-    pub fn new(mesh: &Mesh, mi: u32, radiance: Spectrum) -> Option<AreaLight> {
+    /// The light of mesh `mi` with constant `radiance`, or with the radiance `texture` if one is
+    /// given; None for a zero-area mesh (it can neither be hit nor sampled, so it contributes
+    /// nothing).
+    pub fn new(
+        mesh: &Mesh,
+        mi: u32,
+        radiance: Spectrum,
+        texture: Option<Texture>,
+    ) -> Option<AreaLight> {
         let areas = (0..mesh.indices.len()).map(|t| mesh.triangle_area(t) as f64);
         let tris = Distribution1D::new(areas)?;
         let inv_area = (1.0 / tris.total()) as f32;
         let geo = (0..mesh.indices.len())
             .map(|t| AreaTri::new(mesh, t))
             .collect();
+        let texture = texture.filter(Texture::is_spatially_varying);
+        let radiance = match &texture {
+            None => radiance,
+            Some(_) => Spectrum::ONE,
+        };
+        let uvs = match (&texture, mesh.uvs.is_empty()) {
+            (None, _) => Vec::new(),
+            (Some(_), true) => vec![[Vec2::ZERO, Vec2::X, Vec2::Y]; mesh.indices.len()],
+            (Some(_), false) => mesh
+                .indices
+                .iter()
+                .map(|t| t.map(|i| mesh.uvs[i as usize]))
+                .collect(),
+        };
         Some(AreaLight {
             mesh: mi,
             radiance,
+            texture,
+            uvs,
             tris,
             inv_area,
             geo,
@@ -48,7 +78,33 @@ impl AreaLight {
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         let (t, ux) = self.pick(u.x);
         let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
-        sample_toward(self.radiance, self.inv_area, p, self.triangle(t).eval(b))
+        sample_toward(
+            self.radiance_at(t, b),
+            self.inv_area,
+            p,
+            self.triangle(t).eval(b),
+        )
+    }
+
+    /// Radiance emitted at barycentrics `b` of triangle `t` (the uv interpolated as a hit's).
+    #[inline]
+    pub fn radiance_at(&self, t: u32, b: Vec2) -> Spectrum {
+        match &self.texture {
+            None => self.radiance,
+            Some(tex) => {
+                let [t0, t1, t2] = self.uvs[t as usize];
+                tex.eval(t0 * (1.0 - b.x - b.y) + t1 * b.x + t2 * b.y)
+            }
+        }
+    }
+
+    /// Radiance emitted at the hit `si` of this mesh (toward any direction on its side).
+    #[inline]
+    pub fn radiance_at_hit(&self, si: &SurfaceInteraction) -> Spectrum {
+        match &self.texture {
+            None => self.radiance,
+            Some(tex) => tex.eval(si.uv),
+        }
     }
 
     /// The triangle (index for [`AreaLight::triangle`]) that sample number `ux` selects by

@@ -57,9 +57,9 @@ pub enum Emitter {
 
 impl Emitter {
     /// Mitsuba's `area` (nested in a shape, whose mesh carries it): its `radiance` in
-    /// W/(m² sr).
-    pub fn area_radiance_from_props(p: &dyn Properties) -> Result<Spectrum> {
-        p.emission("radiance", Vec3::ONE)
+    /// W/(m² sr), a constant or a texture over the shape's uvs (a `bitmap`, `checkerboard`, ...).
+    pub fn area_radiance_from_props(p: &mut dyn BsdfProperties) -> Result<Texture> {
+        p.texture_as("radiance", Vec3::ONE, SpectrumUse::Emission)
     }
 
     /// Mitsuba's `point`: `intensity` (W/sr), `position` or `to_world`.

@@ -9,6 +9,7 @@ use super::{
     LightSampleX, PointLight, ProjectorLight, SphereAreaLight, SpotLight,
 };
 use crate::Result;
+use crate::bsdf::Texture;
 use crate::geometry::{Mesh, SurfaceInteraction};
 use crate::math::simd::WIDTH;
 use crate::math::simd::f16::{F16, M16, V2x, V3x};
@@ -35,18 +36,32 @@ pub struct LightSet {
 }
 
 impl LightSet {
-    /// The lights of a scene: the area emitters of `meshes` and the `emitters`; `bounds` are
-    /// the geometry's (min, max).
-    pub fn new(meshes: &[Mesh], emitters: &[Emitter], bounds: (Vec3, Vec3)) -> Result<LightSet> {
+    /// The lights of a scene: the area emitters of `meshes` (with the radiance textures of
+    /// `emission_textures`, by mesh index) and the `emitters`; `bounds` are the geometry's
+    /// (min, max).
+    pub fn new(
+        meshes: &[Mesh],
+        emitters: &[Emitter],
+        emission_textures: &[(u32, Texture)],
+        bounds: (Vec3, Vec3),
+    ) -> Result<LightSet> {
         let mut lights = Vec::new();
         let mut mesh_light = vec![None; meshes.len()];
         for (mi, mesh) in meshes.iter().enumerate() {
             let Some(radiance) = mesh.emitter else {
                 continue;
             };
+            let texture = emission_textures
+                .iter()
+                .find(|(m, _)| *m as usize == mi)
+                .map(|(_, t)| t.clone());
             let light = match mesh.sphere {
-                Some(sphere) => Light::SphereArea(SphereAreaLight { sphere, radiance }),
-                None => match AreaLight::new(mesh, mi as u32, radiance) {
+                Some(sphere) => Light::SphereArea(SphereAreaLight {
+                    sphere,
+                    radiance,
+                    texture: texture.filter(Texture::is_spatially_varying),
+                }),
+                None => match AreaLight::new(mesh, mi as u32, radiance, texture) {
                     Some(a) => Light::Area(a),
                     // A zero-area emitter can neither be hit nor sampled: it contributes nothing.
                     None => continue,
@@ -228,9 +243,16 @@ impl LightSet {
     /// Radiance emitted by the surface at `si` toward `si.wi` (0 unless the mesh has an area
     /// emitter and the direction is on the shading normal's side).
     #[inline]
-    pub fn area_radiance(&self, meshes: &[Mesh], si: &SurfaceInteraction) -> Spectrum {
-        match meshes[si.mesh as usize].emitter {
-            Some(l) if si.wi.z > 0.0 && self.mesh_light[si.mesh as usize].is_some() => l,
+    pub fn area_radiance(&self, si: &SurfaceInteraction) -> Spectrum {
+        let Some(li) = self.mesh_light[si.mesh as usize] else {
+            return Spectrum::ZERO;
+        };
+        if !(si.wi.z > 0.0) {
+            return Spectrum::ZERO;
+        }
+        match &self.lights[li as usize] {
+            Light::Area(l) => l.radiance_at_hit(si),
+            Light::SphereArea(l) => l.radiance_at_hit(si),
             _ => Spectrum::ZERO,
         }
     }

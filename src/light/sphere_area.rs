@@ -4,6 +4,8 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use super::LightSample;
+use crate::bsdf::Texture;
+use crate::geometry::SurfaceInteraction;
 use crate::geometry::sphere::Sphere;
 use crate::math::{Spectrum, Vec2, Vec3};
 
@@ -11,8 +13,11 @@ use crate::math::{Spectrum, Vec2, Vec3};
 #[derive(Clone, Debug)]
 pub struct SphereAreaLight {
     pub sphere: Sphere,
-    /// Emitted radiance (W/(m²·sr)).
+    /// Emitted radiance (W/(m²·sr)) where `texture` is None.
     pub radiance: Spectrum,
+    /// A spatially varying radiance over the sphere's uv parameterisation (it replaces
+    /// `radiance`).
+    pub texture: Option<Texture>,
 }
 
 impl SphereAreaLight {
@@ -28,10 +33,28 @@ impl SphereAreaLight {
             wi: s.d,
             dist: s.dist,
             n_geo: s.n,
-            weight: self.radiance / s.pdf,
+            weight: self.radiance_at(s.p) / s.pdf,
             pdf: s.pdf,
             delta: false,
         })
+    }
+
+    /// Radiance emitted at the point `p` of the sphere.
+    #[inline]
+    fn radiance_at(&self, p: Vec3) -> Spectrum {
+        match &self.texture {
+            None => self.radiance,
+            Some(tex) => tex.eval(self.sphere.uv_at(p)),
+        }
+    }
+
+    /// Radiance emitted at the hit `si` of the sphere.
+    #[inline]
+    pub fn radiance_at_hit(&self, si: &SurfaceInteraction) -> Spectrum {
+        match &self.texture {
+            None => self.radiance,
+            Some(tex) => tex.eval(si.uv),
+        }
     }
 
     /// Solid-angle pdf (no selection) that [`SphereAreaLight::sample_li`] from `p_ref` returns

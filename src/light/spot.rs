@@ -174,7 +174,7 @@ mod tests {
             beam_width: 10.0,
             texture: None,
         }];
-        let ls = LightSet::new(&[], &emitters, (Vec3::ZERO, Vec3::ONE)).unwrap();
+        let ls = LightSet::new(&[], &emitters, &[], (Vec3::ZERO, Vec3::ONE)).unwrap();
         let at = |deg: f32| {
             let t = deg.to_radians();
             let p = Vec3::new(t.sin(), 0.0, t.cos()) * 2.0;

@@ -70,7 +70,7 @@ fn light_set() -> LightSet {
             filename: PathBuf::from("sky.exr"),
         },
     ];
-    LightSet::new(&[], &emitters, (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap()
+    LightSet::new(&[], &emitters, &[], (Vec3::splat(-1.0), Vec3::splat(1.0))).unwrap()
 }
 
 #[test]

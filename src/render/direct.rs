@@ -39,7 +39,7 @@ pub fn li(
     };
     let si = surface_interaction(meshes, ray_o, d, &h);
     if !hide_emitters && lights.is_emissive(h.mesh) {
-        result += lights.area_radiance(meshes, &si);
+        result += lights.area_radiance(&si);
     }
     let Some(bsdf) = rs.scene.bsdfs.get(meshes[h.mesh as usize].bsdf as usize) else {
         return result;
@@ -99,7 +99,7 @@ pub fn li(
                 }
                 Some(h2) if lights.is_emissive(h2.mesh) => {
                     let si2 = surface_interaction(meshes, ro, wo, &h2);
-                    let le = lights.area_radiance(meshes, &si2);
+                    let le = lights.area_radiance(&si2);
                     if le != Spectrum::ZERO {
                         let em_pdf = if delta {
                             0.0

@@ -94,7 +94,12 @@ impl RenderScene {
         let t0 = std::time::Instant::now();
         let accel = Accel::build(&scene.meshes);
         let bvh_secs = t0.elapsed().as_secs_f64();
-        let lights = LightSet::new(&scene.meshes, &scene.emitters, accel.bounds())?;
+        let lights = LightSet::new(
+            &scene.meshes,
+            &scene.emitters,
+            &scene.emission_textures,
+            accel.bounds(),
+        )?;
         let camera = ProjectiveCamera::new(&scene.camera)?;
         let integrator = Integrator::new(&scene.integrator)?;
         Ok(RenderScene {

@@ -125,7 +125,7 @@ impl Integrator {
             };
             let si = surface_interaction(meshes, ray_o, ray_d, &h);
             if lights.is_emissive(h.mesh) {
-                let le = lights.area_radiance(meshes, &si);
+                let le = lights.area_radiance(&si);
                 if le != Spectrum::ZERO {
                     let em_pdf = if prev_delta || !self.nee {
                         0.0

@@ -9,7 +9,7 @@
 //!   when alpha < 1e-4; otherwise `diffuse` with base colour × base-colour texture (sRGB decoded).
 //!   `doubleSided` → `twosided`. Only factors are used for metallic/roughness; normal, occlusion
 //!   and metallic-roughness textures are ignored. Emissive factor (× KHR_materials_emissive_strength)
-//!   → area emitter; an emissive *texture* is an error.
+//!   → area emitter, times the emissive texture (sRGB decoded) where there is one.
 //! - Camera: the first perspective camera met in the node hierarchy (glTF looks along −z, +x right;
 //!   converted to btfpt's Mitsuba convention by a 180° turn about y). `yfov` is resolved to the
 //!   horizontal fov with aspect = width / height.
@@ -150,6 +150,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
         image_memo: HashMap::new(),
         meshes: Vec::new(),
         emitters: Vec::new(),
+        emission_textures: Vec::new(),
         camera: None,
         settings: &settings,
     };
@@ -172,6 +173,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
         meshes: b.meshes,
         bsdfs: b.bsdfs,
         emitters: b.emitters,
+        emission_textures: b.emission_textures,
         btf_uses: Vec::new(),
         inputs,
     })
@@ -183,10 +185,12 @@ struct GltfBuilder<'p> {
     images: &'p [::gltf::image::Data],
     bsdfs: Vec<Bsdf>,
     /// Material index (None = glTF default material) → (bsdf index, emitted radiance).
-    material_memo: HashMap<Option<usize>, (u32, Option<Spectrum>)>,
+    material_memo: HashMap<Option<usize>, (u32, Option<Texture>)>,
     image_memo: HashMap<usize, Arc<RgbImage>>,
     meshes: Vec<Mesh>,
     emitters: Vec<Emitter>,
+    /// Radiance textures of emissive meshes, by mesh index (see [`Scene::emission_textures`]).
+    emission_textures: Vec<(u32, Texture)>,
     camera: Option<Camera>,
     settings: &'p Settings,
 }
@@ -358,15 +362,22 @@ impl GltfBuilder<'_> {
             let (bsdf, emitter) = self.material(prim.material())?;
             m.name = mesh.name().map(str::to_string).unwrap_or_else(what);
             m.bsdf = bsdf;
-            m.emitter = emitter;
+            match emitter {
+                None => {}
+                Some(Texture::Constant(c)) => m.emitter = Some(c),
+                Some(t) => {
+                    m.emitter = Some(Spectrum::ONE);
+                    self.emission_textures.push((self.meshes.len() as u32, t));
+                }
+            }
             self.meshes.push(m);
         }
         Ok(())
     }
 
-    fn material(&mut self, mat: ::gltf::Material) -> Result<(u32, Option<Spectrum>)> {
-        if let Some(&r) = self.material_memo.get(&mat.index()) {
-            return Ok(r);
+    fn material(&mut self, mat: ::gltf::Material) -> Result<(u32, Option<Texture>)> {
+        if let Some(r) = self.material_memo.get(&mat.index()) {
+            return Ok(r.clone());
         }
         let name = mat
             .index()
@@ -375,27 +386,7 @@ impl GltfBuilder<'_> {
         let pbr = mat.pbr_metallic_roughness();
         let [r, g, b, _a] = pbr.base_color_factor();
         let factor = Vec3::new(r, g, b);
-        let base = match pbr.base_color_texture() {
-            None => Texture::Constant(factor),
-            Some(info) => {
-                if info.tex_coord() != 0 {
-                    return Err(self.err(format!("{name}: only TEXCOORD_0 is supported")));
-                }
-                let img = self.image(info.texture().source().index())?;
-                let img = if factor == Vec3::ONE {
-                    img
-                } else {
-                    let mut scaled = (*img).clone();
-                    for px in scaled.data.chunks_exact_mut(3) {
-                        for c in 0..3 {
-                            px[c] *= factor[c];
-                        }
-                    }
-                    Arc::new(scaled)
-                };
-                Texture::Bitmap(img)
-            }
-        };
+        let base = self.factor_texture(&name, factor, pbr.base_color_texture())?;
         let alpha = pbr.roughness_factor() * pbr.roughness_factor();
         let mut bsdf = if pbr.metallic_factor() >= 0.5 {
             if alpha < 1e-4 {
@@ -424,15 +415,44 @@ impl GltfBuilder<'_> {
                 back: Box::new(bsdf),
             });
         }
-        if mat.emissive_texture().is_some() {
-            return Err(self.err(format!("{name}: emissive textures are not supported")));
-        }
         let e = Vec3::from(mat.emissive_factor()) * mat.emissive_strength().unwrap_or(1.0);
-        let emitter = if e.max_element() > 0.0 { Some(e) } else { None };
+        let emitter = if e.max_element() > 0.0 {
+            Some(self.factor_texture(&name, e, mat.emissive_texture())?)
+        } else {
+            None
+        };
         self.bsdfs.push(bsdf);
         let r = ((self.bsdfs.len() - 1) as u32, emitter);
-        self.material_memo.insert(mat.index(), r);
+        self.material_memo.insert(mat.index(), r.clone());
         Ok(r)
+    }
+
+    /// `factor` times the texture of `info` (TEXCOORD_0 only), or the constant `factor`.
+    fn factor_texture(
+        &mut self,
+        name: &str,
+        factor: Vec3,
+        info: Option<::gltf::texture::Info>,
+    ) -> Result<Texture> {
+        let Some(info) = info else {
+            return Ok(Texture::Constant(factor));
+        };
+        if info.tex_coord() != 0 {
+            return Err(self.err(format!("{name}: only TEXCOORD_0 is supported")));
+        }
+        let img = self.image(info.texture().source().index())?;
+        let img = if factor == Vec3::ONE {
+            img
+        } else {
+            let mut scaled = (*img).clone();
+            for px in scaled.data.chunks_exact_mut(3) {
+                for c in 0..3 {
+                    px[c] *= factor[c];
+                }
+            }
+            Arc::new(scaled)
+        };
+        Ok(Texture::Bitmap(img))
     }
 
     /// A glTF image as linear RGB (8/16-bit data is sRGB-encoded colour; float data is linear).

@@ -71,6 +71,17 @@ impl IntegratorSettings {
         IntegratorSettings::path_from_props(p)
     }
 
+    /// Mitsuba's `ptracer` (a particle tracer: light paths connected to the camera) on the
+    /// scenes where it and `path` estimate the same image — no specular (delta) surface, no
+    /// environment emitter, a perspective or thin-lens camera; the loader refuses the others:
+    /// rendered by the path tracer with the same `max_depth`, `rr_depth` and `hide_emitters`
+    /// (the image converges to Mitsuba's; its noise is the path tracer's). `samples_per_pass`
+    /// only divides Mitsuba's work into passes.
+    pub fn ptracer_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {
+        p.int("samples_per_pass", -1)?;
+        IntegratorSettings::path_from_props(p)
+    }
+
     /// Mitsuba's `direct`: `shading_samples` (1), or `emitter_samples` and `bsdf_samples`
     /// (each `shading_samples` by default; at most 65536, not both 0), `hide_emitters`.
     pub fn direct_from_props(p: &dyn Properties) -> crate::Result<IntegratorSettings> {
@@ -130,6 +141,10 @@ pub struct Scene {
     pub meshes: Vec<Mesh>,
     pub bsdfs: Vec<Bsdf>,
     pub emitters: Vec<Emitter>,
+    /// Area emitters whose radiance is a texture (Mitsuba: a `<texture name="radiance">`):
+    /// (index in `meshes`, the texture over the mesh's uvs), which replaces the mesh's
+    /// constant `emitter` radiance.
+    pub emission_textures: Vec<(u32, crate::bsdf::Texture)>,
     /// The file and model each `<bsdf type="btf">` renders, in scene order (for the summary).
     pub btf_uses: Vec<measured_material::BtfUse>,
     /// Every file the scene reads besides its own (included files, meshes, textures, BTF data

@@ -288,6 +288,17 @@ fn cases(dir: &Path) -> Vec<Case> {
             vec!["inst.xml:15", "emitters is not supported"],
         );
     }
+    add(
+        "ptracer-specular",
+        "`ptracer` on a scene with a mirror (btfpt's path tracer would not give the particle tracer's image)",
+        &|d, o| {
+            let body = r#"<shape type="sphere" id="ball"><bsdf type="conductor"/></shape>
+<emitter type="point"><point name="position" x="0" y="2" z="2"/></emitter>"#;
+            let xml = scene(body, "8", "8").replace(r#"type="path""#, r#"type="ptracer""#);
+            render(&write(&d.join("pt.xml"), xml), o, &[])
+        },
+        vec!["pt.xml:2", "ptracer", "\"ball\" has a specular"],
+    );
     {
         let body = format!(
             r#"{LIGHT}

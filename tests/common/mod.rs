@@ -51,6 +51,7 @@ pub fn scene(
 ) -> Scene {
     Scene {
         btf_uses: Vec::new(),
+        emission_textures: Vec::new(),
         inputs: Vec::new(),
         source: "in-code.xml".into(),
         camera: Camera {

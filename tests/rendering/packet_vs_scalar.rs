@@ -220,20 +220,13 @@ fn packet_two_sided_diffuse_replays_the_scalar_integrator_from_both_sides() {
 /// sheet.ply, textured) placed by a mirroring transform and a sheared one.
 #[test]
 fn packet_equals_scalar_on_instances() {
-    let mut rs = RenderScene::new(load(
-        "scenes/mitsuba-instances/scene.xml",
-        &[("width", "48"), ("height", "36")],
-    ))
-    .unwrap();
-    let st = window(&rs, [0, 0, 48, 36], (0, 4), 21);
-    let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
-    for kind in [packet(256, true), packet(16, false)] {
-        let p = render_with(&mut rs, kind, st);
-        assert!(
-            p == scalar,
-            "{kind:?}: the packet render differs from the scalar one"
-        );
-    }
+    packet_equals_scalar_on_scene(
+        load(
+            "scenes/mitsuba-instances/scene.xml",
+            &[("width", "48"), ("height", "36")],
+        ),
+        21,
+    );
     let dir = env!("CARGO_MANIFEST_DIR");
     let xml = format!(
         r#"<scene version="3.0.0">
@@ -265,16 +258,22 @@ fn packet_equals_scalar_on_instances() {
     packet_equals_scalar_on_xml(&xml, 9);
 }
 
-/// Renders the 48×36 scene `xml` (4 spp, `seed`) with the scalar integrator and the packet one
-/// (two pool shapes) and asserts the same sums bit for bit.
+/// [`packet_equals_scalar_on_scene`] on the scene `xml`.
 fn packet_equals_scalar_on_xml(xml: &str, seed: u64) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.xml");
     std::fs::write(&path, xml).unwrap();
     let scene =
         btfpt::scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    packet_equals_scalar_on_scene(scene, seed);
+}
+
+/// Renders the whole of `scene` (4 spp, `seed`) with the scalar integrator and the packet one
+/// (two pool shapes) and asserts the same sums bit for bit.
+fn packet_equals_scalar_on_scene(scene: Scene, seed: u64) {
+    let (w, h) = (scene.camera.width, scene.camera.height);
     let mut rs = RenderScene::new(scene).unwrap();
-    let st = window(&rs, [0, 0, 48, 36], (0, 4), seed);
+    let st = window(&rs, [0, 0, w, h], (0, 4), seed);
     let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
     for kind in [packet(256, true), packet(16, false)] {
         let p = render_with(&mut rs, kind, st);
@@ -590,25 +589,14 @@ fn packet_equals_scalar_on_mesh_attributes() {
 fn packet_equals_scalar_on_projector_spot_texture_and_pplastic() {
     // The projector, the textured spot (both sampled lane by lane in the packet kernel) and
     // `pplastic` (the per-lane BSDF fallback), over the committed mitsuba-emitters scene.
-    let scene = btfpt::scene::load(
-        std::path::Path::new(&format!(
-            "{}/scenes/mitsuba-emitters/scene.xml",
-            env!("CARGO_MANIFEST_DIR")
-        )),
-        &LoadOptions::default(),
-    )
-    .unwrap_or_else(|e| panic!("{e}"));
-    let mut rs = RenderScene::new(scene).unwrap();
-    let st = window(&rs, [0, 0, 64, 48], (0, 4), 17);
-    let scalar = render_with(&mut rs, IntegratorKind::Scalar, st);
-    for kind in [packet(256, true), packet(16, false)] {
-        let p = render_with(&mut rs, kind, st);
-        assert!(
-            p == scalar,
-            "{kind:?}: the packet render differs from the scalar one"
-        );
-    }
-    assert!(scalar.rays() > 0);
+    packet_equals_scalar_on_scene(load("scenes/mitsuba-emitters/scene.xml", &[]), 17);
+}
+
+#[test]
+fn packet_equals_scalar_on_textured_area_lights() {
+    // A rectangle with a bitmap radiance (SoA area sampling, the texture looked up per lane)
+    // and a disk with a checkerboard radiance, seen directly and through the floor.
+    packet_equals_scalar_on_scene(load("scenes/mitsuba-emitters/area-bitmap.xml", &[]), 29);
 }
 
 #[test]

@@ -1,13 +1,17 @@
 //! Radiometric checks of the integrator with analytic answers (diffuse BSDFs, generated meshes).
 
 use crate::common::*;
+use btfpt::bsdf::Texture;
+use btfpt::bsdf::texture::{BitmapTexture, TexFilter, UvTransform, Wrap};
 use btfpt::geometry::Mesh;
 use btfpt::geometry::generate::{quad, sphere};
 use btfpt::geometry::sphere::Sphere;
+use btfpt::io::RgbImage;
 use btfpt::math::Mat4;
 use btfpt::math::{Spectrum, Vec3};
 use btfpt::render::RenderScene;
 use btfpt::scene::{Emitter, Scene};
+use std::sync::Arc;
 
 /// A convex diffuse object under a uniform environment reflects exactly albedo·Le (it never sees
 /// itself); pixels missing the object see Le.
@@ -292,4 +296,107 @@ fn envmap_nee_and_bsdf_sampling_agree() {
     mis_matches_bsdf_sampling_alone(s, 128, 1024, |x, y| {
         (3..7).contains(&x) && (3..7).contains(&y)
     });
+}
+
+/// A 2 × 2 nearest-filtered bitmap of four distinct colours, clamped at the border.
+fn four_texels() -> (Texture, [[f32; 3]; 4]) {
+    let texels = [
+        [1.0, 0.25, 0.5],
+        [0.125, 2.0, 0.75],
+        [3.0, 0.5, 0.0625],
+        [0.375, 0.625, 4.0],
+    ];
+    let image = RgbImage {
+        width: 2,
+        height: 2,
+        data: texels.concat(),
+    };
+    let t = BitmapTexture::new(
+        image,
+        TexFilter::Nearest,
+        Wrap::Clamp,
+        UvTransform::IDENTITY,
+    );
+    (Texture::Mapped(Arc::new(t)), texels)
+}
+
+/// An area light whose radiance is a texture, seen directly (max_depth 1: emission only):
+/// each quarter of the light shows one texel exactly, and each texel shows once.
+#[test]
+fn textured_area_light_seen_directly_shows_its_texels() {
+    let (texture, texels) = four_texels();
+    let mut light = quad(Vec3::new(-1.0, -1.0, 0.0), Vec3::X * 2.0, Vec3::Y * 2.0);
+    light.emitter = Some(Spectrum::ONE);
+    let mut s = scene(
+        Vec3::new(0.0, 0.0, 3.4),
+        Vec3::ZERO,
+        40.0,
+        (16, 16),
+        vec![light],
+        vec![diffuse(0.5)],
+        vec![],
+    );
+    s.emission_textures = vec![(0, texture)];
+    s.integrator.max_depth = 1;
+    let rs = RenderScene::new(s).unwrap();
+    let img = render(&rs, settings(&rs.scene, 4, 1)).mean_image();
+    // The light spans the middle ≈ 12.9 px of the 16: pixels 4 and 11 sit inside its quarters.
+    let mut seen = Vec::new();
+    for (x, y) in [(4, 4), (11, 4), (4, 11), (11, 11)] {
+        let v = img.get(x, y);
+        let k = texels.iter().position(|t| *t == v);
+        assert!(
+            k.is_some(),
+            "pixel ({x}, {y}) = {v:?} is none of the texels"
+        );
+        seen.push(k);
+    }
+    seen.sort();
+    seen.dedup();
+    assert_eq!(seen.len(), 4, "each texel should show once");
+}
+
+/// A radiance texture that is the same everywhere lights a diffuse floor as its constant does:
+/// the same samples, the emitted radiance looked up through the texture (light sampling and
+/// emitter hits alike).
+#[test]
+fn uniform_radiance_texture_lights_like_the_constant() {
+    let c = [2.0f32, 1.5, 0.75];
+    let image = RgbImage {
+        width: 3,
+        height: 2,
+        data: c.repeat(6),
+    };
+    let render_with = |textured: bool| {
+        let floor = quad(Vec3::new(-2.0, -1.0, 2.0), Vec3::X * 4.0, Vec3::Z * -4.0);
+        let mut light = quad(Vec3::new(-0.5, 1.0, -0.5), Vec3::X, Vec3::Z);
+        light.emitter = Some(if textured {
+            Spectrum::ONE
+        } else {
+            Spectrum::from(c)
+        });
+        let mut s = scene(
+            Vec3::new(0.0, 0.5, 4.0),
+            Vec3::new(0.0, -0.5, 0.0),
+            50.0,
+            (24, 16),
+            vec![floor, light],
+            vec![diffuse(0.7)],
+            vec![],
+        );
+        if textured {
+            s.emission_textures = vec![(1, Texture::Bitmap(Arc::new(image.clone())))];
+        }
+        let rs = RenderScene::new(s).unwrap();
+        render(&rs, settings(&rs.scene, 8, 3)).mean_image()
+    };
+    let (plain, textured) = (render_with(false), render_with(true));
+    let lit = plain.data.iter().filter(|&&v| v > 0.0).count();
+    assert!(
+        lit > plain.data.len() / 4,
+        "the floor should be lit: {lit} values"
+    );
+    for (a, b) in plain.data.iter().zip(&textured.data) {
+        assert!((a - b).abs() <= 1e-5 * a.abs().max(1.0), "{a} vs {b}");
+    }
 }

@@ -200,6 +200,32 @@ fn gltf_scene_maps_to_expected_values() {
     );
 }
 
+/// An emissive texture times the emissive factor (and strength) becomes the lamp's radiance
+/// texture; the mesh's constant radiance is then 1.
+#[test]
+fn gltf_emissive_texture_scales_the_emissive_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut tex = RgbImage::new(2, 2);
+    tex.set(1, 0, [1.0, 1.0, 1.0]);
+    write_png_srgb(&dir.path().join("tex.png"), &tex).unwrap();
+    let p = dir.path().join("s.gltf");
+    let json = gltf_json(&buffer()).replace(
+        r#""emissiveFactor": [1, 0.5, 0.25],"#,
+        r#""emissiveFactor": [1, 0.5, 0.25], "emissiveTexture": {"index": 0},"#,
+    );
+    assert!(json.contains("emissiveTexture"));
+    std::fs::write(&p, json).unwrap();
+    let s = scene::load(&p, &LoadOptions::default()).unwrap();
+    assert_eq!(s.meshes[1].emitter, Some(Vec3::ONE));
+    match s.emission_textures.as_slice() {
+        [(1, Texture::Bitmap(img))] => {
+            assert!(close(Vec3::from(img.get(1, 0)), Vec3::new(4.0, 2.0, 1.0)));
+            assert_eq!(img.get(0, 0), [0.0; 3]);
+        }
+        t => panic!("{t:?}"),
+    }
+}
+
 #[test]
 fn gltf_errors_name_the_file() {
     let dir = tempfile::tempdir().unwrap();

@@ -590,6 +590,61 @@ fn volpath_without_media_reads_as_path() {
     }
 }
 
+/// `ptracer` reads as the path tracer where the two converge to the same image; a specular
+/// surface, an environment emitter or an orthographic camera is refused naming the integrator.
+#[test]
+fn ptracer_reads_as_path_where_both_give_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let integrator = r#"<integrator type="ptracer"><integer name="max_depth" value="5"/>
+        <integer name="samples_per_pass" value="4096"/></integrator>"#;
+    let p = write(
+        d,
+        "ok.xml",
+        &scene_text(&format!(
+            r#"{integrator}
+    <shape type="sphere"><bsdf type="roughconductor"/></shape>
+    <shape type="rectangle"><emitter type="area"/></shape>
+    <emitter type="spot"/>"#
+        )),
+    );
+    let i = load(&p).integrator;
+    assert_eq!((i.max_depth, i.rr_depth, i.hide_emitters), (5, 5, false));
+    assert!(i.direct.is_none());
+    for (name, body, why) in [
+        (
+            "mirror.xml",
+            r#"<shape type="sphere" id="ball"><bsdf type="conductor"/></shape>"#,
+            "shape \"ball\" has a specular",
+        ),
+        (
+            "plastic.xml",
+            r#"<shape type="sphere"><bsdf type="plastic"/></shape>"#,
+            "specular (delta) BSDF",
+        ),
+        (
+            "env.xml",
+            r#"<shape type="sphere"/><emitter type="constant"/>"#,
+            "environment emitter",
+        ),
+    ] {
+        let p = write(d, name, &scene_text(&format!("{integrator}\n{body}")));
+        expect_err(&p, name, 7, why);
+    }
+    let ortho = write(
+        d,
+        "ortho.xml",
+        &format!(
+            r#"<scene version="3.0.0">
+    {integrator}
+    <sensor type="orthographic"/>
+    <shape type="sphere"/>
+</scene>"#
+        ),
+    );
+    expect_err(&ortho, "ortho.xml", 2, "orthographic");
+}
+
 #[test]
 fn samplers_integrators_and_default_film() {
     let dir = tempfile::tempdir().unwrap();
@@ -689,4 +744,49 @@ fn samplers_integrators_and_default_film() {
         let p = with(name, sampler, integrator);
         expect_err(&p, name, line, needle);
     }
+}
+
+/// An area emitter's radiance given as a texture: a bitmap or a checkerboard is kept for its
+/// mesh (whose constant radiance is then 1), a constant texture stays a constant radiance, a
+/// `mesh_attribute` radiance is refused naming its line.
+#[test]
+fn area_emitter_radiance_textures() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut img = RgbImage::new(2, 1);
+    img.set(0, 0, [1.0, 0.5, 0.0]);
+    img.set(1, 0, [0.0, 0.5, 1.0]);
+    write_png_srgb(&d.join("glow.png"), &img).unwrap();
+    let s = load(&write(
+        d,
+        "a.xml",
+        &scene_text(
+            r#"<shape type="rectangle"><emitter type="area">
+        <texture type="bitmap" name="radiance"><string name="filename" value="glow.png"/></texture>
+    </emitter></shape>
+    <shape type="sphere"><emitter type="area">
+        <texture type="rawconstant" name="radiance"><rgb name="value" value="1, 2, 3"/></texture>
+    </emitter></shape>
+    <shape type="disk"><emitter type="area">
+        <texture type="checkerboard" name="radiance"/>
+    </emitter></shape>"#,
+        ),
+    ));
+    let textured: Vec<u32> = s.emission_textures.iter().map(|(m, _)| *m).collect();
+    assert_eq!(textured, [0, 2]);
+    assert!(matches!(s.emission_textures[0].1, Texture::Bitmap(_)));
+    assert!(matches!(s.emission_textures[1].1, Texture::Checkerboard(_)));
+    assert_eq!(s.meshes[0].emitter, Some(Spectrum::ONE));
+    assert_eq!(s.meshes[1].emitter, Some(Spectrum::new(1.0, 2.0, 3.0)));
+    assert_eq!(s.meshes[2].emitter, Some(Spectrum::ONE));
+    let p = write(
+        d,
+        "b.xml",
+        &scene_text(
+            r#"<shape type="rectangle"><emitter type="area">
+        <texture type="mesh_attribute" name="radiance"><string name="name" value="vertex_color"/></texture>
+    </emitter></shape>"#,
+        ),
+    );
+    expect_err(&p, "b.xml", 8, "mesh_attribute");
 }

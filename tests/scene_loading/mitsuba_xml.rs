@@ -452,7 +452,7 @@ fn unknown_plugin_property_and_element() {
         "<shape type=\"cube\"><colour name=\"x\" value=\"1\"/></shape>",
     );
     expect_err(&p, &[], 7, "unexpected element <colour>");
-    let p = scene_with(dir.path(), "<integrator type=\"ptracer\"/>");
+    let p = scene_with(dir.path(), "<integrator type=\"bdpt\"/>");
     expect_err(&p, &[], 7, "unsupported integrator type");
     let p = scene_with(dir.path(), "<emitter type=\"area\"/>");
     expect_err(&p, &[], 7, "must be nested inside a <shape>");

@@ -3,10 +3,8 @@
 //! sides of the rough dielectric. The sampled directions must follow `pdf`, and samples may
 //! fail only as often as the pdf's missing mass says.
 
-use crate::bsdf::chi2::Chi2Test;
 use crate::bsdf::*;
 use crate::math::Pcg32;
-use crate::math::frame::from_spherical;
 
 /// Number of chi-square tests in this file (the Šidák family).
 const CHI2_TESTS: usize = 16 + 6 + 16;
@@ -53,38 +51,9 @@ fn dielectric(alpha_u: f32, alpha_v: f32, eta: f32, vis: bool) -> Bsdf {
     })
 }
 
-/// Every (case, θ_i) must pass; the accepted fraction equals ∫ pdf within 5 binomial σ.
+/// [`super::chi2_cases`] in this file's family of tests.
 fn chi2_cases(name: &str, cases: &[Bsdf], thetas: &[f32]) {
-    const N: usize = 400_000;
-    let mut failures = Vec::new();
-    for (k, b) in cases.iter().enumerate() {
-        for &theta in thetas {
-            let si = SurfaceInteraction::for_tests(from_spherical(theta, 0.9), Vec2::new(0.3, 0.6));
-            let mut lobe_rng = Pcg32::new(91, 5);
-            let t = Chi2Test {
-                sample_count: N,
-                test_count: CHI2_TESTS,
-                ..Default::default()
-            };
-            let b = b.at(&si);
-            let r = t.run(
-                |u1, u2| {
-                    b.sample(&si, lobe_rng.next_f32(), Vec2::new(u1, u2))
-                        .filter(|(_, w)| w.max_element() > 0.0)
-                        .map(|(bs, _)| bs.wo)
-                },
-                |wo| b.pdf(&si, wo),
-            );
-            let acc_tol = 5.0 * (0.25 / N as f64).sqrt() + 2e-3;
-            if !r.passed
-                || r.pdf_integral > 1.0 + 2e-3
-                || (r.accepted - r.pdf_integral).abs() > acc_tol
-            {
-                failures.push(format!("{name} case {k} θ_i = {theta}: {}", r.message));
-            }
-        }
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    super::chi2_cases(name, cases, thetas, CHI2_TESTS, Pcg32::new(91, 5));
 }
 
 #[test]

@@ -3,6 +3,7 @@
 //! uniformly-sampled albedo, energy bounds, delta-lobe probabilities, eval/pdf/weight consistency,
 //! reciprocity and one-/two-sidedness.
 
+use super::{albedo_two_ways, chi2_sampler, chi2_whole_sampler_ok, si};
 use crate::bsdf::chi2::{Chi2Outcome, Chi2Test};
 use crate::bsdf::*;
 use crate::math::frame::from_spherical;
@@ -11,10 +12,6 @@ use std::sync::Arc;
 
 /// Number of chi-square tests in this file (the Šidák family).
 const CHI2_TESTS: usize = 4 + 32 + 3 + 6 + 6 + 16 + 2 + 2 + 3 + 6 + 4;
-
-fn si(wi: Vec3) -> SurfaceInteraction {
-    SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
-}
 
 fn white() -> Texture {
     Texture::Constant(Spectrum::ONE)
@@ -53,25 +50,7 @@ fn rough_gold(alpha_u: f32, alpha_v: f32, sample_visible: bool) -> Bsdf {
 }
 
 fn chi2_bsdf(bsdf: &Bsdf, wi: Vec3, samples: usize) -> Chi2Outcome {
-    let si = si(wi);
-    let mut lobe_rng = Pcg32::new(77, 3);
-    let t = Chi2Test {
-        sample_count: samples,
-        test_count: CHI2_TESTS,
-        ..Default::default()
-    };
-    // Through the per-hit object, as the integrators call a BSDF.
-    let at = bsdf.at(&si);
-    t.run(
-        |u1, u2| {
-            let s1 = lobe_rng.next_f32();
-            // As Mitsuba's chi2 BSDF adapter: a sample with zero weight counts as a failure.
-            at.sample(&si, s1, Vec2::new(u1, u2))
-                .filter(|(_, w)| w.max_element() > 0.0)
-                .map(|(bs, _)| bs.wo)
-        },
-        |wo| at.pdf(&si, wo),
-    )
+    chi2_sampler(bsdf, wi, samples, CHI2_TESTS, Pcg32::new(77, 3))
 }
 
 #[test]
@@ -94,12 +73,8 @@ fn chi2_roughconductor_cases(alpha_u: f32, alpha_v: f32) {
             let wi = from_spherical(theta, 0.9);
             let r = chi2_bsdf(&b, wi, 500_000);
             // Sampling may fail (reflection below the horizon) but only as often as the pdf
-            // says: the accepted fraction equals the integral of the pdf (within 5 binomial σ).
-            let acc_tol = 5.0 * (0.25 / 500_000.0f64).sqrt() + 2e-3;
-            if !r.passed
-                || r.pdf_integral > 1.0 + 2e-3
-                || (r.accepted - r.pdf_integral).abs() > acc_tol
-            {
+            // says.
+            if !chi2_whole_sampler_ok(&r, 500_000) {
                 failures.push(format!("visible = {vis} θ_i = {theta}: {}", r.message));
             }
         }
@@ -253,23 +228,9 @@ fn rough_dielectric(alpha_u: f32, alpha_v: f32, eta: f32, vis: bool) -> Bsdf {
     })
 }
 
-/// Chi-square over the whole sampler; the accepted fraction must equal ∫ pdf (failed samples
-/// are missing mass only where the pdf says so).
+/// [`super::chi2_cases`] in this file's family of tests.
 fn chi2_cases(name: &str, cases: &[Bsdf], thetas: &[f32]) {
-    let mut failures = Vec::new();
-    for (k, b) in cases.iter().enumerate() {
-        for &theta in thetas {
-            let r = chi2_bsdf(b, from_spherical(theta, 0.9), 400_000);
-            let acc_tol = 5.0 * (0.25 / 400_000.0f64).sqrt() + 2e-3;
-            if !r.passed
-                || r.pdf_integral > 1.0 + 2e-3
-                || (r.accepted - r.pdf_integral).abs() > acc_tol
-            {
-                failures.push(format!("{name} case {k} θ_i = {theta}: {}", r.message));
-            }
-        }
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    super::chi2_cases(name, cases, thetas, CHI2_TESTS, Pcg32::new(77, 3));
 }
 
 #[test]
@@ -445,31 +406,6 @@ fn roughplastic_tables_match_direct_integration() {
 }
 
 /// Mean and standard error of the per-sample estimates.
-fn mean_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
-    (m, (var / n).sqrt())
-}
-
-/// Albedo ∫ eval dω_o estimated twice: by the BSDF's own sampling (mean weight) and by uniform
-/// sphere sampling of `eval`; returns ((mean, se) importance, (mean, se) uniform), red channel.
-fn albedo_two_ways(b: &Bsdf, wi: Vec3, n: usize, seed: u64) -> ((f64, f64), (f64, f64)) {
-    let si = si(wi);
-    let mut rng = Pcg32::new(seed, 1);
-    let mut is = Vec::with_capacity(n);
-    let mut un = Vec::with_capacity(n);
-    for _ in 0..n {
-        let s1 = rng.next_f32();
-        let w = b
-            .sample(&si, s1, rng.next_2d())
-            .map_or(0.0, |(_, w)| w.x as f64);
-        is.push(w);
-        let wo = warp::square_to_uniform_sphere(rng.next_2d());
-        un.push(b.eval(&si, wo).x as f64 / warp::square_to_uniform_sphere_pdf() as f64);
-    }
-    (mean_se(&is), mean_se(&un))
-}
 
 #[test]
 fn furnace_importance_and_uniform_estimates_agree() {
@@ -488,7 +424,8 @@ fn furnace_importance_and_uniform_estimates_agree() {
     for (name, b) in &cases {
         for (k, &theta) in [0.2f32, 1.0, 1.45, 2.5].iter().enumerate() {
             let wi = from_spherical(theta, 1.3);
-            let ((mi, si_), (mu, su)) = albedo_two_ways(b, wi, 200_000, 11 + k as u64);
+            let ((mi, si_), (mu, su)) =
+                albedo_two_ways(b, wi, 200_000, Pcg32::new(11 + k as u64, 1), 0);
             let tol = 3.0 * (si_ * si_ + su * su).sqrt() + 1e-6;
             assert!(
                 (mi - mu).abs() <= tol,

@@ -3,10 +3,10 @@
 //! importance-sampled albedo equals the uniformly sampled one and stays ≤ 1.
 
 use super::super::golden::{check_golden, checker, texels};
-use crate::bsdf::chi2::Chi2Test;
+use super::{albedo_two_ways, chi2_sampler, chi2_whole_sampler_ok};
 use crate::bsdf::*;
+use crate::math::Pcg32;
 use crate::math::frame::from_spherical;
-use crate::math::{Pcg32, warp};
 
 const GOLDEN: &str = include_str!("../../../reference-images/pplastic_golden.txt");
 
@@ -86,10 +86,6 @@ fn pplastic_matches_mitsuba3_plugin() {
     assert!(n_config == 5 && n_eval >= 150 && n_sample >= 120);
 }
 
-fn si(wi: Vec3) -> SurfaceInteraction {
-    SurfaceInteraction::for_tests(wi, Vec2::new(0.3, 0.6))
-}
-
 const NAMES: [&str; 5] = [
     "pplastic_default",
     "pplastic_ggx_specular",
@@ -113,26 +109,9 @@ fn chi2_pplastic() {
         }
         for theta in [0.3f32, 0.9, 1.35] {
             n += 1;
-            let s = si(from_spherical(theta, 0.9));
-            let mut lobe_rng = Pcg32::new(91, 5);
-            let t = Chi2Test {
-                sample_count: 400_000,
-                test_count: CHI2_TESTS,
-                ..Default::default()
-            };
-            let r = t.run(
-                |u1, u2| {
-                    b.sample(&s, lobe_rng.next_f32(), Vec2::new(u1, u2))
-                        .filter(|(_, w)| w.max_element() > 0.0)
-                        .map(|(bs, _)| bs.wo)
-                },
-                |wo| b.pdf(&s, wo),
-            );
-            let acc_tol = 5.0 * (0.25 / 400_000.0f64).sqrt() + 2e-3;
-            if r.passed
-                && r.pdf_integral <= 1.0 + 2e-3
-                && (r.accepted - r.pdf_integral).abs() <= acc_tol
-            {
+            let wi = from_spherical(theta, 0.9);
+            let r = chi2_sampler(&b, wi, 400_000, CHI2_TESTS, Pcg32::new(91, 5));
+            if chi2_whole_sampler_ok(&r, 400_000) {
                 println!("{name} θ_i = {theta}: {}", r.message);
             } else {
                 failures.push(format!("{name} θ_i = {theta}: {}", r.message));
@@ -141,14 +120,6 @@ fn chi2_pplastic() {
     }
     assert_eq!(n, CHI2_TESTS);
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-}
-
-/// Mean and standard error.
-fn mean_se(v: &[f64]) -> (f64, f64) {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
-    (m, (var / n).sqrt())
 }
 
 #[test]
@@ -169,19 +140,9 @@ fn furnace_importance_and_uniform_estimates_agree() {
             );
         }
         for (k, &theta) in [0.3f32, 1.1, 1.45].iter().enumerate() {
-            let s = si(from_spherical(theta, 1.3));
-            let mut rng = Pcg32::new(17 + k as u64, 3);
-            let (mut is, mut un) = (Vec::new(), Vec::new());
-            for _ in 0..150_000 {
-                let s1 = rng.next_f32();
-                let w = b
-                    .sample(&s, s1, rng.next_2d())
-                    .map_or(0.0, |(_, w)| w.y as f64);
-                is.push(w);
-                let wo = warp::square_to_uniform_sphere(rng.next_2d());
-                un.push(b.eval(&s, wo).y as f64 / warp::square_to_uniform_sphere_pdf() as f64);
-            }
-            let ((mi, si_), (mu, su)) = (mean_se(&is), mean_se(&un));
+            let wi = from_spherical(theta, 1.3);
+            let ((mi, si_), (mu, su)) =
+                albedo_two_ways(&b, wi, 150_000, Pcg32::new(17 + k as u64, 3), 1);
             let tol = 4.0 * (si_ * si_ + su * su).sqrt() + 1e-4;
             assert!(
                 (mi - mu).abs() <= tol,

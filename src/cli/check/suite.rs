@@ -267,6 +267,38 @@ mod tests {
         p
     }
 
+    /// `reference-images/suite.toml` parses, its scenes and references exist, and it lists
+    /// every committed reference (`reference-images/<name>/<name>.exr`).
+    #[test]
+    fn the_committed_suite_lists_every_committed_reference() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("reference-images");
+        let cases = load(&root.join("suite.toml")).unwrap_or_else(|e| panic!("{e:#}"));
+        for c in &cases {
+            assert!(
+                c.scene.is_file(),
+                "{}: no scene {}",
+                c.name,
+                c.scene.display()
+            );
+            assert!(
+                c.reference.is_file(),
+                "{}: no {}",
+                c.name,
+                c.reference.display()
+            );
+        }
+        for dir in std::fs::read_dir(&root).unwrap() {
+            let dir = dir.unwrap().path();
+            let name = dir.file_name().unwrap().to_string_lossy().to_string();
+            if dir.join(format!("{name}.exr")).is_file() {
+                assert!(
+                    cases.iter().any(|c| c.name == name),
+                    "reference-images/{name} is not a case of suite.toml"
+                );
+            }
+        }
+    }
+
     #[test]
     fn cases_take_defaults_and_resolve_paths() {
         let d = tempfile::tempdir().unwrap();

@@ -221,7 +221,7 @@ fn shade(
         let i = slot[l];
         if lights.is_emissive(mesh_id[l]) {
             let si = si_at(l);
-            let le = lights.area_radiance(meshes, &si);
+            let le = lights.area_radiance(&si);
             if le != Spectrum::ZERO {
                 let em_pdf = if pool.prev_delta[i] || !pt.nee {
                     0.0
@@ -301,6 +301,7 @@ fn shade(
             }
         }
     }
+    let b = warp::square_to_uniform_triangle_x(u_light);
     for l in 0..n {
         let Some(a) = area[l] else {
             continue;
@@ -316,12 +317,11 @@ fn shade(
                 ln[k].set(l, v);
             }
         }
-        l_rad.set(l, a.radiance);
+        l_rad.set(l, a.radiance_at(tri_of[l], b.get(l)));
         l_inv_area.0[l] = a.inv_area();
     }
 
     // ------------------------- area-light samples (SoA) -------------------------
-    let b = warp::square_to_uniform_triangle_x(u_light);
     let at = tri_point_x(lp0, le1, le2, lng, l_has_n, ln, b);
     let (area, area_ok) = sample_toward_x(l_rad, l_inv_area, p, at);
     let sel = if lights.is_empty() {

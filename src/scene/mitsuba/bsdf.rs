@@ -95,9 +95,8 @@ impl<'a, 'x> Builder<'a, 'x> {
                 ));
             }
             let t = self.texture(c.node)?;
-            let looked_up_at_hit = (p.ty == "diffuse" && name == "reflectance")
-                || (p.ty == "blendbsdf" && name == "weight");
-            if matches!(t, Texture::MeshAttribute(_)) && !looked_up_at_hit {
+            let slot = (p.ty.as_str(), name);
+            if matches!(t, Texture::MeshAttribute(_)) && !MESH_ATTRIBUTE_SLOTS.contains(&slot) {
                 return Err(self.x.err(c.at, MESH_ATTRIBUTE_USE));
             }
             return Ok(t);
@@ -108,8 +107,13 @@ impl<'a, 'x> Builder<'a, 'x> {
     }
 }
 
-/// Where a `mesh_attribute` texture may stand: the BSDFs that look a texture up through the
-/// hit (the mesh attribute needs the hit's triangle, not only its uv).
+/// Where a `mesh_attribute` texture may stand, as (plugin, parameter): the slots whose BSDF
+/// looks its texture up through the hit (the attribute needs the hit's triangle, not only its
+/// uv) and that `shape.rs`'s `bound_copy` binds to each shape's mesh.
+pub(super) const MESH_ATTRIBUTE_SLOTS: [(&str, &str); 2] =
+    [("diffuse", "reflectance"), ("blendbsdf", "weight")];
+
+/// The error for a `mesh_attribute` anywhere else ([`MESH_ATTRIBUTE_SLOTS`] in words).
 const MESH_ATTRIBUTE_USE: &str = "mesh_attribute textures are supported as a diffuse BSDF's reflectance and a blendbsdf's weight";
 
 /// A BSDF plugin's constructor: reads the element's properties, builds what it nests.

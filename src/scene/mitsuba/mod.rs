@@ -19,7 +19,7 @@ mod shape;
 mod texture;
 mod transform;
 
-use crate::bsdf::{Bsdf, Texture};
+use crate::bsdf::{Bsdf, BsdfFlags, Texture};
 use crate::model::BtfModel;
 use crate::scene::channels::ImageChannels;
 use crate::scene::measured_material::BtfUse;
@@ -60,6 +60,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene> {
                         default_bsdf: [None, None],
                         meshes: Vec::new(),
                         emitters: Vec::new(),
+                        emission_textures: Vec::new(),
                         area_emitters_used: HashSet::new(),
                         groups: HashMap::new(),
                         group_spheres: Vec::new(),
@@ -112,6 +113,8 @@ pub(super) struct Builder<'a, 'x> {
     default_bsdf: [Option<u32>; 2],
     meshes: Vec<crate::geometry::Mesh>,
     emitters: Vec<Emitter>,
+    /// Radiance textures of area emitters, by mesh index (see [`Scene::emission_textures`]).
+    emission_textures: Vec<(u32, crate::bsdf::Texture)>,
     /// Area `<emitter>` elements a shape has taken (nested or by `<ref>`).
     area_emitters_used: HashSet<Key>,
     /// Each `shapegroup` built, by element: its group index.
@@ -151,6 +154,45 @@ fn plugin_constructor<'t, C>(
     }
 }
 impl<'a, 'x> Builder<'a, 'x> {
+    /// Refuses a `ptracer` (at `at`) on a scene where Mitsuba's particle tracer and btfpt's path
+    /// tracer, which renders it, would not converge to the same image: a surface with a delta
+    /// lobe (the particle tracer cannot connect it to the camera), an environment emitter, a
+    /// camera other than a perspective or thin lens one.
+    fn check_ptracer(&self, at: N<'a>, camera: &Camera) -> Result<()> {
+        let why = |what: String| {
+            self.x.err(
+                at,
+                format!(
+                    "integrator \"ptracer\": btfpt renders particle-tracer scenes with its path \
+                     tracer, which gives Mitsuba's particle-tracer image only without specular \
+                     surfaces, environment emitters and orthographic cameras; {what}"
+                ),
+            )
+        };
+        let delta = |b: u32| self.bsdfs[b as usize].flags().has(BsdfFlags::DELTA);
+        let spheres = self.group_spheres.iter().flatten();
+        if let Some(name) = self
+            .meshes
+            .iter()
+            .map(|m| (m.bsdf, &m.name))
+            .chain(spheres.map(|(_, b, name)| (*b, name)))
+            .find_map(|(b, name)| delta(b).then_some(name))
+        {
+            return Err(why(format!("shape \"{name}\" has a specular (delta) BSDF")));
+        }
+        if self
+            .emitters
+            .iter()
+            .any(|e| matches!(e, Emitter::Constant { .. } | Emitter::EnvMap { .. }))
+        {
+            return Err(why("the scene has an environment emitter".into()));
+        }
+        if camera.projection == crate::scene::Projection::Orthographic {
+            return Err(why("the camera is orthographic".into()));
+        }
+        Ok(())
+    }
+
     fn scene(&mut self, root: N<'a>) -> Result<Scene> {
         let x = self.x;
         if root.tag_name().name() != "scene" {
@@ -180,6 +222,7 @@ impl<'a, 'x> Builder<'a, 'x> {
         }
         let mut camera: Option<(Camera, crate::scene::sensor::Sampler)> = None;
         let mut integrator: Option<(IntegratorSettings, ImageChannels)> = None;
+        let mut ptracer_at = None;
         if let Some(t) = root
             .children()
             .find(|c| c.is_text() && !c.text().unwrap_or("").trim().is_empty())
@@ -196,6 +239,15 @@ impl<'a, 'x> Builder<'a, 'x> {
                         return Err(x.err(ch, "more than one <integrator>"));
                     }
                     integrator = Some(self.integrator(ch)?);
+                    let nested = x
+                        .children(ch)
+                        .into_iter()
+                        .filter(|c| c.tag_name().name() == "integrator");
+                    for node in std::iter::once(ch).chain(nested) {
+                        if Props::parse(x, node)?.ty == "ptracer" {
+                            ptracer_at = Some(node);
+                        }
+                    }
                 }
                 "sensor" => {
                     if camera.is_some() {
@@ -247,6 +299,9 @@ impl<'a, 'x> Builder<'a, 'x> {
             ));
         }
         let (camera, sampler) = camera.ok_or_else(|| x.err(root, "the scene has no <sensor>"))?;
+        if let Some(at) = ptracer_at {
+            self.check_ptracer(at, &camera)?;
+        }
         let (mut integrator, channels) = integrator.unwrap_or_default();
         integrator.sampler = sampler.kind;
         Ok(Scene {
@@ -258,6 +313,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             meshes: std::mem::take(&mut self.meshes),
             bsdfs: std::mem::take(&mut self.bsdfs),
             emitters: std::mem::take(&mut self.emitters),
+            emission_textures: std::mem::take(&mut self.emission_textures),
             inputs: {
                 let mut inputs = x.inputs();
                 for u in &self.btf_uses {

@@ -17,6 +17,7 @@ const INTEGRATOR_PLUGINS: &[(&str, Constructor<IntegratorSettings>)] = &[
     ("direct", IntegratorSettings::direct_from_props),
     ("volpath", IntegratorSettings::volpath_from_props),
     ("volpathmis", IntegratorSettings::volpath_from_props),
+    ("ptracer", IntegratorSettings::ptracer_from_props),
 ];
 
 /// The integrators that wrap one nested integrator and add image channels beside its image.

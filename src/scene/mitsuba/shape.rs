@@ -2,6 +2,7 @@
 //! (mesh files: `obj.rs`, `ply.rs`, `serialized.rs`; built-ins: [`Shape`]'s in `shapes.rs`),
 //! then the shape's bsdf and area emitter.
 
+use super::bsdf::Element;
 use super::properties::Props;
 use super::{Builder, Constructor, N, plugin_constructor};
 use crate::Result;
@@ -35,7 +36,10 @@ impl<'a, 'x> Builder<'a, 'x> {
             "shapegroup" => self.shapegroup(node).map(|_| ()),
             "instance" => self.instance(&p),
             _ => {
-                let (mesh, _) = self.plain_shape(node, &p)?;
+                let (mesh, _, emission) = self.plain_shape(node, &p)?;
+                if let Some(t) = emission {
+                    self.emission_textures.push((self.meshes.len() as u32, t));
+                }
                 self.meshes.push(mesh);
                 Ok(())
             }
@@ -43,12 +47,13 @@ impl<'a, 'x> Builder<'a, 'x> {
     }
 
     /// A shape other than a group or instance, in world space; for an analytic sphere also its
-    /// shape as read (an instance places a copy of it).
+    /// shape as read (an instance places a copy of it), and for an area emitter whose radiance
+    /// is a spatially varying texture, that texture (the mesh's `emitter` is then 1).
     fn plain_shape(
         &mut self,
         node: N<'a>,
         p: &Props<'a, 'x>,
-    ) -> Result<(crate::geometry::Mesh, Option<Shape>)> {
+    ) -> Result<(crate::geometry::Mesh, Option<Shape>, Option<Texture>)> {
         let x = self.x;
         let shape =
             plugin_constructor(SHAPE_PLUGINS, p, "shape type", &["shapegroup", "instance"])?(p)?;
@@ -63,8 +68,9 @@ impl<'a, 'x> Builder<'a, 'x> {
                 if e.ty != "area" {
                     return Err(e.err("only \"area\" emitters can be attached to a shape"));
                 }
-                let radiance = Emitter::area_radiance_from_props(&e)?;
-                e.finish()?;
+                let mut element = Element { b: self, p: e };
+                let radiance = Emitter::area_radiance_from_props(&mut element)?;
+                element.p.finish()?;
                 self.area_emitters_used.insert(x.key(c.node));
                 Some(radiance)
             }
@@ -88,8 +94,18 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
             None => bsdf,
         };
-        mesh.emitter = emitter;
-        Ok((mesh, sphere))
+        let emission = match emitter {
+            None => None,
+            Some(Texture::Constant(c)) => {
+                mesh.emitter = Some(c);
+                None
+            }
+            Some(t) => {
+                mesh.emitter = Some(crate::math::Spectrum::ONE);
+                Some(t)
+            }
+        };
+        Ok((mesh, sphere, emission))
     }
 
     /// Mitsuba's `shapegroup`: its shapes are kept in object space, tagged with the group,
@@ -128,7 +144,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             if cp.single_child("emitter")?.is_some() {
                 return Err(cp.err("instancing of emitters is not supported: a shape inside a shapegroup cannot carry an area emitter (Mitsuba refuses it)"));
             }
-            let (mut mesh, sphere) = self.plain_shape(c.node, &cp)?;
+            let (mut mesh, sphere, _) = self.plain_shape(c.node, &cp)?;
             match sphere {
                 // An analytic sphere costs no triangles: each instance gets its own copy.
                 Some(shape) => self.group_spheres[g as usize].push((shape, mesh.bsdf, mesh.name)),
@@ -205,7 +221,9 @@ impl<'a, 'x> Builder<'a, 'x> {
 }
 
 /// A copy of `b` whose `mesh_attribute` textures are bound to `mesh`'s attributes (None when
-/// it has none): each shape evaluates the attribute of its own mesh, as in Mitsuba.
+/// it has none): each shape evaluates the attribute of its own mesh, as in Mitsuba. Binds the
+/// slots of `bsdf.rs`'s `MESH_ATTRIBUTE_SLOTS` (the only ones the loader lets one stand in),
+/// through `twosided` and `blendbsdf`.
 fn bound_copy(b: &Bsdf, mesh: &Mesh) -> std::result::Result<Option<Bsdf>, String> {
     match b {
         Bsdf::Diffuse(d) => match &d.reflectance {
