@@ -87,7 +87,7 @@ impl BlendBsdf {
     /// The weight at the hit: a mesh attribute's scalar value (Mitsuba's `eval_1`), any other
     /// texture's luminance at the hit's uv; clipped to [0, 1].
     #[inline]
-    fn w(&self, si: &SurfaceInteraction) -> f32 {
+    pub fn weight_at(&self, si: &SurfaceInteraction) -> f32 {
         let w = match &self.weight {
             Texture::MeshAttribute(m) => m.eval_1_at(si),
             t => luminance(t.eval(si.uv)),
@@ -112,19 +112,19 @@ impl Bxdf for BlendBsdf {
 
     /// (1 − w) f₀ + w f₁.
     fn eval(&self, si: &SurfaceInteraction, wo: Vec3) -> Spectrum {
-        let w = self.w(si);
+        let w = self.weight_at(si);
         self.bsdfs[0].eval(si, wo) * (1.0 - w) + self.bsdfs[1].eval(si, wo) * w
     }
 
     /// (1 − w) p₀ + w p₁.
     fn pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> f32 {
-        let w = self.w(si);
+        let w = self.weight_at(si);
         self.bsdfs[0].pdf(si, wo) * (1.0 - w) + self.bsdfs[1].pdf(si, wo) * w
     }
 
     /// `eval` and `pdf` together.
     fn eval_pdf(&self, si: &SurfaceInteraction, wo: Vec3) -> (Spectrum, f32) {
-        let w = self.w(si);
+        let w = self.weight_at(si);
         let (v0, p0) = self.bsdfs[0].eval_pdf(si, wo);
         let (v1, p1) = self.bsdfs[1].eval_pdf(si, wo);
         (v0 * (1.0 - w) + v1 * w, p0 * (1.0 - w) + p1 * w)
@@ -138,7 +138,7 @@ impl Bxdf for BlendBsdf {
         sample1: f32,
         sample2: Vec2,
     ) -> Option<(BsdfSample, Spectrum)> {
-        let w = self.w(si);
+        let w = self.weight_at(si);
         // w = 0 always takes the first (avoids 0/0 at sample1 = 0).
         let first = sample1 > w || w == 0.0;
         let (chosen, other, s1, w_chosen) = if first {

@@ -5,6 +5,7 @@
 //! (for a measured BTF that is B/π, docs/conventions.md); `sample` returns the sampled direction with the
 //! weight f · |cos θ_o| / pdf. Each model implements [`Bxdf`]; [`Bsdf`] is the enum of them all.
 
+pub mod albedo;
 pub mod at;
 pub mod batch;
 pub mod blend;

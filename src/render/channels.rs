@@ -40,6 +40,16 @@ pub fn sample_values(
         .as_ref()
         .map(|h| surface_interaction(&rs.scene.meshes, o, d, h));
     let xyz = srgb_to_xyz([l[0], l[1], l[2]]);
+    let albedo = match &si {
+        Some(si) if values.iter().any(|v| matches!(v, SampleValue::Albedo(_))) => {
+            let mesh = &rs.scene.meshes[si.mesh as usize];
+            rs.scene
+                .bsdfs
+                .get(mesh.bsdf as usize)
+                .map_or(Spectrum::ZERO, |b| b.diffuse_reflectance(si))
+        }
+        _ => Spectrum::ZERO,
+    };
     for (slot, v) in out.iter_mut().zip(values) {
         let a = |v: crate::math::Vec3, axis: usize| v[axis];
         *slot = match (*v, &si) {
@@ -52,6 +62,7 @@ pub fn sample_values(
                 if hit.is_some() || env { 1.0 } else { 0.0 }
             }
             (_, None) => 0.0,
+            (SampleValue::Albedo(i), Some(_)) => albedo[i],
             (SampleValue::Depth, Some(si)) => si.t,
             (SampleValue::Position(i), Some(si)) => a(si.p, i),
             (SampleValue::Uv(i), Some(si)) => si.uv[i],

@@ -22,6 +22,9 @@ pub enum SampleValue {
     /// ∂p/∂u and ∂p/∂v, world (`dp_du`, `dp_dv`).
     DpDu(usize),
     DpDv(usize),
+    /// The BSDF's diffuse reflectance at the hit, channel 0..3 (`albedo`; see
+    /// [`crate::bsdf::Bsdf::diffuse_reflectance`]).
+    Albedo(usize),
     /// Triangle index in its mesh (`prim_index`).
     PrimIndex,
     /// 1 + the shape's index in the scene, 0 where the ray escapes (`shape_index`).
@@ -72,6 +75,7 @@ pub struct Nested<'n> {
 
 /// AOV types of Mitsuba 3.9.1 btfpt writes, with their channel suffixes.
 const AOV_TYPES: &[(&str, &[&str])] = &[
+    ("albedo", &["R", "G", "B"]),
     ("depth", &["T"]),
     ("position", &["X", "Y", "Z"]),
     ("uv", &["U", "V"]),
@@ -84,10 +88,11 @@ const AOV_TYPES: &[(&str, &[&str])] = &[
 ];
 
 /// Mitsuba AOV types btfpt does not compute.
-const AOV_TYPES_MISSING: &[&str] = &["albedo", "duv_dx", "duv_dy"];
+const AOV_TYPES_MISSING: &[&str] = &["duv_dx", "duv_dy"];
 
 fn aov_value(ty: &str, axis: usize) -> SampleValue {
     match ty {
+        "albedo" => SampleValue::Albedo(axis),
         "depth" => SampleValue::Depth,
         "position" => SampleValue::Position(axis),
         "uv" => SampleValue::Uv(axis),
