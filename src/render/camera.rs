@@ -171,6 +171,22 @@ impl ProjectiveCamera {
         }
     }
 
+    /// The ray differentials of the ray through (`fx`, `fy`) with aperture sample `u`, as
+    /// Mitsuba's `sample_ray_differential` makes them: the (origin, direction) of the rays one
+    /// pixel to the right and one pixel down. The perspective and thin-lens offset rays leave
+    /// the main ray's origin (towards where their own pinhole/focal-plane rays go); the
+    /// orthographic ones leave the offset film position, parallel to the main ray.
+    pub fn differentials(&self, fx: f32, fy: f32, u: Vec2) -> [(Vec3, Vec3); 2] {
+        let (o, d, _) = self.sample_ray(fx, fy, u);
+        [(fx + 1.0, fy), (fx, fy + 1.0)].map(|(x, y)| {
+            let (ox, dx, _) = self.sample_ray(x, y, u);
+            match self.projection {
+                Projection::Orthographic => (ox, d),
+                _ => (o, dx),
+            }
+        })
+    }
+
     /// [`ProjectiveCamera::sample_ray`] for 16 film positions and aperture samples `(ux, uy)`:
     /// the same operations in the same order per lane (the packet integrator's refill), so each
     /// lane is the scalar ray's bits. The pinhole runs in SIMD; the thin lens and orthographic

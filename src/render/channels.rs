@@ -7,10 +7,11 @@
 use super::RenderScene;
 use super::film::RenderSettings;
 use super::integrator::film_sample_start;
+use crate::geometry::SurfaceInteraction;
 use crate::geometry::shading::surface_interaction;
 use crate::io::RgbImage;
-use crate::math::Spectrum;
 use crate::math::cie1931::srgb_to_xyz;
+use crate::math::{Spectrum, Vec2, Vec3};
 use crate::scene::channels::{ChannelValue, ImageChannels, SampleValue};
 
 /// Writes the scene's per-sample channel values (`rs.scene.channels.per_sample`) of sample
@@ -27,7 +28,11 @@ pub fn sample_values(
 ) {
     let values = &rs.scene.channels.per_sample;
     let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
-    let (o, d, tmax) = rs.camera.sample_ray_rng(fx, fy, &mut rng);
+    let u = match rs.camera.needs_aperture_sample() {
+        true => rng.next_2d(),
+        false => Vec2::splat(0.5),
+    };
+    let (o, d, tmax) = rs.camera.sample_ray(fx, fy, u);
     let needs_hit = values
         .iter()
         .any(|v| v.needs_hit() || *v == SampleValue::Alpha);
@@ -50,6 +55,21 @@ pub fn sample_values(
         }
         _ => Spectrum::ZERO,
     };
+    let duv = match &si {
+        Some(si)
+            if values
+                .iter()
+                .any(|v| matches!(v, SampleValue::DuvDx(_) | SampleValue::DuvDy(_))) =>
+        {
+            let scale = 1.0 / (rs.scene.spp.max(1) as f32).sqrt();
+            let [x, y] = rs.camera.differentials(fx, fy, u).map(|(ox, dx)| {
+                // Mitsuba's scale_differential: the offset rays moved towards the main one.
+                ((ox - o) * scale + o, (dx - d) * scale + d)
+            });
+            uv_partials(si, x, y)
+        }
+        _ => [Vec2::ZERO; 2],
+    };
     for (slot, v) in out.iter_mut().zip(values) {
         let a = |v: crate::math::Vec3, axis: usize| v[axis];
         *slot = match (*v, &si) {
@@ -63,6 +83,8 @@ pub fn sample_values(
             }
             (_, None) => 0.0,
             (SampleValue::Albedo(i), Some(_)) => albedo[i],
+            (SampleValue::DuvDx(i), Some(_)) => duv[0][i],
+            (SampleValue::DuvDy(i), Some(_)) => duv[1][i],
             (SampleValue::Depth, Some(si)) => si.t,
             (SampleValue::Position(i), Some(si)) => a(si.p, i),
             (SampleValue::Uv(i), Some(si)) => si.uv[i],
@@ -74,6 +96,26 @@ pub fn sample_values(
             (SampleValue::ShapeIndex, Some(si)) => (si.mesh + 1) as f32,
         };
     }
+}
+
+/// ∂uv/∂x and ∂uv/∂y at `si` from the offset rays `x` and `y` (origin, direction), as Mitsuba's
+/// `SurfaceInteraction::compute_uv_partials`: each offset ray meets the hit's tangent plane, and
+/// the two position offsets are solved for uv in the least-squares sense through ∂p/∂u, ∂p/∂v
+/// (0 where those are degenerate).
+fn uv_partials(si: &SurfaceInteraction, x: (Vec3, Vec3), y: (Vec3, Vec3)) -> [Vec2; 2] {
+    let plane = si.n.dot(si.p);
+    let (du, dv) = (si.dpdu, si.dpdv);
+    let a00 = du.dot(du);
+    let a01 = du.dot(dv);
+    let a11 = dv.dot(dv);
+    let inv_det = 1.0 / (a00 * a11 - a01 * a01);
+    let inv_det = if inv_det.is_finite() { inv_det } else { 0.0 };
+    [x, y].map(|(o, d)| {
+        let t = (plane - si.n.dot(o)) / si.n.dot(d);
+        let dp = d * t + o - si.p;
+        let (b0, b1) = (du.dot(dp), dv.dot(dp));
+        Vec2::new(a11 * b0 - a01 * b1, a00 * b1 - a01 * b0) * inv_det
+    })
 }
 
 /// The extra output channels of a finished render, named as Mitsuba names them: the image's

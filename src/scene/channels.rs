@@ -25,6 +25,10 @@ pub enum SampleValue {
     /// The BSDF's diffuse reflectance at the hit, channel 0..3 (`albedo`; see
     /// [`crate::bsdf::Bsdf::diffuse_reflectance`]).
     Albedo(usize),
+    /// ∂uv/∂x and ∂uv/∂y, component 0 = u, 1 = v (`duv_dx`, `duv_dy`): the uv change across the
+    /// camera's ray differentials, scaled by 1/√spp as Mitsuba scales them.
+    DuvDx(usize),
+    DuvDy(usize),
     /// Triangle index in its mesh (`prim_index`).
     PrimIndex,
     /// 1 + the shape's index in the scene, 0 where the ray escapes (`shape_index`).
@@ -83,12 +87,11 @@ const AOV_TYPES: &[(&str, &[&str])] = &[
     ("sh_normal", &["X", "Y", "Z"]),
     ("dp_du", &["X", "Y", "Z"]),
     ("dp_dv", &["X", "Y", "Z"]),
+    ("duv_dx", &["U", "V"]),
+    ("duv_dy", &["U", "V"]),
     ("prim_index", &["I"]),
     ("shape_index", &["I"]),
 ];
-
-/// Mitsuba AOV types btfpt does not compute.
-const AOV_TYPES_MISSING: &[&str] = &["duv_dx", "duv_dy"];
 
 fn aov_value(ty: &str, axis: usize) -> SampleValue {
     match ty {
@@ -100,6 +103,8 @@ fn aov_value(ty: &str, axis: usize) -> SampleValue {
         "sh_normal" => SampleValue::ShNormal(axis),
         "dp_du" => SampleValue::DpDu(axis),
         "dp_dv" => SampleValue::DpDv(axis),
+        "duv_dx" => SampleValue::DuvDx(axis),
+        "duv_dy" => SampleValue::DuvDy(axis),
         "prim_index" => SampleValue::PrimIndex,
         _ => SampleValue::ShapeIndex,
     }
@@ -145,14 +150,6 @@ impl ImageChannels {
                     ),
                 ));
             };
-            if AOV_TYPES_MISSING.contains(&ty) {
-                return Err(p.err_at(
-                    "aovs",
-                    &format!(
-                        "\"aovs\": AOV type \"{ty}\" (in \"{token}\") is not implemented in btfpt"
-                    ),
-                ));
-            }
             let Some((_, suffixes)) = AOV_TYPES.iter().find(|(t, _)| *t == ty) else {
                 let known: Vec<&str> = AOV_TYPES.iter().map(|(t, _)| *t).collect();
                 return Err(p.err_at(

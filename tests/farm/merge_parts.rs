@@ -171,7 +171,7 @@ fn aov_channels_merge_like_the_image_and_resume_bit_exactly() {
     let (full_img, full, _) = read_partial_exr_with(&out("full.exr")).unwrap();
     assert_eq!(
         full.len(),
-        24,
+        31,
         "{:?}",
         full.iter().map(|c| &c.0).collect::<Vec<_>>()
     );
