@@ -4,6 +4,7 @@
 mod committed_scenes;
 #[path = "../common/mod.rs"]
 mod common;
+mod fixtures;
 mod gltf;
 mod mesh_attributes;
 mod mitsuba_constructs;

@@ -4,10 +4,10 @@
 //! errors for a missing attribute, a bad name and a place that cannot look it up.
 
 use crate::common::attributed_grid_ply;
+use crate::fixtures::{load, load_err};
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Vec2, Vec3};
-use btfpt::scene::{self, LoadOptions, Scene};
 use std::path::Path;
 
 fn scene(dir: &Path, name: &str, shapes: &str) -> std::path::PathBuf {
@@ -23,17 +23,6 @@ fn scene(dir: &Path, name: &str, shapes: &str) -> std::path::PathBuf {
     )
     .unwrap();
     p
-}
-
-fn load(p: &Path) -> Scene {
-    scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
-fn err(p: &Path) -> String {
-    match scene::load(p, &LoadOptions::default()) {
-        Ok(_) => panic!("{} loaded", p.display()),
-        Err(e) => e.to_string(),
-    }
 }
 
 /// The hit on triangle `prim` at barycentrics `b`.
@@ -100,7 +89,7 @@ fn mesh_attribute_errors_name_the_file_line_and_problem() {
         r#"<shape type="ply"><string name="filename" value="grid.ply"/>
 <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_uv2"/></texture></bsdf></shape>"#,
     );
-    let e = err(&missing);
+    let e = load_err(&missing, &[]);
     assert!(
         e.contains("missing.xml:3")
             && e.contains("no attribute \"vertex_uv2\"")
@@ -113,7 +102,7 @@ fn mesh_attribute_errors_name_the_file_line_and_problem() {
         r#"<shape type="ply"><string name="filename" value="grid.ply"/>
 <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="color"/></texture></bsdf></shape>"#,
     );
-    let e = err(&bad_name);
+    let e = load_err(&bad_name, &[]);
     assert!(
         e.contains("name.xml:4") && e.contains("must start with"),
         "{e}"
@@ -124,7 +113,7 @@ fn mesh_attribute_errors_name_the_file_line_and_problem() {
         r#"<shape type="ply"><string name="filename" value="grid.ply"/>
 <bsdf type="roughplastic"><texture type="mesh_attribute" name="diffuse_reflectance"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#,
     );
-    let e = err(&elsewhere);
+    let e = load_err(&elsewhere, &[]);
     assert!(
         e.contains("where.xml:4") && e.contains("supported as a diffuse BSDF's reflectance"),
         "{e}"
@@ -136,6 +125,6 @@ fn mesh_attribute_errors_name_the_file_line_and_problem() {
         r#"<shape type="sphere">
 <bsdf type="diffuse"><texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture></bsdf></shape>"#,
     );
-    let e = err(&sphere);
+    let e = load_err(&sphere, &[]);
     assert!(e.contains("has no attribute") && e.contains("none"), "{e}");
 }

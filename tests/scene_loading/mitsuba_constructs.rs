@@ -3,11 +3,12 @@
 //! checkerboard textures, samplers, the direct integrator; and their bad inputs (each message
 //! names the file and the line).
 
+use crate::fixtures::{assert_names, load, load_err, write};
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::io::{RgbImage, write_png_srgb};
 use btfpt::math::{Spectrum, Vec2};
 use btfpt::scene::{self, LoadOptions, SamplerType, Scene};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const SENSOR: &str = r#"
     <sensor type="perspective">
@@ -15,35 +16,13 @@ const SENSOR: &str = r#"
         <film type="hdrfilm"><rfilter type="box"/></film>
     </sensor>"#;
 
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    if let Some(parent) = p.parent() {
-        std::fs::create_dir_all(parent).unwrap();
-    }
-    std::fs::write(&p, text).unwrap();
-    p
-}
-
 fn scene_text(body: &str) -> String {
     format!("<scene version=\"3.0.0\">\n{SENSOR}\n{body}\n</scene>\n")
 }
 
-fn load(p: &Path) -> Scene {
-    scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-}
-
 /// Asserts that loading fails with a message naming `file`, `line` and containing `needle`.
 fn expect_err(p: &Path, file: &str, line: u32, needle: &str) {
-    let e = match scene::load(p, &LoadOptions::default()) {
-        Ok(_) => panic!("expected an error containing {needle:?}"),
-        Err(e) => e.to_string(),
-    };
-    assert!(e.contains(file), "no file name {file} in: {e}");
-    assert!(
-        e.contains(&format!(":{line}:")),
-        "expected line {line} in: {e}"
-    );
-    assert!(e.contains(needle), "expected {needle:?} in: {e}");
+    assert_names(&load_err(p, &[]), file, line, &[needle]);
 }
 
 fn diffuse_reflectance(s: &Scene, mesh: usize) -> &Texture {

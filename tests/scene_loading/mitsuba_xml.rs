@@ -1,11 +1,12 @@
 //! Mitsuba XML scenes written by the tests themselves, parsed into the expected `Scene`, plus the
 //! error cases (each message must name the file and the line).
 
+use crate::fixtures::{assert_names, load, load_err, write};
 use btfpt::bsdf::{Bsdf, Bxdf, MicrofacetType, Texture};
 use btfpt::io::{RgbImage, write_exr, write_png_srgb};
 use btfpt::math::{Mat4, Vec2, Vec3};
 use btfpt::render::camera::ProjectiveCamera;
-use btfpt::scene::{self, Emitter, LoadOptions, Scene};
+use btfpt::scene::{self, Emitter, LoadOptions};
 use std::path::{Path, PathBuf};
 
 const SENSOR: &str = r#"
@@ -13,12 +14,6 @@ const SENSOR: &str = r#"
         <float name="fov" value="45"/>
         <film type="hdrfilm"><rfilter type="box"/></film>
     </sensor>"#;
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 fn scene_with(dir: &Path, body: &str) -> PathBuf {
     write(
@@ -28,26 +23,10 @@ fn scene_with(dir: &Path, body: &str) -> PathBuf {
     )
 }
 
-fn load(p: &Path) -> Scene {
-    match scene::load(p, &LoadOptions::default()) {
-        Ok(s) => s,
-        Err(e) => panic!("{e}"),
-    }
-}
-
 /// Asserts that loading fails with a message naming the file, the line and containing `needle`.
 fn expect_err(p: &Path, defines: &[(String, String)], line: u32, needle: &str) {
-    let e = match scene::load(p, &LoadOptions::with_defines(defines)) {
-        Ok(_) => panic!("expected an error containing {needle:?}"),
-        Err(e) => e.to_string(),
-    };
     let fname = p.file_name().unwrap().to_str().unwrap();
-    assert!(e.contains(fname), "no file name in: {e}");
-    assert!(
-        e.contains(&format!(":{line}:")),
-        "expected line {line} in: {e}"
-    );
-    assert!(e.contains(needle), "expected {needle:?} in: {e}");
+    assert_names(&load_err(p, defines), fname, line, &[needle]);
 }
 
 fn close(a: Vec3, b: Vec3) -> bool {

@@ -3,10 +3,11 @@
 //! (`reference-images/conductor_golden.txt`), the default is the ideal mirror, and the bad
 //! inputs fail naming the file, the line and the element.
 
+use crate::fixtures::{assert_names, load, load_err};
 use btfpt::bsdf::{Bsdf, Texture};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Spectrum, Vec2, Vec3};
-use btfpt::scene::{self, LoadOptions, Scene};
+use btfpt::scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// Mitsuba 3.9.1's values (`reference-images/conductor_materials.py`).
@@ -23,10 +24,6 @@ fn write(dir: &Path, body: &str) -> PathBuf {
     let text = format!("<scene version=\"3.0.0\">\n{SENSOR}\n{body}\n</scene>\n");
     std::fs::write(&p, text).unwrap();
     p
-}
-
-fn load(p: &Path) -> Scene {
-    scene::load(p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The BSDF of the `i`-th shape.
@@ -121,18 +118,7 @@ fn default_conductor_is_the_ideal_mirror() {
 
 /// Asserts that loading fails naming the file, `line`, the element and containing `needles`.
 fn expect_err(p: &Path, line: u32, needles: &[&str]) {
-    let e = match scene::load(p, &LoadOptions::default()) {
-        Ok(_) => panic!("expected an error containing {needles:?}"),
-        Err(e) => e.to_string(),
-    };
-    assert!(e.contains("metals.xml"), "no file name in: {e}");
-    assert!(
-        e.contains(&format!(":{line}:")),
-        "expected line {line} in: {e}"
-    );
-    for n in needles {
-        assert!(e.contains(n), "expected {n:?} in: {e}");
-    }
+    assert_names(&load_err(p, &[]), "metals.xml", line, needles);
 }
 
 #[test]

@@ -2,18 +2,12 @@
 //! and the renderer's camera make, against Mitsuba 3.9.1's own `sample_ray`
 //! (reference-images/sensor_golden.py), and the sensor parameters that are errors.
 
+use crate::fixtures::{assert_names, load, load_err, write};
 use btfpt::math::{Vec2, Vec3};
 use btfpt::render::camera::ProjectiveCamera;
-use btfpt::scene::{self, LoadOptions, Projection};
-use std::path::{Path, PathBuf};
+use btfpt::scene::Projection;
 
 const GOLDEN: &str = include_str!("../../reference-images/sensor_golden.txt");
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
-}
 
 fn scene_xml(sensor: &str) -> String {
     format!("<scene version=\"3.0.0\">\n{sensor}\n</scene>\n")
@@ -37,7 +31,7 @@ fn rays_match_mitsuba_sample_ray() {
     for line in GOLDEN.lines() {
         if let Some(xml) = line.strip_prefix("sensor ") {
             let path = write(dir.path(), "s.xml", &scene_xml(xml));
-            let s = scene::load(&path, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+            let s = load(&path);
             camera = Some(ProjectiveCamera::new(&s.camera).unwrap());
             cases += 1;
             continue;
@@ -71,10 +65,7 @@ fn rays_match_mitsuba_sample_ray() {
 #[test]
 fn thinlens_and_orthographic_parameters_are_read() {
     let dir = tempfile::tempdir().unwrap();
-    let load = |sensor: &str| {
-        let p = write(dir.path(), "s.xml", &scene_xml(sensor));
-        scene::load(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"))
-    };
+    let load = |sensor: &str| load(&write(dir.path(), "s.xml", &scene_xml(sensor)));
     let s =
         load(r#"<sensor type="thinlens"><float name="aperture_radius" value="0.25"/></sensor>"#);
     // Mitsuba's default focus distance is the far clip plane.
@@ -94,15 +85,7 @@ fn thinlens_and_orthographic_parameters_are_read() {
 fn expect_err(sensor: &str, needle: &str) {
     let dir = tempfile::tempdir().unwrap();
     let p = write(dir.path(), "bad.xml", &scene_xml(sensor));
-    let e = match scene::load(&p, &LoadOptions::default()) {
-        Ok(_) => panic!("expected an error containing {needle:?} for {sensor}"),
-        Err(e) => e.to_string(),
-    };
-    assert!(
-        e.contains("bad.xml") && e.contains(":2:"),
-        "no file:line in: {e}"
-    );
-    assert!(e.contains(needle), "expected {needle:?} in: {e}");
+    assert_names(&load_err(&p, &[]), "bad.xml", 2, &[needle]);
 }
 
 #[test]
