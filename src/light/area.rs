@@ -33,8 +33,8 @@ pub struct AreaLight {
 }
 
 impl AreaLight {
-    /// The light of mesh `mi` with constant `radiance`, or with the radiance `texture` if one is
-    /// given; None for a zero-area mesh (it can neither be hit nor sampled, so it contributes
+    /// The light of mesh `mi` with constant `radiance`, or with the radiance `texture` (which
+    /// replaces it) if one is given; None for a zero-area mesh (it can neither be hit nor sampled, so it contributes
     /// nothing).
     pub fn new(
         mesh: &Mesh,
@@ -48,11 +48,6 @@ impl AreaLight {
         let geo = (0..mesh.indices.len())
             .map(|t| AreaTri::new(mesh, t))
             .collect();
-        let texture = texture.filter(Texture::is_spatially_varying);
-        let radiance = match &texture {
-            None => radiance,
-            Some(_) => Spectrum::ONE,
-        };
         let uvs = match (&texture, mesh.uvs.is_empty()) {
             (None, _) => Vec::new(),
             (Some(_), true) => vec![[Vec2::ZERO, Vec2::X, Vec2::Y]; mesh.indices.len()],

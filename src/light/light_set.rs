@@ -54,12 +54,13 @@ impl LightSet {
             let texture = emission_textures
                 .iter()
                 .find(|(m, _)| *m as usize == mi)
-                .map(|(_, t)| t.clone());
+                .map(|(_, t)| t.clone())
+                .filter(Texture::is_spatially_varying);
             let light = match mesh.sphere {
                 Some(sphere) => Light::SphereArea(SphereAreaLight {
                     sphere,
                     radiance,
-                    texture: texture.filter(Texture::is_spatially_varying),
+                    texture,
                 }),
                 None => match AreaLight::new(mesh, mi as u32, radiance, texture) {
                     Some(a) => Light::Area(a),

@@ -362,13 +362,8 @@ impl GltfBuilder<'_> {
             let (bsdf, emitter) = self.material(prim.material())?;
             m.name = mesh.name().map(str::to_string).unwrap_or_else(what);
             m.bsdf = bsdf;
-            match emitter {
-                None => {}
-                Some(Texture::Constant(c)) => m.emitter = Some(c),
-                Some(t) => {
-                    m.emitter = Some(Spectrum::ONE);
-                    self.emission_textures.push((self.meshes.len() as u32, t));
-                }
+            if let Some(t) = emitter.and_then(|r| super::attach_emission(&mut m, r)) {
+                self.emission_textures.push((self.meshes.len() as u32, t));
             }
             self.meshes.push(m);
         }

@@ -152,6 +152,24 @@ pub struct Scene {
     pub inputs: Vec<std::path::PathBuf>,
 }
 
+/// Gives `mesh` an area emitter of `radiance`: a constant becomes the mesh's `emitter`; a texture
+/// sets it to 1 and is returned, for the loader to record in [`Scene::emission_textures`].
+pub(crate) fn attach_emission(
+    mesh: &mut Mesh,
+    radiance: crate::bsdf::Texture,
+) -> Option<crate::bsdf::Texture> {
+    match radiance {
+        crate::bsdf::Texture::Constant(c) => {
+            mesh.emitter = Some(c);
+            None
+        }
+        t => {
+            mesh.emitter = Some(crate::math::Spectrum::ONE);
+            Some(t)
+        }
+    }
+}
+
 /// Loads a scene file: Mitsuba 3 XML (`.xml`) or glTF 2.0 (`.gltf`, `.glb`), with the caller's
 /// defines and BTF model choice (see [`LoadOptions`]).
 pub fn load(path: &std::path::Path, options: &LoadOptions) -> crate::Result<Scene> {

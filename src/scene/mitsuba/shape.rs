@@ -94,17 +94,7 @@ impl<'a, 'x> Builder<'a, 'x> {
             }
             None => bsdf,
         };
-        let emission = match emitter {
-            None => None,
-            Some(Texture::Constant(c)) => {
-                mesh.emitter = Some(c);
-                None
-            }
-            Some(t) => {
-                mesh.emitter = Some(crate::math::Spectrum::ONE);
-                Some(t)
-            }
-        };
+        let emission = emitter.and_then(|r| crate::scene::attach_emission(&mut mesh, r));
         Ok((mesh, sphere, emission))
     }
 
