@@ -115,6 +115,16 @@ pub fn hits16(bsdf: &PlmcBsdf, chunk: &[(SurfaceInteraction, Vec3)]) -> [PlmcHit
         (w[0][l], w[1][l], w[2][l]) = (si.wi.x, si.wi.y, si.wi.z);
         (uv[0][l], uv[1][l]) = (si.uv.x, si.uv.y);
     }
-    let hits = bsdf.prepare16([&w[0], &w[1], &w[2]], [&uv[0], &uv[1]], u16::MAX);
-    hits.map(|h| h.expect("bench views are above the horizon"))
+    let mut hits = [const { std::mem::MaybeUninit::uninit() }; PREPARE_LANES];
+    let mut lane = [0u8; PREPARE_LANES];
+    let n = bsdf.prepare16(
+        [&w[0], &w[1], &w[2]],
+        [&uv[0], &uv[1]],
+        u16::MAX,
+        &mut hits,
+        &mut lane,
+    );
+    assert_eq!(n, PREPARE_LANES, "bench views are above the horizon");
+    // SAFETY: prepare16 wrote all PREPARE_LANES entries.
+    hits.map(|h| unsafe { h.assume_init() })
 }

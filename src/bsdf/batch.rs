@@ -240,16 +240,21 @@ impl<'a> BsdfBatch<'a> {
             self.look_up_textures(live);
         }
         if let Kind::Plmc(b) = self.kind {
-            let hits = b.prepare16([&wi.x.0, &wi.y.0, &wi.z.0], [&uv.x.0, &uv.y.0], live);
-            for l in (0..L).filter(|&l| live & (1 << l) != 0) {
-                match hits[l] {
-                    Some(h) => {
-                        self.plmc_hits[self.plmc_n] = MaybeUninit::new(h);
-                        self.plmc_lane[self.plmc_n] = l as u8;
-                        self.plmc_n += 1;
-                    }
-                    None => self.at[l] = Some(BsdfAt::Stateless(self.bsdf)),
-                }
+            let w = [&wi.x.0, &wi.y.0, &wi.z.0];
+            let n = b.prepare16(
+                w,
+                [&uv.x.0, &uv.y.0],
+                live,
+                &mut self.plmc_hits,
+                &mut self.plmc_lane,
+            );
+            self.plmc_n = n;
+            let with_hit = self.plmc_lane[..n].iter().fold(0u16, |m, &l| m | 1 << l);
+            let mut below = live & !with_hit;
+            while below != 0 {
+                let l = below.trailing_zeros() as usize;
+                below &= below - 1;
+                self.at[l] = Some(BsdfAt::Stateless(self.bsdf));
             }
         }
     }

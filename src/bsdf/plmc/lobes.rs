@@ -158,18 +158,7 @@ impl HitLobes {
     /// the mass below the horizon is the probability that a draw is rejected).
     #[inline]
     pub fn pdf(&self, wo: Vec3) -> f32 {
-        // Every lane, branch-free (vectorised); then a sum in a fixed order.
-        let mut t = [0f32; PADDED];
-        for j in 0..PADDED {
-            let c = self.ax[j] * wo.x + self.ay[j] * wo.y + self.az[j] * wo.z;
-            let v = self.norm[j] * pow(c.max(1e-30), self.n[j]);
-            t[j] = if c > 0.0 { v } else { 0.0 };
-        }
-        let mut p = 0.0f32;
-        for v in t {
-            p += v;
-        }
-        p
+        mixture_pdf(crate::math::simd::isa(), self, wo)
     }
 
     /// A direction from the lobe that `u` ∈ [0, 1) picks, placed by `s`; it may lie below the
@@ -189,6 +178,28 @@ impl HitLobes {
         let axis = Vec3::new(self.ax[j], self.ay[j], self.az[j]);
         Frame::from_normal(axis).to_world(Vec3::new(r * cp, r * sp, c))
     }
+}
+
+crate::isa_dispatch! {
+    /// [`HitLobes::pdf`] built for the CPU's vector width (every build the same bits: the
+    /// same lane operations, summed in lane order).
+    fn mixture_pdf(h: &HitLobes, wo: Vec3) -> f32 = mixture_pdf_lanes;
+}
+
+/// The density of every lane, branch-free (so it vectorises), then their sum in a fixed order.
+#[inline(always)]
+fn mixture_pdf_lanes(h: &HitLobes, wo: Vec3) -> f32 {
+    let mut t = [0f32; PADDED];
+    for j in 0..PADDED {
+        let c = h.ax[j] * wo.x + h.ay[j] * wo.y + h.az[j] * wo.z;
+        let v = h.norm[j] * pow(c.max(1e-30), h.n[j]);
+        t[j] = if c > 0.0 { v } else { 0.0 };
+    }
+    let mut p = 0.0f32;
+    for v in t {
+        p += v;
+    }
+    p
 }
 
 /// c^n for c ∈ (0, 1], n ≥ 0 (exp2/log2 of `math::simd::approx`: the same bits on every CPU).

@@ -7,26 +7,30 @@ use super::bsdf::{PlmcBsdf, PlmcHit};
 use super::lobes::HitLobes;
 use crate::btf::locate16::LOCATE_LANES;
 use crate::math::Vec2;
+use std::mem::MaybeUninit;
 
 /// Shading points of one [`PlmcBsdf::prepare16`] call (one per packet lane).
 pub const PREPARE_LANES: usize = LOCATE_LANES;
 
 impl PlmcBsdf {
     /// [`PlmcBsdf::prepare`] of the shading points whose local ω_i is `(wx[l], wy[l], wz[l])`
-    /// and uv `(u[l], v[l])`, for the lanes `l` whose bit is set in `lanes`: hit `l` is what
-    /// `prepare` returns for that point, to the bit (None below the horizon and for lanes not in
-    /// `lanes`), with the same index prefetches. Lanes not in `lanes` may hold anything.
+    /// and uv `(u[l], v[l])`, for the lanes `l` whose bit is set in `lanes`, with the same index
+    /// prefetches: the lanes where `prepare` returns a hit (all but those below the horizon)
+    /// get it, to the bit, written in lane order to `hits[j]` with the lane in `lane[j]`;
+    /// returns how many. Written in place: a packet's 16 hits are ~6 KB, which a returned
+    /// array copied twice per batch. Lanes not in `lanes` may hold anything.
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     pub fn prepare16(
         &self,
         [wx, wy, wz]: [&[f32; PREPARE_LANES]; 3],
         [u, v]: [&[f32; PREPARE_LANES]; 2],
         lanes: u16,
-    ) -> [Option<PlmcHit>; PREPARE_LANES] {
+        hits: &mut [MaybeUninit<PlmcHit>; PREPARE_LANES],
+        lane: &mut [u8; PREPARE_LANES],
+    ) -> usize {
         let m = &**self.material();
-        let mut out = [None; PREPARE_LANES];
         if lanes == 0 {
-            return out;
+            return 0;
         }
         // Only the lanes whose hit is kept are searched (`prepare`'s test: NaN z passes it).
         let kept = (0..PREPARE_LANES)
@@ -46,7 +50,8 @@ impl PlmcBsdf {
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
         let span = m.index_span();
-        for (l, o) in out.iter_mut().enumerate() {
+        let mut n_hits = 0;
+        for l in 0..PREPARE_LANES {
             // `prepare`'s test: NaN z passes it, as there.
             if kept & (1 << l) == 0 {
                 continue;
@@ -69,19 +74,23 @@ impl PlmcBsdf {
                     span.prefetch_views(texel, vi);
                 }
             }
-            *o = Some(PlmcHit {
+            hits[n_hits] = MaybeUninit::new(PlmcHit {
                 vi,
                 vw,
                 texels,
                 n: n as u8,
                 lobes: HitLobes::default(),
             });
+            lane[n_hits] = l as u8;
+            n_hits += 1;
         }
         // The lobes after every lane's prefetch was issued (they read those index entries).
-        for h in out.iter_mut().flatten() {
+        for h in &mut hits[..n_hits] {
+            // SAFETY: the loop above wrote entries 0..n_hits.
+            let h = unsafe { h.assume_init_mut() };
             h.lobes = m.hit_lobes(h.vi, h.vw, &h.texels[..h.n as usize]);
         }
-        out
+        n_hits
     }
 }
 

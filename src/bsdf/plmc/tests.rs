@@ -879,11 +879,21 @@ fn prepare16_is_prepare_lane_by_lane_bit_for_bit() {
                 let get = |f: fn(&SurfaceInteraction) -> f32| -> [f32; N] {
                     std::array::from_fn(|l| f(&si[l]))
                 };
-                let hits = bsdf.prepare16(
+                let mut packed = [const { std::mem::MaybeUninit::uninit() }; N];
+                let mut lane = [0u8; N];
+                let n = bsdf.prepare16(
                     [&get(|s| s.wi.x), &get(|s| s.wi.y), &get(|s| s.wi.z)],
                     [&get(|s| s.uv.x), &get(|s| s.uv.y)],
                     lanes,
+                    &mut packed,
+                    &mut lane,
                 );
+                assert!(lane[..n].is_sorted_by(|a, b| a < b), "hits in lane order");
+                let mut hits = [None; N];
+                for j in 0..n {
+                    // SAFETY: prepare16 wrote entries 0..n.
+                    hits[lane[j] as usize] = Some(unsafe { packed[j].assume_init() });
+                }
                 for l in 0..N {
                     let want = if lanes & (1 << l) != 0 {
                         bsdf.prepare(&si[l])
