@@ -10,6 +10,7 @@ use btfpt::bsdf::{BtfBsdf, Bxdf, PlmcBsdf};
 use btfpt::geometry::SurfaceInteraction;
 use btfpt::math::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 // One prepare16 call serves one batch.
 const _: () = assert!(BATCH <= PREPARE_LANES);
@@ -95,16 +96,13 @@ fn raw_group(
 }
 
 /// The per-hit states of up to [`BATCH`] queries by one [`PlmcBsdf::prepare16`]: the hits of
-/// the queries above the horizon packed to the front, with their query indices.
+/// the queries above the horizon packed to the front (the first one repeated past them), with
+/// their query indices and their count; None if no query is above the horizon.
 fn prepare_group(
     m: &PlmcBsdf,
     uv: &[[f32; 2]],
     wi: &[[f32; 3]],
-) -> (
-    [Option<btfpt::bsdf::PlmcHit>; PREPARE_LANES],
-    [usize; BATCH],
-    usize,
-) {
+) -> Option<([btfpt::bsdf::PlmcHit; BATCH], [usize; BATCH], usize)> {
     let n = uv.len();
     let mut lane = [[0f32; PREPARE_LANES]; 5];
     for q in 0..n {
@@ -112,16 +110,27 @@ fn prepare_group(
         [lane[3][q], lane[4][q]] = uv[q];
     }
     let mask = if n == 16 { u16::MAX } else { (1u16 << n) - 1 };
-    let hits = m.prepare16([&lane[0], &lane[1], &lane[2]], [&lane[3], &lane[4]], mask);
-    let mut slot = [0usize; BATCH];
-    let mut k = 0;
-    for q in 0..n {
-        if hits[q].is_some() {
-            slot[k] = q;
-            k += 1;
-        }
+    let mut hits = [const { MaybeUninit::uninit() }; PREPARE_LANES];
+    let mut query = [0u8; PREPARE_LANES];
+    let k = m.prepare16(
+        [&lane[0], &lane[1], &lane[2]],
+        [&lane[3], &lane[4]],
+        mask,
+        &mut hits,
+        &mut query,
+    );
+    if k == 0 {
+        return None;
     }
-    (hits, slot, k)
+    // SAFETY: prepare16 wrote entries 0..k (k ≥ 1).
+    let mut packed = [unsafe { hits[0].assume_init() }; BATCH];
+    let mut slot = [0usize; BATCH];
+    for j in 0..k {
+        // SAFETY: as above.
+        packed[j] = unsafe { hits[j].assume_init() };
+        slot[j] = query[j] as usize;
+    }
+    Some((packed, slot, k))
 }
 
 fn fitted_group(
@@ -136,18 +145,12 @@ fn fitted_group(
     if let Some(p) = pdf.as_deref_mut() {
         p.fill(0.0);
     }
-    let (hits, slot, k) = prepare_group(m, uv, wi);
-    if k == 0 {
-        return;
-    }
     // The hits above the horizon, packed (the filler past k is never read).
-    let Some(first) = hits[slot[0]] else { return };
-    let mut packed = [first; BATCH];
+    let Some((packed, slot, k)) = prepare_group(m, uv, wi) else {
+        return;
+    };
     let mut w = [Vec3::Z; BATCH];
     for j in 0..k {
-        if let Some(h) = hits[slot[j]] {
-            packed[j] = h;
-        }
         w[j] = v3(&wo[slot[j]]);
     }
     let want = [pdf.is_some(); BATCH];
@@ -201,16 +204,13 @@ pub fn sample(
                     };
                 match model {
                     Model::Fitted(m) => {
-                        let (hits, slot, k) = prepare_group(m, &uv[r.clone()], &wi[r.clone()]);
-                        let Some(first) = (k > 0).then(|| hits[slot[0]]).flatten() else {
+                        let Some((packed, slot, k)) =
+                            prepare_group(m, &uv[r.clone()], &wi[r.clone()])
+                        else {
                             continue;
                         };
-                        let mut packed = [first; BATCH];
                         let (mut s1, mut s2) = ([0f32; BATCH], [Vec2::ZERO; BATCH]);
                         for j in 0..k {
-                            if let Some(h) = hits[slot[j]] {
-                                packed[j] = h;
-                            }
                             s1[j] = u1[o + slot[j]];
                             s2[j] = Vec2::from(u2[o + slot[j]]);
                         }
