@@ -108,6 +108,11 @@ fn traverse<const ANY: bool, V: F8>(
         let (tn, mut mask) = rb.test(n, tmax);
         let mut inner = [Entry { node: 0, t: 0.0 }; WIDTH];
         let mut k = 0;
+        // The one-packet leaves of a node share packets (`flatten`): a packet already tested
+        // at this node cannot give a new hit (nothing farther than tmax counts, and its own
+        // hit would be found again as is), so each is tested once per visit.
+        let mut tested = [u32::MAX; WIDTH];
+        let mut nt = 0;
         while mask != 0 {
             let i = mask.trailing_zeros() as usize;
             mask &= mask - 1;
@@ -119,6 +124,13 @@ fn traverse<const ANY: bool, V: F8>(
                 };
                 k += 1;
             } else {
+                if count == 1 {
+                    if tested[..nt].contains(&n.child[i]) {
+                        continue;
+                    }
+                    tested[nt] = n.child[i];
+                    nt += 1;
+                }
                 let first = n.child[i] as usize;
                 for (j, tri) in tris[first..first + count as usize].iter().enumerate() {
                     let h = tri.intersect(&rb.o, &da, tmax);
