@@ -106,11 +106,17 @@ impl ProjectiveCamera {
     /// (origin, unit direction, maximum distance).
     #[inline]
     pub fn sample_ray_rng(&self, fx: f32, fy: f32, rng: &mut Pcg32) -> (Vec3, Vec3, f32) {
+        self.sample_ray(fx, fy, self.aperture_sample(rng))
+    }
+
+    /// The aperture sample of a ray: two numbers from `rng` when the lens needs them, else
+    /// the aperture's centre (0.5, 0.5) and nothing drawn.
+    #[inline]
+    pub fn aperture_sample(&self, rng: &mut Pcg32) -> Vec2 {
         if self.needs_aperture_sample() {
-            let u = rng.next_2d();
-            self.sample_ray(fx, fy, u)
+            rng.next_2d()
         } else {
-            self.ray(fx, fy)
+            Vec2::splat(0.5)
         }
     }
 

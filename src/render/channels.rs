@@ -28,10 +28,7 @@ pub fn sample_values(
 ) {
     let values = &rs.scene.channels.per_sample;
     let (mut rng, fx, fy) = film_sample_start(s.seed, s.width, px, py, sample);
-    let u = match rs.camera.needs_aperture_sample() {
-        true => rng.next_2d(),
-        false => Vec2::splat(0.5),
-    };
+    let u = rs.camera.aperture_sample(&mut rng);
     let (o, d, tmax) = rs.camera.sample_ray(fx, fy, u);
     let needs_hit = values
         .iter()
