@@ -34,8 +34,8 @@ pub struct AreaLight {
 
 impl AreaLight {
     /// The light of mesh `mi` with constant `radiance`, or with the radiance `texture` (which
-    /// replaces it) if one is given; None for a zero-area mesh (it can neither be hit nor sampled, so it contributes
-    /// nothing).
+    /// replaces it) if one is given; None for a zero-area mesh (it can neither be hit nor
+    /// sampled, so it contributes nothing).
     pub fn new(
         mesh: &Mesh,
         mi: u32,
