@@ -212,6 +212,9 @@ pub fn render<'py>(
         .map_err(|_| invalid("the scene is unusable after a failed render"))?;
     rs.kind = kind;
     let mut state = RenderState::with_filter(settings, rs.scene.camera.filter).py_err()?;
+    if !variance {
+        state = state.without_moments();
+    }
     let bar = Progress::new("render", "pixel-samples", state.samples_total(), progress);
     let opts = DriverOptions {
         threads,

@@ -314,6 +314,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             extra_channels,
             fp,
         )?;
+        if args.variance.is_some() && !s.has_moments() {
+            bail!(
+                "{}: this render was started without --variance, so its checkpoint has no \
+                 second moments to make the variance image from; resume it without --variance",
+                ckpt.display()
+            );
+        }
         eprintln!(
             "resuming from {} ({:.1}% done)",
             ckpt.display(),
@@ -327,7 +334,14 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
                 ckpt.display()
             );
         }
-        RenderState::with_channels(settings, rs.scene.camera.filter, extra_channels)?
+        let s = RenderState::with_channels(settings, rs.scene.camera.filter, extra_channels)?;
+        // Second moments only feed the variance image: without --variance each sample adds
+        // to half the sums (a checkpoint resumes with the moments it was started with).
+        if args.variance.is_some() {
+            s
+        } else {
+            s.without_moments()
+        }
     };
 
     let interrupt = super::interrupt::stop_flag();

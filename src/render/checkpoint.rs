@@ -6,6 +6,8 @@
 //! Renders with a reconstruction filter other than the radius-½ box write version 2: the filter
 //! (kind code, radius, two parameters: u32 + 3 f32) after the settings, and per tile the
 //! bordered buffers (w + 2b)(h + 2b) of sums, sums of squares, Σ w²L, Σ w and Σ w².
+//! A render kept without second moments ([`RenderState::without_moments`]) writes version 3
+//! (box) or 4 (filter): the same layouts without the sums of squares, Σ w²L and Σ w².
 
 use super::film::{RenderSettings, RenderState, Tile};
 use crate::io::bytes::{Reader, Writer};
@@ -17,6 +19,19 @@ use std::path::Path;
 const MAGIC: &[u8; 8] = b"BTFPTCK1";
 const VERSION: u32 = 1;
 const VERSION_FILTERED: u32 = 2;
+/// [`VERSION`] and [`VERSION_FILTERED`] of a render kept without second moments.
+const VERSION_NO_MOMENTS: u32 = 3;
+const VERSION_FILTERED_NO_MOMENTS: u32 = 4;
+
+/// The layout version of a checkpoint of a render with or without a filter and moments.
+fn version_of(filtered: bool, moments: bool) -> u32 {
+    match (filtered, moments) {
+        (false, true) => VERSION,
+        (true, true) => VERSION_FILTERED,
+        (false, false) => VERSION_NO_MOMENTS,
+        (true, false) => VERSION_FILTERED_NO_MOMENTS,
+    }
+}
 
 /// The filter as (kind code, radius, p1, p2) for the checkpoint header.
 fn filter_code(f: &Filter) -> (u32, [f32; 3]) {
@@ -34,7 +49,7 @@ pub fn save(path: &Path, state: &RenderState, fingerprint: u64) -> Result<()> {
     let s = &state.settings;
     let mut b = Writer::new();
     let filtered = !state.filter.is_box();
-    let version = if filtered { VERSION_FILTERED } else { VERSION };
+    let version = version_of(filtered, state.has_moments());
     b.bytes(MAGIC).u32(version).u64(fingerprint);
     for v in [
         s.width, s.height, s.crop[0], s.crop[1], s.crop[2], s.crop[3],
@@ -105,16 +120,15 @@ pub fn load_channels(
     let mut r = Reader::new(body, path, "corrupt checkpoint");
     r.seek(8)?;
     let version = r.u32("version")?;
-    let want = if filter.is_box() {
-        VERSION
-    } else {
-        VERSION_FILTERED
-    };
-    if version != want {
+    let filtered = !filter.is_box();
+    let moments = version == version_of(filtered, true);
+    let want = version_of(filtered, true);
+    if !moments && version != version_of(filtered, false) {
         return Err(Error::format(
             path,
             format!(
-                "checkpoint version {version} does not fit this render (expected {want}: {})",
+                "checkpoint version {version} does not fit this render (expected {want} or {}: {})",
+                version_of(filtered, false),
                 if filter.is_box() {
                     "box filter"
                 } else {
@@ -165,6 +179,9 @@ pub fn load_channels(
         }
     }
     let mut state = RenderState::with_channels(settings, *filter, extra)?;
+    if !moments {
+        state = state.without_moments();
+    }
     let n = r.len32("tile count")?;
     if n != state.tiles.len() {
         return Err(Error::format(path, "checkpoint tile layout differs"));

@@ -91,10 +91,12 @@ pub struct Tile {
     /// Samples per pixel completed (relative to spp_begin).
     pub done: u32,
     /// Per buffer pixel, row-major: Σ w·L and Σ (w·L)² (RGB); w = 1 for the box filter.
+    /// `sum2` is empty in a render kept without second moments
+    /// ([`RenderState::without_moments`]).
     pub sum: Vec<[f64; 3]>,
     pub sum2: Vec<[f64; 3]>,
     /// Filtered tiles only (empty for the box filter, whose weights are all 1): Σ w²·L (RGB),
-    /// Σ w and Σ w² per buffer pixel.
+    /// Σ w and Σ w² per buffer pixel (`sum_w2` and `weight2` empty without second moments).
     pub sum_w2: Vec<[f64; 3]>,
     pub weight: Vec<f64>,
     pub weight2: Vec<f64>,
@@ -117,13 +119,21 @@ impl Tile {
             return false;
         }
         let acc = &mut self.sum[i];
-        let acc2 = &mut self.sum2[i];
         for c in 0..3 {
-            let v = l[c] as f64;
-            acc[c] += v;
-            acc2[c] += v * v;
+            acc[c] += l[c] as f64;
+        }
+        if let Some(acc2) = self.sum2.get_mut(i) {
+            for c in 0..3 {
+                let v = l[c] as f64;
+                acc2[c] += v * v;
+            }
         }
         true
+    }
+
+    /// True if the tile keeps the second moments the variance image is made of.
+    pub fn has_moments(&self) -> bool {
+        !self.sum2.is_empty()
     }
 
     /// Adds the sample of film pixel (`px`, `py`), taken at film position (`fx`, `fy`), with
@@ -196,6 +206,26 @@ impl Tile {
             first as usize..end.max(first) as usize
         };
         let (xs, ys) = (span(lx, nx, fw, bx0, bw), span(ly, ny, fh, by0, bh));
+        if !self.has_moments() {
+            for j in ys {
+                let (y, wyj) = (ly + j as i64, wy[j]);
+                for i in xs.clone() {
+                    let x = lx + i as i64;
+                    let w = (wx[i] * wyj) as f64;
+                    let q = ((y - by0) * bw + (x - bx0)) as usize;
+                    for c in 0..3 {
+                        self.sum[q][c] += w * l[c] as f64;
+                    }
+                    self.weight[q] += w;
+                    for (k, &v) in extra.iter().enumerate() {
+                        if v.is_finite() {
+                            self.extra[q * n + k] += w * v as f64;
+                        }
+                    }
+                }
+            }
+            return finite;
+        }
         for j in ys {
             let (y, wyj) = (ly + j as i64, wy[j]);
             for i in xs.clone() {
@@ -326,6 +356,22 @@ impl RenderState {
         })
     }
 
+    /// The same render without the second moments (Σ (w·L)², Σ w²·L, Σ w²) that only the
+    /// variance image reads: each sample then adds to half the sums, and the film holds less.
+    pub fn without_moments(mut self) -> RenderState {
+        for t in &mut self.tiles {
+            t.sum2 = Vec::new();
+            t.sum_w2 = Vec::new();
+            t.weight2 = Vec::new();
+        }
+        self
+    }
+
+    /// True if the render keeps the second moments ([`RenderState::variance_image`] needs them).
+    pub fn has_moments(&self) -> bool {
+        self.tiles.iter().all(Tile::has_moments)
+    }
+
     /// True once every tile has all its samples.
     pub fn is_complete(&self) -> bool {
         let spp = self.settings.spp();
@@ -371,6 +417,13 @@ impl RenderState {
         if self.settings.spp() < 2 {
             return Err(Error::Invalid(
                 "the variance image needs at least 2 samples per pixel".into(),
+            ));
+        }
+        if !self.has_moments() {
+            return Err(Error::Invalid(
+                "the variance image needs the render's second moments, and this render was \
+                 kept without them"
+                    .into(),
             ));
         }
         if !self.filter.is_box() {
@@ -425,10 +478,11 @@ impl RenderState {
         let [cx, cy, cw, ch] = self.settings.crop;
         let (cw, ch) = (cw as usize, ch as usize);
         let mut a = vec![[0f64; 3]; cw * ch];
-        let mut a2 = vec![[0f64; 3]; cw * ch];
-        let mut aw2 = vec![[0f64; 3]; cw * ch];
+        let moments = if variance { cw * ch } else { 0 };
+        let mut a2 = vec![[0f64; 3]; moments];
+        let mut aw2 = vec![[0f64; 3]; moments];
         let mut wsum = vec![0f64; cw * ch];
-        let mut w2sum = vec![0f64; cw * ch];
+        let mut w2sum = vec![0f64; moments];
         for t in &self.tiles {
             let b = t.border as i64;
             let bw = (t.w + 2 * t.border) as usize;
@@ -441,11 +495,15 @@ impl RenderState {
                 let j = y as usize * cw + x as usize;
                 for c in 0..3 {
                     a[j][c] += t.sum[i][c];
-                    a2[j][c] += t.sum2[i][c];
-                    aw2[j][c] += t.sum_w2[i][c];
                 }
                 wsum[j] += wt;
-                w2sum[j] += t.weight2[i];
+                if variance {
+                    for c in 0..3 {
+                        a2[j][c] += t.sum2[i][c];
+                        aw2[j][c] += t.sum_w2[i][c];
+                    }
+                    w2sum[j] += t.weight2[i];
+                }
             }
         }
         let mut img = RgbImage::new(cw, ch);
@@ -481,7 +539,8 @@ impl RenderState {
             for ty in 0..t.h {
                 for tx in 0..t.w {
                     let i = (ty * t.w + tx) as usize;
-                    let v = std::array::from_fn(|c| f(t.sum[i][c], t.sum2[i][c], n) as f32);
+                    let sum2 = t.sum2.get(i).copied().unwrap_or_default();
+                    let v = std::array::from_fn(|c| f(t.sum[i][c], sum2[c], n) as f32);
                     img.set((t.x0 - cx + tx) as usize, (t.y0 - cy + ty) as usize, v);
                 }
             }

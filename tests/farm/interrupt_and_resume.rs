@@ -224,6 +224,14 @@ fn render_stopped_by_sigterm_and_sighup_resumes_bit_exactly_without_redoing_samp
         }
         stopped_at = Some(percent(&err, "interrupted at ", "%; checkpoint"));
     }
+    // Started without --variance, the checkpoint holds no second moments: a resume that asks
+    // for the variance is refused before it renders, and the checkpoint stays.
+    let mut with_variance = resume.clone();
+    let var = dir.path().join("var.exr");
+    with_variance.extend(["--variance".into(), var.display().to_string()]);
+    let (st, err) = stderr_of(btfpt().args(&with_variance).spawn().unwrap());
+    assert!(!st.success() && err.contains("without --variance"), "{err}");
+    assert!(ckpt.exists() && !out.exists() && !var.exists(), "{err}");
     let (st, err) = stderr_of(btfpt().args(&resume).spawn().unwrap());
     assert!(st.success(), "{err}");
     let p = stopped_at.unwrap();

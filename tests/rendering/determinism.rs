@@ -256,3 +256,53 @@ fn filtered_render_is_exact_across_threads_crops_and_resume() {
     assert!(var.data.iter().all(|v| v.is_finite() && *v >= 0.0));
     assert!(var.data.iter().any(|v| *v > 0.0));
 }
+
+#[test]
+fn a_render_without_moments_gives_the_same_image_and_checkpoints_as_such() {
+    let rs = test_scene();
+    let base = settings(&rs.scene, 4, 3);
+    let bits = |i: &btfpt::io::RgbImage| i.data.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for f in [Filter::BOX, Filter::default()] {
+        let with = render_filtered(&rs, base, f);
+        assert!(with.has_moments());
+        let run = |mut state: RenderState| {
+            let stop = AtomicBool::new(false);
+            while !state.is_complete() {
+                btfpt::render::driver::run_pass(&rs, &mut state, 1 << 20, &stop, &|_, _| {});
+            }
+            state
+        };
+        let fresh = || RenderState::with_filter(base, f).unwrap().without_moments();
+        let without = run(fresh());
+        assert!(!without.has_moments());
+        assert_eq!(
+            bits(&without.mean_image()),
+            bits(&with.mean_image()),
+            "{f:?}"
+        );
+        let err = without.variance_image().unwrap_err().to_string();
+        assert!(err.contains("second moments"), "{err}");
+        assert!(with.variance_image().is_ok());
+        // Interrupted without moments: the checkpoint keeps none, and resumes to the same bits.
+        let dir = tempfile::tempdir().unwrap();
+        let ck = dir.path().join("m.ckpt");
+        let mut state = fresh();
+        let stop = AtomicBool::new(false);
+        btfpt::render::driver::run_pass(&rs, &mut state, 1, &stop, &|_, _| {});
+        assert!(!state.is_complete());
+        checkpoint::save(&ck, &state, 3).unwrap();
+        let loaded = checkpoint::load_filtered(&ck, &base, &f, 3).unwrap();
+        assert!(!loaded.has_moments());
+        assert_eq!(loaded, state);
+        assert_eq!(bits(&run(loaded).mean_image()), bits(&with.mean_image()));
+        // A checkpoint with moments still loads with them.
+        let mut state = RenderState::with_filter(base, f).unwrap();
+        btfpt::render::driver::run_pass(&rs, &mut state, 1, &stop, &|_, _| {});
+        checkpoint::save(&ck, &state, 3).unwrap();
+        assert!(
+            checkpoint::load_filtered(&ck, &base, &f, 3)
+                .unwrap()
+                .has_moments()
+        );
+    }
+}
