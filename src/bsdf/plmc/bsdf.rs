@@ -149,7 +149,10 @@ impl PlmcBsdf {
             vw,
             texels,
             n: n as u8,
-            lobes: self.material.hit_lobes(vi, vw, &texels[..n]),
+            lobes: self
+                .material
+                .hit_lobes(vi, vw, &texels[..n])
+                .unwrap_or_default(),
         })
     }
 

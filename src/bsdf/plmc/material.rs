@@ -505,13 +505,14 @@ impl PlmcMaterial {
     }
 
     /// The lobe mixture of a hit at views `vi` (weights `vw`) filtered by `texels`: the lobes
-    /// of the texel with the largest filter weight.
+    /// of the texel with the largest filter weight; None (the empty mixture) when none of the
+    /// views has sharp lobes, so a caller keeps the empty one it has instead of copying one.
     pub(super) fn hit_lobes(
         &self,
         vi: [u32; 3],
         vw: [f32; 3],
         texels: &[(usize, f32)],
-    ) -> HitLobes {
+    ) -> Option<HitLobes> {
         let mut t = texels.first().map_or(0, |x| x.0);
         let mut best = f32::NEG_INFINITY;
         for &(i, w) in texels {
@@ -520,7 +521,7 @@ impl PlmcMaterial {
             }
         }
         if !(0..3).any(|a| vw[a] > 0.0 && self.sharp_views[vi[a] as usize]) {
-            return HitLobes::default();
+            return None;
         }
         let nv = self.n_views;
         let mut lobes = [[0f32; 5]; HIT_LOBES];
@@ -549,7 +550,7 @@ impl PlmcMaterial {
                 weight[3 * a + c] = selection_weight(vw[a], c, albedo);
             }
         }
-        HitLobes::new(&lobes, &weight)
+        Some(HitLobes::new(&lobes, &weight))
     }
 }
 

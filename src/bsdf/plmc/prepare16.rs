@@ -88,7 +88,9 @@ impl PlmcBsdf {
         for h in &mut hits[..n_hits] {
             // SAFETY: the loop above wrote entries 0..n_hits.
             let h = unsafe { h.assume_init_mut() };
-            h.lobes = m.hit_lobes(h.vi, h.vw, &h.texels[..h.n as usize]);
+            if let Some(lobes) = m.hit_lobes(h.vi, h.vw, &h.texels[..h.n as usize]) {
+                h.lobes = lobes;
+            }
         }
         n_hits
     }

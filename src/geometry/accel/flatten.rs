@@ -78,8 +78,7 @@ pub(super) fn flatten(
             let n = &mut nodes[me];
             if count > LANES {
                 // Only with leaves wider than a packet: whole packets of its own.
-                n.child[slot] = packets.len() as u32;
-                n.count[slot] = count.div_ceil(LANES) as u32;
+                n.set_leaf(slot, packets.len() as u32, count.div_ceil(LANES));
                 for chunk in prims.chunks(LANES) {
                     let mut pk = [u32::MAX; LANES];
                     for (l, &p) in pk.iter_mut().zip(chunk) {
@@ -103,9 +102,9 @@ pub(super) fn flatten(
                 *l = gids[p as usize];
             }
             fill[bin] += count;
-            n.child[slot] = (base + bin) as u32;
-            n.count[slot] = 1;
+            n.set_leaf(slot, (base + bin) as u32, 1);
         }
+        nodes[me].link_shared_packets();
     }
     root
 }

@@ -21,8 +21,14 @@ pub(super) struct Node8 {
     pub bounds: [[f32; WIDTH]; 6],
     /// Internal child: index into the node array. Leaf child: first packet of the leaf.
     pub child: [u32; WIDTH],
-    /// 0 for an internal child (or an empty slot), else the number of packets of the leaf.
-    pub count: [u32; WIDTH],
+    /// 0 for an internal child (or an empty slot), else the number of packets of the leaf
+    /// (leaves hold at most eight triangles, one packet, so 16 bits are plenty).
+    pub count: [u16; WIDTH],
+    /// Per leaf slot, the later leaf slots whose packet is the same (one-packet leaves share
+    /// packets, see `flatten`): a ray that tests the packet for this slot skips them.
+    pub dup: [u8; WIDTH],
+    /// Bit i set if slot i is a leaf: the traversal splits the entered slots with one AND.
+    pub leaves: u8,
 }
 
 impl Node8 {
@@ -38,7 +44,31 @@ impl Node8 {
         ],
         child: [u32::MAX; WIDTH],
         count: [0; WIDTH],
+        dup: [0; WIDTH],
+        leaves: 0,
     };
+
+    /// Makes slot `slot` a leaf of `packets` packets starting at packet `first`.
+    pub fn set_leaf(&mut self, slot: usize, first: u32, packets: usize) {
+        self.child[slot] = first;
+        self.count[slot] = u16::try_from(packets).expect("a BVH leaf of over 65 535 packets");
+        self.leaves |= 1 << slot;
+    }
+
+    /// Fills `dup` from the leaf slots' packets: later one-packet leaves of the same packet.
+    pub fn link_shared_packets(&mut self) {
+        for i in 0..WIDTH {
+            self.dup[i] = 0;
+            if self.count[i] != 1 {
+                continue;
+            }
+            for j in i + 1..WIDTH {
+                if self.count[j] == 1 && self.child[j] == self.child[i] {
+                    self.dup[i] |= 1 << j;
+                }
+            }
+        }
+    }
 }
 
 /// Per-ray constants of the slab test, splatted into the lane type `V`.

@@ -105,61 +105,56 @@ fn traverse<const ANY: bool, V: F8>(
     let mut node = 0u32;
     loop {
         let n = &nodes[node as usize];
-        let (tn, mut mask) = rb.test(n, tmax);
+        let (tn, mask) = rb.test(n, tmax);
+        // Leaves first, in slot order, as soon as entered (shrinking tmax). One-packet leaves
+        // share packets (`flatten`): a packet already tested at this node cannot give a new
+        // hit (nothing farther than tmax counts, and its own hit would be found again as is),
+        // so the later slots of the same packet are dropped.
+        let mut leaves = mask & n.leaves as u32;
+        while leaves != 0 {
+            let i = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            leaves &= !(n.dup[i] as u32);
+            let first = n.child[i] as usize;
+            for (j, tri) in tris[first..first + n.count[i] as usize].iter().enumerate() {
+                let h = tri.intersect(&rb.o, &da, tmax);
+                if h.mask == 0 {
+                    continue;
+                }
+                // Nearest lane that hit (the lowest one on a tie).
+                let mut m = h.mask;
+                let mut lane = m.trailing_zeros() as usize;
+                m &= m - 1;
+                while m != 0 {
+                    let l = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    if h.t[l] < h.t[lane] {
+                        lane = l;
+                    }
+                }
+                best = SlotHit {
+                    slot: (LANES * (first + j) + lane) as u32,
+                    t: h.t[lane],
+                    u: h.u[lane],
+                    v: h.v[lane],
+                };
+                if ANY {
+                    return best;
+                }
+                tmax = best.t;
+            }
+        }
         let mut inner = [Entry { node: 0, t: 0.0 }; WIDTH];
         let mut k = 0;
-        // The one-packet leaves of a node share packets (`flatten`): a packet already tested
-        // at this node cannot give a new hit (nothing farther than tmax counts, and its own
-        // hit would be found again as is), so each is tested once per visit.
-        let mut tested = [u32::MAX; WIDTH];
-        let mut nt = 0;
-        while mask != 0 {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let count = n.count[i];
-            if count == 0 {
-                inner[k] = Entry {
-                    node: n.child[i],
-                    t: tn[i],
-                };
-                k += 1;
-            } else {
-                if count == 1 {
-                    if tested[..nt].contains(&n.child[i]) {
-                        continue;
-                    }
-                    tested[nt] = n.child[i];
-                    nt += 1;
-                }
-                let first = n.child[i] as usize;
-                for (j, tri) in tris[first..first + count as usize].iter().enumerate() {
-                    let h = tri.intersect(&rb.o, &da, tmax);
-                    if h.mask == 0 {
-                        continue;
-                    }
-                    // Nearest lane that hit (the lowest one on a tie).
-                    let mut m = h.mask;
-                    let mut lane = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    while m != 0 {
-                        let l = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        if h.t[l] < h.t[lane] {
-                            lane = l;
-                        }
-                    }
-                    best = SlotHit {
-                        slot: (LANES * (first + j) + lane) as u32,
-                        t: h.t[lane],
-                        u: h.u[lane],
-                        v: h.v[lane],
-                    };
-                    if ANY {
-                        return best;
-                    }
-                    tmax = best.t;
-                }
-            }
+        let mut inners = mask & !(n.leaves as u32);
+        while inners != 0 {
+            let i = inners.trailing_zeros() as usize;
+            inners &= inners - 1;
+            inner[k] = Entry {
+                node: n.child[i],
+                t: tn[i],
+            };
+            k += 1;
         }
         // Any hit: no order to keep (tmax stays put until the first hit ends the search), so
         // the entered children are stacked as found, as Embree's occlusion traversal does.
