@@ -206,41 +206,27 @@ impl Tile {
             first as usize..end.max(first) as usize
         };
         let (xs, ys) = (span(lx, nx, fw, bx0, bw), span(ly, ny, fh, by0, bh));
-        if !self.has_moments() {
-            for j in ys {
-                let (y, wyj) = (ly + j as i64, wy[j]);
-                for i in xs.clone() {
-                    let x = lx + i as i64;
-                    let w = (wx[i] * wyj) as f64;
-                    let q = ((y - by0) * bw + (x - bx0)) as usize;
-                    for c in 0..3 {
-                        self.sum[q][c] += w * l[c] as f64;
-                    }
-                    self.weight[q] += w;
-                    for (k, &v) in extra.iter().enumerate() {
-                        if v.is_finite() {
-                            self.extra[q * n + k] += w * v as f64;
-                        }
-                    }
-                }
-            }
-            return finite;
-        }
+        // Hoisted out of the loop: a render without moments adds to two buffers per pixel.
+        let moments = self.has_moments();
         for j in ys {
             let (y, wyj) = (ly + j as i64, wy[j]);
             for i in xs.clone() {
                 let x = lx + i as i64;
                 let w = (wx[i] * wyj) as f64;
                 let q = ((y - by0) * bw + (x - bx0)) as usize;
-                let w2 = w * w;
                 for c in 0..3 {
-                    let v = l[c] as f64;
-                    self.sum[q][c] += w * v;
-                    self.sum2[q][c] += w2 * v * v;
-                    self.sum_w2[q][c] += w2 * v;
+                    self.sum[q][c] += w * l[c] as f64;
                 }
                 self.weight[q] += w;
-                self.weight2[q] += w2;
+                if moments {
+                    let w2 = w * w;
+                    for c in 0..3 {
+                        let v = l[c] as f64;
+                        self.sum2[q][c] += w2 * v * v;
+                        self.sum_w2[q][c] += w2 * v;
+                    }
+                    self.weight2[q] += w2;
+                }
                 for (k, &v) in extra.iter().enumerate() {
                     if v.is_finite() {
                         self.extra[q * n + k] += w * v as f64;
