@@ -121,8 +121,8 @@ pub fn load_channels(
     r.seek(8)?;
     let version = r.u32("version")?;
     let filtered = !filter.is_box();
-    let moments = version == version_of(filtered, true);
     let want = version_of(filtered, true);
+    let moments = version == want;
     if !moments && version != version_of(filtered, false) {
         return Err(Error::format(
             path,
