@@ -1,6 +1,7 @@
 //! Building the 8-wide BVH from the scene's meshes without copying them: leaf boxes straight from
-//! the mesh vertices (in parallel), obvhs's PLOC on those boxes, reinsertion and SAH leaf
-//! collapse sized by [`reinsertion_ratio`], then [`flatten`] into wide nodes and packets.
+//! the mesh vertices (in parallel), obvhs's PLOC on those boxes and reinsertion sized by
+//! [`reinsertion_ratio`], the SAH-optimal grouping into wide nodes and packet leaves
+//! ([`WidePlan`]), then [`flatten`] into wide nodes and packets.
 //!
 //! A scene of more than [`PART_TRIS`] triangles is built in parts: its triangles sorted along a
 //! 30-bit Morton curve of their centroids, cut into equal runs, each run built and flattened on
@@ -8,6 +9,7 @@
 //! time), and the parts' roots joined by a few wide nodes on top. Every step depends only on the
 //! geometry, never on the thread count, so the tree (and the image) is the same on any machine.
 
+use super::collapse::WidePlan;
 use super::flatten::flatten;
 use super::node::{Node8, WIDTH};
 use super::tri::{LANES, TriPack};
@@ -16,7 +18,6 @@ use crate::math::Vec3;
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::leaf_collapser::collapse;
 use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::ploc::{PlocBuilder, SortPrecision};
@@ -25,9 +26,6 @@ use rayon::prelude::*;
 /// Largest number of triangles built as one obvhs BVH; bigger scenes are built in parts of at
 /// most this many (bounds the build's transient memory to ~150 bytes × this).
 pub(super) const PART_TRIS: usize = 1 << 19;
-
-/// Most triangles in one leaf (obvhs's SAH collapse decides below that): one 8-lane packet.
-const MAX_LEAF_TRIS: u32 = 8;
 
 /// obvhs `medium_build`'s PLOC search distance (14 neighbours each side).
 const PLOC_SEARCH: usize = 14;
@@ -248,6 +246,17 @@ fn spread10(x: u32) -> u32 {
 /// Builds obvhs's BVH over the triangles `gids` (global ids) and flattens it into `out`'s
 /// nodes and packet ids; returns the index of its root wide node and its box.
 fn build_part(ids: &TriIds, gids: &[u32], out: &mut Built) -> (u32, Aabb) {
+    let bvh2 = binary_bvh(ids, gids);
+    let root_box = *bvh2.nodes[0].aabb();
+    let plan = WidePlan::new(&bvh2);
+    let root = flatten(&bvh2, &plan, gids, &mut out.nodes, &mut out.ids);
+    (root, root_box)
+}
+
+/// obvhs's binary BVH over the triangles `gids` (global ids; its primitive k is `gids[k]`), one
+/// triangle per leaf: PLOC, then reinsertion sized by [`reinsertion_ratio`]. Leaves are grouped
+/// later, by [`WidePlan`], for the wide layout's packet costs.
+pub(super) fn binary_bvh(ids: &TriIds, gids: &[u32]) -> Bvh2 {
     let n = gids.len();
     let leaves: Vec<Bvh2Node> = gids
         .par_iter()
@@ -268,18 +277,9 @@ fn build_part(ids: &TriIds, gids: &[u32], out: &mut Built) -> (u32, Aabb) {
         // obvhs `medium_build`: search distance 14, 1 for the first three levels, 64-bit codes.
         ploc.build_ploc_from_leaves::<PLOC_SEARCH, false>(&mut bvh2, total, SortPrecision::U64, 3);
     }
-    let ratio = reinsertion_ratio(n);
-    let mut reinsertion = ReinsertionOptimizer::default();
-    reinsertion.run(&mut bvh2, ratio, None);
-    // obvhs `medium_build`: leaf collapse with traversal cost 3, then reinsertion at twice the
-    // ratio on the smaller tree.
-    collapse(&mut bvh2, MAX_LEAF_TRIS, 3.0);
-    reinsertion.run(&mut bvh2, ratio * 2.0, None);
-    drop(reinsertion);
+    ReinsertionOptimizer::default().run(&mut bvh2, reinsertion_ratio(n), None);
     bvh2.parents = Vec::new();
-    let root_box = *bvh2.nodes[0].aabb();
-    let root = flatten(&bvh2, gids, &mut out.nodes, &mut out.ids);
-    (root, root_box)
+    bvh2
 }
 
 /// The triangle packets of `ids` (global triangle ids per lane), built in parallel into one

@@ -1,12 +1,14 @@
-//! BVH2 → 8-wide collapse: obvhs's binary BVH flattened into [`Node8`]s and leaf packets.
+//! BVH2 → 8-wide: obvhs's binary BVH flattened into [`Node8`]s and leaf packets, grouped as a
+//! [`WidePlan`] chose.
 
+use super::collapse::{WidePlan, subtree_prims};
 use super::node::{Node8, WIDTH};
 use super::tri::LANES;
 use obvhs::bvh2::Bvh2;
 
 /// Flattens obvhs's binary BVH into 8-wide nodes appended to `nodes`: each wide node takes a
-/// binary node and repeatedly opens its largest-area inner child until it has eight children
-/// (the usual BVH2 → BVH8 collapse). The leaf children of one wide node share packets: their
+/// binary node and the (at most eight) slots `plan` chose for it, each a leaf of its whole
+/// subtree's triangles or the next wide node. The leaf children of one wide node share packets: their
 /// triangles are packed first-fit, largest leaf first, into as few 8-lane packets as hold them
 /// without splitting a leaf, appended to `packets` as global triangle ids (`gids` of obvhs's
 /// primitive indices; u32::MAX in unused lanes). A leaf child then tests its packet mates too,
@@ -14,6 +16,7 @@ use obvhs::bvh2::Bvh2;
 /// of the root wide node. Iterative, so deep trees cannot overflow the call stack.
 pub(super) fn flatten(
     bvh2: &Bvh2,
+    plan: &WidePlan,
     gids: &[u32],
     nodes: &mut Vec<Node8>,
     packets: &mut Vec<[u32; LANES]>,
@@ -25,8 +28,10 @@ pub(super) fn flatten(
     // (binary node to turn into a wide node, wide parent and slot to link it from)
     let mut work: Vec<(u32, Option<(usize, usize)>)> = vec![(0, None)];
     let mut kids: Vec<u32> = Vec::with_capacity(WIDTH);
-    // Leaf children of the current wide node: (slot, first primitive, primitive count).
+    // Leaf children of the current wide node: (slot, first primitive in `prims`, count).
     let mut leaves: Vec<(usize, usize, usize)> = Vec::with_capacity(WIDTH);
+    // The primitives of the current wide node's leaf children.
+    let mut prims: Vec<u32> = Vec::with_capacity(WIDTH * 2 * LANES);
     // Lanes used in each packet opened for the current wide node.
     let mut fill: Vec<usize> = Vec::with_capacity(WIDTH);
     while let Some((bi, parent)) = work.pop() {
@@ -36,25 +41,9 @@ pub(super) fn flatten(
             nodes[p].child[slot] = me as u32;
         }
         kids.clear();
-        kids.push(bi);
-        while kids.len() < WIDTH {
-            let open = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, k)| b[**k as usize].prim_count == 0)
-                .max_by(|x, y| {
-                    let ax = b[*x.1 as usize].aabb().half_area();
-                    let ay = b[*y.1 as usize].aabb().half_area();
-                    ax.total_cmp(&ay)
-                })
-                .map(|(i, _)| i);
-            let Some(i) = open else { break };
-            let first = b[kids[i] as usize].first_index;
-            kids.swap_remove(i);
-            kids.push(first);
-            kids.push(first + 1);
-        }
+        plan.slots(bvh2, bi, &mut kids);
         leaves.clear();
+        prims.clear();
         for (slot, &k) in kids.iter().enumerate() {
             let bn = &b[k as usize];
             let bx = bn.aabb();
@@ -63,10 +52,12 @@ pub(super) fn flatten(
                 n.bounds[2 * a][slot] = bx.min[a];
                 n.bounds[2 * a + 1][slot] = bx.max[a];
             }
-            if bn.prim_count == 0 {
+            if !plan.is_leaf(k) {
                 work.push((k, Some((me, slot))));
             } else {
-                leaves.push((slot, bn.first_index as usize, bn.prim_count as usize));
+                let first = prims.len();
+                subtree_prims(bvh2, k, &mut prims);
+                leaves.push((slot, first, prims.len() - first));
             }
         }
         // Largest leaf first (ties by slot, so the layout is deterministic).
@@ -74,7 +65,7 @@ pub(super) fn flatten(
         fill.clear();
         let base = packets.len();
         for &(slot, f, count) in &leaves {
-            let prims = &bvh2.primitive_indices[f..f + count];
+            let prims = &prims[f..f + count];
             let n = &mut nodes[me];
             if count > LANES {
                 // Only with leaves wider than a packet: whole packets of its own.

@@ -1,7 +1,8 @@
-//! Ray acceleration: obvhs builds a binary BVH (PLOC + reinsertion + SAH leaf collapse) over
-//! every triangle of every mesh, straight from the mesh vertices and in parts for big scenes
-//! ([`build`]); we flatten it into an 8-wide BVH with SoA f32 child bounds
-//! ([`node`], [`flatten`]; leaves of one node share 8-lane packets) and traverse that by hand ([`traverse`]): one 8-lane slab test per
+//! Ray acceleration: obvhs builds a binary BVH (PLOC + reinsertion) over every triangle of
+//! every mesh, straight from the mesh vertices and in parts for big scenes ([`build`]); the
+//! SAH-optimal grouping of it into wide nodes and leaves of packet tests is chosen
+//! ([`collapse`]) and flattened into an 8-wide BVH with SoA f32 child bounds ([`node`],
+//! [`flatten`]; leaves of one node share 8-lane packets) and traverse that by hand ([`traverse`]): one 8-lane slab test per
 //! node, front-to-back child order for closest hits, 8-triangle Möller–Trumbore leaf packets
 //! ([`tri`]), and the hit's barycentrics returned so shading does not intersect the triangle
 //! again. The traversal is compiled twice, for AVX2 ([`crate::math::simd::f8`]: one ymm register per 8-lane
@@ -14,6 +15,7 @@
 //! triangles where this layout is several times faster (`cargo bench --bench traversal`).
 
 mod build;
+mod collapse;
 mod flatten;
 mod instances;
 mod node;
@@ -75,7 +77,7 @@ pub struct Accel {
 
 impl Accel {
     /// Builds the BVH over all triangles of `meshes` (obvhs's PLOC with `medium_build`'s
-    /// settings, reinsertion sized by the triangle count, leaves of at most eight triangles;
+    /// settings, reinsertion sized by the triangle count, leaves of at most 24 triangles;
     /// big scenes in parts, see [`build`]) and flattens it to the 8-wide layout. The meshes
     /// must hold fewer than u32::MAX triangles in all (`RenderScene::new` checks).
     pub fn build(meshes: &[Mesh]) -> Accel {

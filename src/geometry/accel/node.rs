@@ -22,7 +22,7 @@ pub(super) struct Node8 {
     /// Internal child: index into the node array. Leaf child: first packet of the leaf.
     pub child: [u32; WIDTH],
     /// 0 for an internal child (or an empty slot), else the number of packets of the leaf
-    /// (leaves hold at most eight triangles, one packet, so 16 bits are plenty).
+    /// (leaves hold at most three packets, so 16 bits are plenty).
     pub count: [u16; WIDTH],
     /// Per leaf slot, the later leaf slots whose packet is the same (one-packet leaves share
     /// packets, see `flatten`): a ray that tests the packet for this slot skips them.
