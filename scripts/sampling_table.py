@@ -4,15 +4,18 @@ fireflies (pixels whose luminance is above 5x the reference's), for BTF sampling
 
 usage: scripts/sampling_table.py --before OLD_BTFPT --after NEW_BTFPT [--out DIR] [--spp 64]
                                  [--ref-spp 2048] [--seeds 3] [--threads 2]
-                                 [--cases showcase plane sphere] [--extra NAME=PATH.plmc ...]
+                                 [--cases showcase plane sphere] [--fitted foil wood ...]
+                                 [--extra NAME=PATH ...]
 
 Per case (scene + defines): a reference at --ref-spp rendered once by OLD (kept in --out and
 reused), then per seed OLD and NEW at --spp; NEW is rendered again at the spp that takes OLD's
 render-only CPU time (median over the seeds of the --spp runs: "equal time"). relMSE is
 `btfpt compare`'s (per channel, (t - r)^2 / (r^2 + eps)), averaged over the seeds; fireflies
 are counted per image and averaged. Cases: the README's showcase (480x320), and btf-plane and
-btf-sphere (128x96) with the showcase's fitted materials (foil, wood, leather, corduroy) and any
---extra NAME=PATH.plmc (e.g. a wool model fitted by `btfpt synth wool` + `btfpt fit`).
+btf-sphere (128x96) with the showcase's fitted materials (--fitted, default foil, wood, leather,
+corduroy; none with a bare --fitted) and any --extra NAME=PATH: a fitted model (e.g. a wool model
+fitted by `btfpt synth wool` + `btfpt fit`) or raw data (e.g. `btfpt synth foil --size 64 -o
+foil64.btfc`).
 Needs reference-images/.venv (mitsuba reads the EXRs). Prints a markdown table and one JSON line.
 """
 from __future__ import annotations
@@ -72,11 +75,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--cases", nargs="+", default=["showcase", "plane", "sphere"])
-    ap.add_argument("--extra", nargs="*", default=[], help="NAME=PATH.plmc")
+    ap.add_argument("--fitted", nargs="*", default=["foil", "wood", "leather", "corduroy"],
+                    help="showcase materials (scenes/showcase/materials/NAME.plmc)")
+    ap.add_argument("--extra", nargs="*", default=[], help="NAME=PATH (.plmc or raw data)")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
-    mats = [(n, str(MATERIALS / f"{n}.plmc")) for n in ["foil", "wood", "leather", "corduroy"]]
+    mats = [(n, str(MATERIALS / f"{n}.plmc")) for n in a.fitted]
     mats += [tuple(e.split("=", 1)) for e in a.extra]
     cases = []
     if "showcase" in a.cases:

@@ -1,15 +1,20 @@
 //! The raw measured BTF as a material (docs/conventions.md): barycentric interpolation over 3 measured views
 //! × 3 measured lights, nearest texel, eval = B/π (B is cosine-baked), one-sided.
 //!
-//! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]), built from the
-//! texel-averaged values of this material.
+//! Sampling: the tabulated light sampler of measured BTFs ([`BtfLightSampler`]) with one set of
+//! tables per texel cluster ([`super::btf_clusters`]: texels whose light distributions have the
+//! same shape), each built from the averaged values of its cluster's texels; a hit samples from
+//! its texel's cluster. Where the budget allows no more, one set from the whole material's
+//! average.
 //!
 //! Memory: the material reads the BTF only through `RawBtf::data()` (f16, `[view][light][row][col]
 //! [rgb]`) and its dimensions; a 256² × 81 × 81 material is 2.6 GB, so it must be kept once per
 //! file (the material holds an `Arc`) and can live in a memory-mapped cache file (`.btfc`) behind the
-//! same accessor. Building the tables reads at most 64 × 64 texels per image.
+//! same accessor. Building the tables reads at most 64 × 64 texels per image (and the clustering
+//! the images of 16 views of every texel).
 
 use super::Bsdf;
+use super::btf_clusters::{MAX_CLUSTERS, TABLE_BUDGET_BYTES, cluster_texels, clusters_within};
 use super::btf_sampler::BtfLightSampler;
 #[cfg(test)]
 use super::btf_sampler::DEFENSIVE_FRACTION;
@@ -18,31 +23,41 @@ use super::{BsdfFlags, BsdfSample, Bxdf};
 use crate::btf::directions::DirectionInterp;
 use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
-use crate::math::color::luminance;
 #[cfg(test)]
 use crate::math::warp;
 use crate::math::{INV_PI, Spectrum, Vec2, Vec3};
 use crate::model::BtfModel;
 use crate::{Error, Result};
-use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Arc;
-
-/// Texels per axis averaged per image when building the sampling tables.
-const TABLE_TEXELS: usize = 64;
 
 /// A loaded BTF with its direction interpolators and sampling tables; shared (`Arc`) by every
 /// [`BtfBsdf`] that uses the same file.
 pub struct BtfMaterial {
     btf: Arc<RawBtf>,
     views: DirectionInterp,
-    /// Light-direction sampling tables (and the light interpolator they are built on).
+    /// Light-direction sampling tables, one set per texel cluster (and the light interpolator
+    /// they are built on).
     sampler: BtfLightSampler,
+    /// Per texel (row-major) its cluster, the sampler's table set; empty when there is one set.
+    clusters: Vec<u8>,
 }
 
 impl BtfMaterial {
-    /// Builds the interpolators and sampling tables of a BTF.
+    /// Builds the interpolators and sampling tables of a BTF: up to [`MAX_CLUSTERS`] texel
+    /// clusters within [`TABLE_BUDGET_BYTES`].
     pub fn new(btf: Arc<RawBtf>) -> Result<Self> {
+        Self::with_clusters(btf, MAX_CLUSTERS, TABLE_BUDGET_BYTES)
+    }
+
+    /// [`BtfMaterial::new`] with at most `max_clusters` sets of sampling tables, fewer where
+    /// they and the texel index would take more than `budget_bytes` (1: the material-wide
+    /// table, whatever the budget).
+    pub fn with_clusters(
+        btf: Arc<RawBtf>,
+        max_clusters: usize,
+        budget_bytes: usize,
+    ) -> Result<Self> {
         let views = btf
             .views()
             .interpolator()
@@ -51,37 +66,16 @@ impl BtfMaterial {
             .lights()
             .interpolator()
             .map_err(|e| Error::Invalid(format!("BTF light directions: {e}")))?;
-        let (nv, nl) = (btf.views().len(), btf.lights().len());
-        let (w, h) = (btf.width(), btf.height());
-        let (sx, sy) = (w.div_ceil(TABLE_TEXELS), h.div_ceil(TABLE_TEXELS));
-        let data = btf.data();
-        // Texel-averaged luminance of B per (view, light).
-        let lum: Vec<f32> = (0..nv * nl)
-            .into_par_iter()
-            .map(|vl| {
-                let mut sum = Spectrum::ZERO;
-                let mut count = 0u32;
-                for y in (0..h).step_by(sy) {
-                    let row = 3 * ((vl * h + y) * w);
-                    for x in (0..w).step_by(sx) {
-                        let i = row + 3 * x;
-                        sum += Spectrum::new(
-                            data[i].to_f32(),
-                            data[i + 1].to_f32(),
-                            data[i + 2].to_f32(),
-                        );
-                        count += 1;
-                    }
-                }
-                let l = luminance(sum / count as f32);
-                if l.is_finite() { l.max(0.0) } else { 0.0 }
-            })
-            .collect();
-        let sampler = BtfLightSampler::new(lights, &btf.lights().dirs, &lum);
+        let per_set = BtfLightSampler::bytes_per_set(btf.views().len(), lights.num_triangles());
+        let texels = btf.width() * btf.height();
+        let k = clusters_within(budget_bytes, per_set, texels, max_clusters);
+        let c = cluster_texels(&btf, k);
+        let sampler = BtfLightSampler::with_sets(lights, &btf.lights().dirs, &c.lum, c.k);
         Ok(BtfMaterial {
             btf,
             views,
             sampler,
+            clusters: c.index,
         })
     }
 
@@ -142,6 +136,19 @@ impl BtfMaterial {
         &self.sampler
     }
 
+    /// The cluster of texel (column `x`, row `y`): the sampler's table set its hits sample from.
+    #[inline]
+    pub fn cluster(&self, x: usize, y: usize) -> u32 {
+        self.clusters
+            .get(y * self.btf.width() + x)
+            .map_or(0, |&c| c as u32)
+    }
+
+    /// Bytes the sampling tables and the texel index take.
+    pub fn sampling_bytes(&self) -> usize {
+        self.sampler.table_bytes() + self.clusters.len()
+    }
+
     /// The view-direction interpolator.
     pub fn view_interp(&self) -> &DirectionInterp {
         &self.views
@@ -157,6 +164,7 @@ impl std::fmt::Debug for BtfMaterial {
             .field("width", &self.btf.width())
             .field("height", &self.btf.height())
             .field("sampler", &self.sampler)
+            .field("sampling_bytes", &self.sampling_bytes())
             .finish_non_exhaustive()
     }
 }
@@ -220,9 +228,11 @@ impl BtfBsdf {
         (idx(uv.x, btf.width()), idx(uv.y, btf.height()))
     }
 
+    /// The sampling density at texel (`x`, `y`) for the views `vi` with weights `vw`.
     #[inline]
-    fn pdf_with_views(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.material.sampler.pdf(vi, vw, wo)
+    fn pdf_with_views(&self, (x, y): (usize, usize), vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        let m = &*self.material;
+        m.sampler.pdf(m.cluster(x, y), vi, vw, wo)
     }
 }
 
@@ -249,7 +259,7 @@ impl Bxdf for BtfBsdf {
             return 0.0;
         }
         let (vi, vw) = self.material.views.lookup(si.wi);
-        self.pdf_with_views(vi, vw, wo)
+        self.pdf_with_views(self.texel(si.uv), vi, vw, wo)
     }
 
     /// `(eval, pdf)` sharing the view lookup (what emitter sampling with MIS needs).
@@ -262,7 +272,7 @@ impl Bxdf for BtfBsdf {
         let (vi, vw) = m.views.lookup(si.wi);
         let (x, y) = self.texel(si.uv);
         let f = m.eval_b_with_views(vi, vw, wo, x, y) * INV_PI;
-        (f, self.pdf_with_views(vi, vw, wo))
+        (f, self.pdf_with_views((x, y), vi, vw, wo))
     }
 
     /// Samples a light direction from the mixture; weight = eval / pdf.
@@ -277,15 +287,15 @@ impl Bxdf for BtfBsdf {
         }
         let m = &*self.material;
         let (vi, vw) = m.views.lookup(si.wi);
-        let (wo, _) = m.sampler.sample(vi, vw, sample1, sample2);
+        let (x, y) = self.texel(si.uv);
+        let (wo, _) = m.sampler.sample(m.cluster(x, y), vi, vw, sample1, sample2);
         if wo.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf_with_views(vi, vw, wo);
+        let pdf = self.pdf_with_views((x, y), vi, vw, wo);
         if pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        let (x, y) = self.texel(si.uv);
         let weight = m.eval_b_with_views(vi, vw, wo, x, y) * (INV_PI / pdf);
         let s = BsdfSample {
             wo,

@@ -3,7 +3,9 @@
 //!
 //! At load, per measured view, a piecewise-constant density over the light triangulation on the
 //! unit disk, proportional to the texel-averaged luminance of B / cos θ_l (so a Lambertian table
-//! gives exactly cosine sampling). For a query the tables of the 3 views of wi are blended with
+//! gives exactly cosine sampling). A sampler may hold several such sets of per-view tables (raw
+//! data: one per texel cluster, `bsdf/btf_clusters.rs`), laid out one after the other; every
+//! query names its set. For a query the tables of the 3 views of wi are blended with
 //! their interpolation weights; the grazing band beyond the measured hull (where the direction
 //! rule of docs/conventions.md holds B at its outer-ring values) gets its own uniform component
 //! weighted by its estimated share of ∫ B dω; uniform hemisphere sampling is always mixed in
@@ -33,24 +35,29 @@ enum Part {
     Uniform,
     /// A black view's share: cosine-weighted hemisphere.
     Cosine,
-    /// A triangle of view `view`'s table, chosen by `u` in [0, 1].
-    Table { view: u32, u: f32 },
+    /// A triangle of table `table` (set · views + view), chosen by `u` in [0, 1].
+    Table { table: u32, u: f32 },
     /// The grazing band beyond the measured hull, uniform in solid angle.
     Band,
 }
 
-/// Per-view light tables over one light triangulation, and the mixture sampled from them.
+/// Sets of per-view light tables over one light triangulation, and the mixture sampled from
+/// them. The per-table fields are indexed by table = set · views + view.
 pub struct BtfLightSampler {
     /// The light directions' triangulation on the unit disk (also the material's light lookup).
     lights: DirectionInterp,
-    /// Per view: triangles chosen ∝ their share of ∫ B/cos θ_l dA; None for a black view
+    /// Measured views (tables per set).
+    views: usize,
+    /// Sets of tables (≥ 1).
+    sets: usize,
+    /// Per table: triangles chosen ∝ their share of ∫ B/cos θ_l dA; None for a black view
     /// (cosine sampling is used instead) or a view whose energy is all in the grazing band.
     tris: Vec<Option<Distribution1D>>,
-    /// Per view: density over disk area of each light triangle, `[view][triangle]` (∫ dA = 1).
+    /// Per table: density over disk area of each light triangle, `[table][triangle]` (∫ dA = 1).
     density: Vec<f32>,
-    /// Per view: false if the table is empty (black view); cosine sampling is used instead.
+    /// Per table: false if the table is empty (black view); cosine sampling is used instead.
     table_ok: Vec<bool>,
-    /// Per view: probability of the triangle table (vs the grazing band) in the tabulated part.
+    /// Per table: probability of the triangle table (vs the grazing band) in the tabulated part.
     table_prob: Vec<f32>,
     /// Grazing band beyond the measured hull: directions with cos θ < `band_cos`, sampled
     /// uniformly in solid angle (B is held constant there by the extrapolation rule); 0 = none.
@@ -58,20 +65,34 @@ pub struct BtfLightSampler {
 }
 
 impl BtfLightSampler {
-    /// Builds the tables from `lum`, the texel-averaged luminance of B at every measured
+    /// Builds one set of tables from `lum`, the texel-averaged luminance of B at every measured
     /// (view, light), `[view][light]`, linear and cosine-baked.
     pub fn new(lights: DirectionInterp, light_dirs: &[Vec3], lum: &[f32]) -> Self {
+        Self::with_sets(lights, light_dirs, lum, 1)
+    }
+
+    /// Builds `sets` sets of tables (at least 1) from `lum`, `[set][view][light]`: each set's
+    /// tables exactly as [`BtfLightSampler::new`] builds them from its part of `lum`.
+    pub fn with_sets(
+        lights: DirectionInterp,
+        light_dirs: &[Vec3],
+        lum: &[f32],
+        sets: usize,
+    ) -> Self {
+        let sets = sets.max(1);
         let nl = light_dirs.len();
-        let nv = lum.len().checked_div(nl).unwrap_or(0);
+        let ntab = lum.len().checked_div(nl).unwrap_or(0);
+        let nv = ntab / sets;
+        let ntab = nv * sets;
         let nt = lights.num_triangles();
         let clean = |l: f32| if l.is_finite() { l.max(0.0) } else { 0.0 };
         let (band_cos, hull) = grazing_band(&lights);
         let band_solid_angle = 2.0 * std::f64::consts::PI * band_cos as f64;
-        let mut tris = Vec::with_capacity(nv);
-        let mut density = vec![0f32; nv * nt];
-        let mut table_ok = vec![false; nv];
-        let mut table_prob = vec![1f32; nv];
-        for v in 0..nv {
+        let mut tris = Vec::with_capacity(ntab);
+        let mut density = vec![0f32; ntab * nt];
+        let mut table_ok = vec![false; ntab];
+        let mut table_prob = vec![1f32; ntab];
+        for v in 0..ntab {
             let lv = &lum[v * nl..(v + 1) * nl];
             // g = B / cos θ_l: the density over the disk that makes the solid-angle pdf ∝ B.
             let g = |i: u32| {
@@ -109,6 +130,8 @@ impl BtfLightSampler {
         }
         BtfLightSampler {
             lights,
+            views: nv,
+            sets,
             tris,
             density,
             table_ok,
@@ -127,30 +150,54 @@ impl BtfLightSampler {
         self.band_cos
     }
 
+    /// Number of table sets (queries name one in `0..sets()`).
+    pub fn sets(&self) -> usize {
+        self.sets
+    }
+
+    /// Bytes one set of tables takes for `views` measured views over `triangles` light
+    /// triangles: per view a [`Distribution1D`] (its cdf, lower edges, probabilities and
+    /// 16-byte guide entries: 28 bytes per triangle, and its header), the triangle densities
+    /// (4 bytes per triangle), the table probability and flag.
+    pub fn bytes_per_set(views: usize, triangles: usize) -> usize {
+        let per_view = triangles * (3 * 4 + 16 + 4)
+            + std::mem::size_of::<Option<Distribution1D>>()
+            + std::mem::size_of::<f32>()
+            + std::mem::size_of::<bool>();
+        views * per_view
+    }
+
+    /// Bytes the tables of every set take ([`BtfLightSampler::bytes_per_set`] × sets).
+    pub fn table_bytes(&self) -> usize {
+        self.sets * Self::bytes_per_set(self.views, self.lights.num_triangles())
+    }
+
     /// Samples a light direction from the mixture (uniform defensive part + the blended tabulated
-    /// part of the views `vi` with weights `vw`); its density is [`BtfLightSampler::pdf`]. Also
-    /// returns the light triangle when the direction was drawn inside one (so the caller's eval
-    /// and pdf need not search for it again).
+    /// part of table set `set`'s views `vi` with weights `vw`); its density is
+    /// [`BtfLightSampler::pdf`]. Also returns the light triangle when the direction was drawn
+    /// inside one (so the caller's eval and pdf need not search for it again).
     #[inline]
     pub fn sample(
         &self,
+        set: u32,
         vi: [u32; 3],
         vw: [f32; 3],
         sample1: f32,
         sample2: Vec2,
     ) -> (Vec3, Option<usize>) {
-        let part = self.choose(vi, vw, sample1);
+        let part = self.choose(set, vi, vw, sample1);
         self.place(part, self.triangle_of(part), sample2)
     }
 
-    /// [`BtfLightSampler::sample`] of up to [`SAMPLE_LANES`] queries (query q: views `vi[q]`
-    /// with weights `vw[q]`, numbers `sample1[q]`, `sample2[q]`) into `out[q]`, each the same
-    /// bits. Stage by stage over the queries: the components first, then every triangle-table
+    /// [`BtfLightSampler::sample`] of up to [`SAMPLE_LANES`] queries (query q: table set
+    /// `set[q]`, views `vi[q]` with weights `vw[q]`, numbers `sample1[q]`, `sample2[q]`) into
+    /// `out[q]`, each the same bits. Stage by stage over the queries: the components first, then every triangle-table
     /// search, then the directions, so the table loads of different queries (a chain of
     /// dependent cache misses each) overlap instead of running one query after the other.
     #[inline]
     pub fn sample_batch(
         &self,
+        set: &[u32],
         vi: &[[u32; 3]],
         vw: &[[f32; 3]],
         sample1: &[f32],
@@ -159,10 +206,11 @@ impl BtfLightSampler {
     ) {
         let n = out.len();
         assert!(n <= SAMPLE_LANES);
-        assert!(vi.len() == n && vw.len() == n && sample1.len() == n && sample2.len() == n);
+        assert!(set.len() == n && vi.len() == n && vw.len() == n);
+        assert!(sample1.len() == n && sample2.len() == n);
         let mut part = [Part::Uniform; SAMPLE_LANES];
         for q in 0..n {
-            part[q] = self.choose(vi[q], vw[q], sample1[q]);
+            part[q] = self.choose(set[q], vi[q], vw[q], sample1[q]);
         }
         let mut tri = [0usize; SAMPLE_LANES];
         for q in 0..n {
@@ -173,9 +221,10 @@ impl BtfLightSampler {
         }
     }
 
-    /// The mixture component `sample1` picks for views `vi` with weights `vw`.
+    /// The mixture component `sample1` picks for table set `set`'s views `vi` with weights `vw`
+    /// (a set past the last is the last).
     #[inline(always)]
-    fn choose(&self, vi: [u32; 3], vw: [f32; 3], sample1: f32) -> Part {
+    fn choose(&self, set: u32, vi: [u32; 3], vw: [f32; 3], sample1: f32) -> Part {
         if sample1 < DEFENSIVE_FRACTION {
             return Part::Uniform;
         }
@@ -188,24 +237,30 @@ impl BtfLightSampler {
             k += 1;
         }
         let u = (u / vw[k].max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-        let v = vi[k] as usize;
+        let v = self.table(set, vi[k]);
         if !self.table_ok[v] {
             return Part::Cosine;
         }
         match &self.tris[v] {
             Some(_) if u < self.table_prob[v] => Part::Table {
-                view: v as u32,
+                table: v as u32,
                 u: u / self.table_prob[v],
             },
             _ => Part::Band,
         }
     }
 
+    /// The table of view `view` in set `set` (a set past the last is the last).
+    #[inline(always)]
+    fn table(&self, set: u32, view: u32) -> usize {
+        (set as usize).min(self.sets - 1) * self.views + view as usize
+    }
+
     /// The light triangle of a [`Part::Table`] sample (0 for the other parts).
     #[inline(always)]
     fn triangle_of(&self, part: Part) -> usize {
         match part {
-            Part::Table { view, u } => match &self.tris[view as usize] {
+            Part::Table { table, u } => match &self.tris[table as usize] {
                 Some(tris) => tris.sample_bin(u),
                 None => 0,
             },
@@ -241,10 +296,11 @@ impl BtfLightSampler {
         }
     }
 
-    /// Solid-angle density of [`BtfLightSampler::sample`] at the upper-hemisphere `wo`.
+    /// Solid-angle density of [`BtfLightSampler::sample`] (table set `set`) at the
+    /// upper-hemisphere `wo`.
     #[inline]
-    pub fn pdf(&self, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
-        self.pdf_located(vi, vw, wo, self.lights.locate([wo.x, wo.y]))
+    pub fn pdf(&self, set: u32, vi: [u32; 3], vw: [f32; 3], wo: Vec3) -> f32 {
+        self.pdf_located(set, vi, vw, wo, self.lights.locate([wo.x, wo.y]))
     }
 
     /// [`BtfLightSampler::pdf`] with `wo` already located in the light triangulation
@@ -252,19 +308,21 @@ impl BtfLightSampler {
     #[inline]
     pub fn pdf_located(
         &self,
+        set: u32,
         vi: [u32; 3],
         vw: [f32; 3],
         wo: Vec3,
         located: (usize, [f32; 3]),
     ) -> f32 {
         DEFENSIVE_FRACTION * INV_TWO_PI
-            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf(vi, vw, wo, located)
+            + (1.0 - DEFENSIVE_FRACTION) * self.tabulated_pdf(set, vi, vw, wo, located)
     }
 
     /// Solid-angle density of the tabulated part of the mixture (blended over the 3 views).
     #[inline]
     fn tabulated_pdf(
         &self,
+        set: u32,
         vi: [u32; 3],
         vw: [f32; 3],
         wo: Vec3,
@@ -279,7 +337,7 @@ impl BtfLightSampler {
             if vw[k] == 0.0 {
                 continue;
             }
-            let v = vi[k] as usize;
+            let v = self.table(set, vi[k]);
             d += vw[k]
                 * if !self.table_ok[v] {
                     wo.z * INV_PI // black view: its share is cosine sampled
@@ -302,7 +360,8 @@ impl BtfLightSampler {
 impl std::fmt::Debug for BtfLightSampler {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("BtfLightSampler")
-            .field("views", &self.tris.len())
+            .field("views", &self.views)
+            .field("sets", &self.sets)
             .field("light_triangles", &self.lights.num_triangles())
             .field("band_cos", &self.band_cos)
             .finish_non_exhaustive()

@@ -10,6 +10,7 @@ pub mod at;
 pub mod batch;
 pub mod blend;
 pub mod btf;
+pub mod btf_clusters;
 pub mod btf_sampler;
 pub mod bumpmap;
 #[cfg(test)]

@@ -279,7 +279,7 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
     eprintln!("{}", rs.summary());
     for b in &btf_uses {
         eprintln!(
-            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s{}",
+            "  BTF {}: {} model, {}×{} texels, loaded in {:.2} s{}{}",
             b.file.display(),
             b.model,
             b.texels.0,
@@ -287,7 +287,13 @@ pub fn run(args: RenderArgs) -> anyhow::Result<()> {
             b.seconds,
             b.origin
                 .as_ref()
-                .map_or(String::new(), |o| format!(" ({o})"))
+                .map_or(String::new(), |o| format!(" ({o})")),
+            b.sampling.map_or(String::new(), |t| format!(
+                ", light sampling: {} table set{} ({:.2} MiB)",
+                t.sets,
+                if t.sets == 1 { "" } else { "s" },
+                t.bytes as f64 / (1024.0 * 1024.0)
+            ))
         );
     }
     let [cx, cy, cw, ch] = crop;

@@ -63,6 +63,7 @@ pub fn build_btf(
             ),
             seconds: t0.elapsed().as_secs_f64(),
             origin,
+            sampling: Some(RawSampling::of(bsdf.material())),
         };
         return Ok((Bsdf::Btf(bsdf), used));
     }
@@ -78,16 +79,18 @@ pub fn build_btf(
             .map(Bsdf::Plmc),
     }
     .map_err(|e| scene_error(format!("btf: {e}")))?;
-    let (texels, model) = match &bsdf {
+    let (texels, model, sampling) = match &bsdf {
         Bsdf::Btf(b) => (
             (b.material().btf().width(), b.material().btf().height()),
             BtfModel::Raw,
+            Some(RawSampling::of(b.material())),
         ),
         Bsdf::Plmc(b) => (
             (b.material().width(), b.material().height()),
             BtfModel::Fitted(b.material().kind()),
+            None,
         ),
-        _ => ((0, 0), BtfModel::Raw),
+        _ => ((0, 0), BtfModel::Raw, None),
     };
     let used = BtfUse {
         file: source.path().to_path_buf(),
@@ -95,6 +98,7 @@ pub fn build_btf(
         texels,
         seconds: t0.elapsed().as_secs_f64(),
         origin: None,
+        sampling,
     };
     Ok((bsdf, used))
 }
@@ -114,6 +118,26 @@ pub struct BtfUse {
     /// For a `synth:` source: generated or read from the cache (None when shared with an
     /// earlier element of this process, and for files).
     pub origin: Option<SynthOrigin>,
+    /// For raw data: its light-sampling tables (None for fitted models).
+    pub sampling: Option<RawSampling>,
+}
+
+/// The light-sampling tables of a raw material, for the render summary.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawSampling {
+    /// Table sets (texel clusters; 1 = the material-wide table).
+    pub sets: usize,
+    /// Bytes the tables and the texel index take.
+    pub bytes: usize,
+}
+
+impl RawSampling {
+    fn of(m: &BtfMaterial) -> Self {
+        RawSampling {
+            sets: m.sampler().sets(),
+            bytes: m.sampling_bytes(),
+        }
+    }
 }
 
 /// One material per BTF file while anything uses it: a raw BTF can be gigabytes, and several

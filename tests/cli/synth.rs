@@ -137,6 +137,11 @@ fn a_synth_material_is_generated_once_cached_and_regenerated_when_corrupt() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{err}");
         assert!(err.contains(SOURCE.split('?').next().unwrap()), "{err}");
+        // The summary states what the raw material's light-sampling tables cost.
+        assert!(
+            err.contains(", light sampling: ") && err.contains(" MiB)"),
+            "{err}"
+        );
     }
     let entries: Vec<_> = std::fs::read_dir(&cache)
         .unwrap()

@@ -13,6 +13,10 @@ use crate::{Error, Result};
 use std::mem::MaybeUninit;
 use std::sync::Arc;
 
+/// The light sampler's table set of every hit: a fitted model builds one (its clusters are per
+/// view and channel, not per texel).
+const TABLE_SET: u32 = 0;
+
 // One batched light location serves a whole batch.
 const _: () = assert!(BATCH <= LOCATE_LANES);
 // One batched light-direction draw serves a whole batch.
@@ -168,7 +172,9 @@ impl PlmcBsdf {
         let (li, lw) = m.sampler.light_interp().interpolation(located.0, located.1);
         let t = &hit.texels[..hit.n as usize];
         let f = Spectrum::from(m.eval_b_with(hit.vi, hit.vw, li, lw, wo, t)) * INV_PI;
-        let table = m.sampler.pdf_located(hit.vi, hit.vw, wo, located);
+        let table = m
+            .sampler
+            .pdf_located(TABLE_SET, hit.vi, hit.vw, wo, located);
         (f, hit.lobes.mix_pdf(wo, table))
     }
 
@@ -204,7 +210,7 @@ impl PlmcBsdf {
         if wo.z <= 0.0 {
             return 0.0;
         }
-        let table = self.material.sampler.pdf(hit.vi, hit.vw, wo);
+        let table = self.material.sampler.pdf(TABLE_SET, hit.vi, hit.vw, wo);
         hit.lobes.mix_pdf(wo, table)
     }
 
@@ -331,7 +337,7 @@ impl PlmcBsdf {
             let (li, lw) = lights.interpolation(located.0, located.1);
             let pdf = if want_pdf[q] {
                 h.lobes
-                    .mix_pdf(w, m.sampler.pdf_located(h.vi, h.vw, w, located))
+                    .mix_pdf(w, m.sampler.pdf_located(TABLE_SET, h.vi, h.vw, w, located))
             } else {
                 0.0
             };
@@ -401,7 +407,7 @@ impl PlmcBsdf {
         let m = &*self.material;
         let (wo, tri) = match hit.lobes.split(sample1) {
             Ok(u) => (hit.lobes.sample(u, sample2), None),
-            Err(u) => m.sampler.sample(hit.vi, hit.vw, u, sample2),
+            Err(u) => m.sampler.sample(TABLE_SET, hit.vi, hit.vw, u, sample2),
         };
         if wo.z <= 0.0 {
             return None;
@@ -464,8 +470,15 @@ impl PlmcBsdf {
             }
         }
         let mut table = [(Vec3::Z, None); BATCH];
-        m.sampler
-            .sample_batch(&vi[..nt], &vw[..nt], &u1[..nt], &u2[..nt], &mut table[..nt]);
+        let sets = [TABLE_SET; BATCH];
+        m.sampler.sample_batch(
+            &sets[..nt],
+            &vi[..nt],
+            &vw[..nt],
+            &u1[..nt],
+            &u2[..nt],
+            &mut table[..nt],
+        );
         for j in 0..nt {
             drawn[slot[j]] = table[j];
         }

@@ -530,8 +530,8 @@ mod tests {
                 b.sample(&s, u1, u2).map_or(0.0, |x| lum(x.1))
             });
             let (_, se_table) = stats(20_000, 4, |u1, u2| {
-                let (wo, _) = m.sampler.sample(hit.vi, hit.vw, u1, u2);
-                let pdf = m.sampler.pdf(hit.vi, hit.vw, wo);
+                let (wo, _) = m.sampler.sample(0, hit.vi, hit.vw, u1, u2);
+                let pdf = m.sampler.pdf(0, hit.vi, hit.vw, wo);
                 if wo.z > 0.0 && pdf > 0.0 {
                     lum(b.eval(&s, wo)) / pdf
                 } else {

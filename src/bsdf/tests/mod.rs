@@ -4,6 +4,7 @@
 
 mod batch_vs_scalar;
 mod beckmann_sampling;
+mod btf_clusters;
 mod conductor_materials;
 mod physics;
 mod pplastic;
