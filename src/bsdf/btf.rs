@@ -308,13 +308,18 @@ impl Bxdf for BtfBsdf {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::btf::{DirectionSet, StoredEncoding};
     use crate::math::{Pcg32, frame::from_spherical};
     use std::sync::OnceLock;
 
-    fn table(w: usize, h: usize, f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3]) -> RawBtf {
+    /// A UBO2003-direction BTF of w × h texels with B = `f(view, light, x, y)` (linear).
+    pub(crate) fn table(
+        w: usize,
+        h: usize,
+        f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3],
+    ) -> RawBtf {
         let set = DirectionSet::ubo2003();
         let mut data = Vec::with_capacity(81 * 81 * w * h * 3);
         for &v in &set.dirs {

@@ -9,7 +9,7 @@ use crate::bsdf::btf::{BtfBsdf, BtfMaterial};
 use crate::bsdf::btf_clusters::{MAX_CLUSTERS, clusters_within};
 use crate::bsdf::btf_sampler::{BtfLightSampler, SAMPLE_LANES};
 use crate::bsdf::chi2::Chi2Test;
-use crate::btf::{BtfSource, DirectionSet, RawBtf, StoredEncoding};
+use crate::btf::{BtfSource, RawBtf};
 use crate::geometry::SurfaceInteraction;
 use crate::math::color::luminance;
 use crate::math::frame::from_spherical;
@@ -42,18 +42,7 @@ fn b_value(kind: usize, v: Vec3, l: Vec3, x: usize, y: usize) -> [f32; 3] {
 
 /// A UBO2003-direction BTF of W × H texels with B = `f(view, light, x, y)`.
 fn table(f: impl Fn(Vec3, Vec3, usize, usize) -> [f32; 3]) -> RawBtf {
-    let set = DirectionSet::ubo2003();
-    let mut data = Vec::with_capacity(81 * 81 * W * H * 3);
-    for &v in &set.dirs {
-        for &l in &set.dirs {
-            for y in 0..H {
-                for x in 0..W {
-                    data.extend_from_slice(&f(v, l, x, y));
-                }
-            }
-        }
-    }
-    RawBtf::from_f32(set.clone(), set, W, H, StoredEncoding::Linear, &data).unwrap()
+    crate::bsdf::btf::tests::table(W, H, f)
 }
 
 fn mixed_btf() -> &'static Arc<RawBtf> {
