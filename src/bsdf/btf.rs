@@ -479,7 +479,11 @@ pub(crate) mod tests {
     }
 
     /// Mean and standard error of the sample weights (first channel) with `n` samples.
-    fn weight_stats(sample: impl Fn(f32, Vec2) -> Option<f32>, n: usize, seed: u64) -> (f64, f64) {
+    pub(crate) fn weight_stats(
+        sample: impl Fn(f32, Vec2) -> Option<f32>,
+        n: usize,
+        seed: u64,
+    ) -> (f64, f64) {
         let mut rng = Pcg32::new(seed, 5);
         let (mut s1, mut s2) = (0f64, 0f64);
         for _ in 0..n {

@@ -313,18 +313,7 @@ fn albedo_quadrature(b: &BtfBsdf, s: &SurfaceInteraction) -> f64 {
 
 /// Mean and standard error of the first channel of `b`'s sample weights at `s`, `n` samples.
 fn weight_stats(b: &BtfBsdf, s: &SurfaceInteraction, n: usize, seed: u64) -> (f64, f64) {
-    let mut rng = Pcg32::new(seed, 5);
-    let (mut s1, mut s2) = (0f64, 0f64);
-    for _ in 0..n {
-        let w = b
-            .sample(s, rng.next_f32(), rng.next_2d())
-            .map_or(0.0, |x| x.1.x as f64);
-        s1 += w;
-        s2 += w * w;
-    }
-    let mean = s1 / n as f64;
-    let var = (s2 / n as f64 - mean * mean).max(0.0);
-    (mean, (var / n as f64).sqrt())
+    crate::bsdf::btf::tests::weight_stats(|u1, u2| b.sample(s, u1, u2).map(|x| x.1.x), n, seed)
 }
 
 #[test]

@@ -178,6 +178,15 @@ mod tests {
         m
     }
 
+    /// obvhs's binary tree over every triangle of `m` and its plan.
+    fn planned_tree(m: &[Mesh]) -> (Bvh2, WidePlan) {
+        let ids = TriIds::new_filtered(m, |_| true);
+        let gids: Vec<u32> = (0..ids.total as u32).collect();
+        let bvh2 = binary_bvh(&ids, &gids);
+        let plan = WidePlan::new(&bvh2);
+        (bvh2, plan)
+    }
+
     fn area(bvh2: &Bvh2, i: u32) -> f32 {
         bvh2.nodes[i as usize].aabb().half_area().max(0.0)
     }
@@ -206,11 +215,8 @@ mod tests {
     #[test]
     fn every_triangle_lands_in_one_leaf_of_at_most_max_triangles() {
         let m = meshes();
-        let ids = TriIds::new_filtered(&m, |_| true);
-        let gids: Vec<u32> = (0..ids.total as u32).collect();
-        let bvh2 = binary_bvh(&ids, &gids);
-        let plan = WidePlan::new(&bvh2);
-        let mut seen = vec![0u32; gids.len()];
+        let (bvh2, plan) = planned_tree(&m);
+        let mut seen = vec![0u32; bvh2.primitive_indices.len()];
         let mut work = vec![0u32];
         let (mut wide, mut leaves) = (0, 0);
         while let Some(i) = work.pop() {
@@ -237,7 +243,7 @@ mod tests {
         assert!(seen.iter().all(|&s| s == 1));
         // Grouped, not one triangle per leaf nor one leaf per wide node.
         assert!(
-            leaves * 3 < gids.len() && wide * 3 < leaves,
+            leaves * 3 < seen.len() && wide * 3 < leaves,
             "{wide} {leaves}"
         );
     }
@@ -245,10 +251,7 @@ mod tests {
     #[test]
     fn the_plan_costs_less_than_the_greedy_grouping() {
         let m = meshes();
-        let ids = TriIds::new_filtered(&m, |_| true);
-        let gids: Vec<u32> = (0..ids.total as u32).collect();
-        let bvh2 = binary_bvh(&ids, &gids);
-        let plan = WidePlan::new(&bvh2);
+        let (bvh2, plan) = planned_tree(&m);
         let b = &bvh2.nodes;
         let planned = |i: u32| {
             let mut kids = Vec::new();
@@ -283,10 +286,7 @@ mod tests {
     #[test]
     fn a_tiny_scene_is_one_wide_node_of_leaves() {
         let m = meshes()[1..5].to_vec();
-        let ids = TriIds::new_filtered(&m, |_| true);
-        let gids: Vec<u32> = (0..ids.total as u32).collect();
-        let bvh2 = binary_bvh(&ids, &gids);
-        let plan = WidePlan::new(&bvh2);
+        let (bvh2, plan) = planned_tree(&m);
         let mut kids = Vec::new();
         plan.slots(&bvh2, 0, &mut kids);
         assert!(kids.iter().all(|&k| plan.is_leaf(k)));
