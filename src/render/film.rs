@@ -197,8 +197,7 @@ impl Tile {
         let (fw, fh) = (s.width as i64, s.height as i64);
         let mut wx = [0f32; FOOTPRINT];
         let mut wy = [0f32; FOOTPRINT];
-        let (lx, nx) = filter.weights_1d(fx, &mut wx);
-        let (ly, ny) = filter.weights_1d(fy, &mut wy);
+        let ((lx, nx), (ly, ny)) = filter.weights_2d(fx, fy, &mut wx, &mut wy);
         // The footprint clipped to the film and to the tile with its border, once per axis.
         let span = |l: i64, n: usize, full: i64, b0: i64, bn: i64| {
             let first = 0.max(-l).max(b0 - l);
