@@ -19,6 +19,7 @@ mod collapse;
 mod flatten;
 mod instances;
 mod node;
+mod packet;
 mod stack;
 mod traverse;
 mod tri;
@@ -184,21 +185,77 @@ impl Accel {
         if !self.nodes.is_empty() {
             let h = traverse::run::<false>(isa, &self.nodes, &self.tris, o, d, tmax);
             if h.is_hit() {
-                let g = self.ids[h.slot as usize / LANES][h.slot as usize % LANES];
-                let (mesh, prim) = build::TriIds::locate(&self.mesh_first, g);
                 tmax = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    mesh,
-                    prim,
-                    b: Vec2::new(h.u, h.v),
-                    inst: NO_INSTANCE,
-                });
+                best = Some(self.hit_of(h));
             }
         }
         match &self.instances {
             None => best,
             Some(level) => level.intersect(isa, o, d, tmax).or(best),
+        }
+    }
+
+    /// Closest hits of up to sixteen coherent rays (`o`, `d` per axis, lane l; unit directions)
+    /// in (0, tmax[l]] for the lanes set in `active`, into `out`, by one packet traversal (a row
+    /// of camera rays): each lane gets exactly what [`Accel::intersect`] returns for its ray.
+    /// Returns false, leaving `out` alone, where a packet does not pay and the rays must be
+    /// traced one at a time: their direction signs differ, fewer than four lanes are active,
+    /// or not [`Accel::packets_pay`].
+    pub fn intersect16(
+        &self,
+        o: &[[f32; 16]; 3],
+        d: &[[f32; 16]; 3],
+        tmax: &[f32; 16],
+        active: u32,
+        out: &mut [Option<Hit>; 16],
+    ) -> bool {
+        self.intersect16_isa(self.isa, o, d, tmax, active, out)
+    }
+
+    /// True if [`Accel::intersect16`] can trace a packet in this scene: the tree has nodes
+    /// below its root to share, and no analytic spheres or instances (which the one-ray
+    /// traversal handles).
+    #[inline]
+    pub fn packets_pay(&self) -> bool {
+        self.nodes.len() > 1 && self.spheres.is_empty() && self.instances.is_none()
+    }
+
+    /// [`Accel::intersect16`] with the traversal built for `isa` (one `simd::isa()` allows).
+    fn intersect16_isa(
+        &self,
+        isa: Isa,
+        o: &[[f32; 16]; 3],
+        d: &[[f32; 16]; 3],
+        tmax: &[f32; 16],
+        active: u32,
+        out: &mut [Option<Hit>; 16],
+    ) -> bool {
+        if !self.packets_pay() || active.count_ones() < 4 {
+            return false;
+        }
+        let Some(hits) = packet::run16(isa, &self.nodes, &self.tris, o, d, tmax, active) else {
+            return false;
+        };
+        let mut m = active;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            out[l] = hits[l].is_hit().then(|| self.hit_of(hits[l]));
+        }
+        true
+    }
+
+    /// The scene hit of a traversal result.
+    #[inline(always)]
+    fn hit_of(&self, h: traverse::SlotHit) -> Hit {
+        let g = self.ids[h.slot as usize / LANES][h.slot as usize % LANES];
+        let (mesh, prim) = build::TriIds::locate(&self.mesh_first, g);
+        Hit {
+            t: h.t,
+            mesh,
+            prim,
+            b: Vec2::new(h.u, h.v),
+            inst: NO_INSTANCE,
         }
     }
 

@@ -480,3 +480,161 @@ fn instances_hit_as_world_space_copies() {
     }
     assert!(hits > 100 && edge <= 2, "{hits} hits, {edge} disagreements");
 }
+
+/// Traces `rays` in packets of sixteen (lanes where `active` is set) through `intersect16`,
+/// which must take the packets whose active rays share their direction signs (and leave the
+/// others), and requires each lane to get exactly what the one-ray traversal gives it, in
+/// every build; returns how many lanes hit.
+fn check_packets(accel: &Accel, rays: &[[(Vec3, Vec3, f32); 16]], active: u32) -> usize {
+    let mut hits = 0;
+    for isa in std::iter::once(Isa::PORTABLE).chain(Isa::available()) {
+        for (k, packet) in rays.iter().enumerate() {
+            let axis = |f: &dyn Fn(usize) -> Vec3| -> [[f32; 16]; 3] {
+                std::array::from_fn(|a| std::array::from_fn(|l| f(l)[a]))
+            };
+            let o = axis(&|l| packet[l].0);
+            let d = axis(&|l| packet[l].1);
+            let tmax = std::array::from_fn(|l| packet[l].2);
+            // A lane outside `active` keeps what it held.
+            let sentinel = Some(Hit {
+                t: -1.0,
+                mesh: 7,
+                prim: 7,
+                b: Vec2::ZERO,
+                inst: NO_INSTANCE,
+            });
+            let mut out = [sentinel; 16];
+            let signs = |l: usize| (1.0 / packet[l].1).to_array().map(f32::is_sign_negative);
+            let first = signs(active.trailing_zeros() as usize);
+            let coherent = (0..16).all(|l| active & (1 << l) == 0 || signs(l) == first);
+            let packed = accel.intersect16_isa(isa, &o, &d, &tmax, active, &mut out);
+            assert_eq!(
+                packed,
+                coherent && active.count_ones() >= 4,
+                "{isa:?} packet {k}"
+            );
+            for (l, &(o, d, t)) in packet.iter().enumerate() {
+                if !packed || active & (1 << l) == 0 {
+                    assert_eq!(out[l], sentinel, "{isa:?} packet {k} lane {l}");
+                    continue;
+                }
+                let want = accel.intersect_isa(isa, o, d, t);
+                assert_eq!(out[l], want, "{isa:?} packet {k} lane {l}: {o:?} {d:?} {t}");
+                hits += want.is_some() as usize;
+            }
+        }
+    }
+    hits
+}
+
+/// A bumpy sphere over a floor quad: deep enough for several wide levels.
+fn packet_scene() -> Vec<Mesh> {
+    use crate::geometry::generate::sphere_displaced;
+    let mut floor = quad(0.0);
+    for p in &mut floor.positions {
+        *p = Vec3::new(p.x * 4.0, -1.2, p.y * 4.0);
+    }
+    vec![
+        sphere_displaced(Vec3::ZERO, 1.0, 32, 64, false, true, |d| {
+            0.1 * (7.0 * d.x).sin() * (5.0 * d.y).cos()
+        }),
+        floor,
+    ]
+}
+
+/// Rows of sixteen camera rays (a pinhole at `eye` looking at the origin), one per image row
+/// of `rows`, with per-lane limits from `tmax`.
+fn camera_rows(
+    eye: Vec3,
+    rows: usize,
+    tmax: impl Fn(usize) -> f32,
+) -> Vec<[(Vec3, Vec3, f32); 16]> {
+    let fwd = (-eye).normalize();
+    let right = fwd.cross(Vec3::Y).normalize();
+    let up = right.cross(fwd);
+    (0..rows)
+        .map(|r| {
+            let y = 1.0 - 2.0 * (r as f32 + 0.5) / rows as f32;
+            std::array::from_fn(|l| {
+                let x = -1.0 + 2.0 * (l as f32 + 0.5) / 16.0;
+                (
+                    (eye),
+                    (fwd + right * (0.6 * x) + up * (0.6 * y)).normalize(),
+                    tmax(l),
+                )
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn camera_packets_match_one_ray_traversal() {
+    let meshes = packet_scene();
+    let accel = Accel::build(&meshes);
+    assert!(accel.nodes.len() > 20);
+    let mut total = 0;
+    // Seen from a diagonal, a row's rays share their direction signs (the packet traversal);
+    // from above, every row crosses x = 0 and mixes them (left to the one-ray traversal).
+    for eye in [
+        Vec3::new(2.5, 1.0, 2.8),
+        Vec3::new(-2.5, 2.0, -2.0),
+        Vec3::new(0.0, 4.0, 0.01),
+    ] {
+        total += check_packets(
+            &accel,
+            &camera_rows(eye, 40, |_| f32::INFINITY),
+            u32::MAX >> 16,
+        );
+        // Limits that cut some hits off, and lanes left out.
+        let rows = camera_rows(eye, 24, |l| [f32::INFINITY, 3.2, 2.0, 0.5][l % 4]);
+        total += check_packets(&accel, &rows, 0b1011_0111_1110_1101);
+        total += check_packets(&accel, &rows, 0b1111);
+    }
+    assert!(
+        total > 800,
+        "only {total} lane hits in packets: the rows miss too often"
+    );
+}
+
+#[test]
+fn incoherent_packets_match_one_ray_traversal() {
+    use crate::math::warp::square_to_uniform_sphere;
+    let meshes = packet_scene();
+    let accel = Accel::build(&meshes);
+    let mut rng = crate::math::Pcg32::new(3, 5);
+    // Random origins, directions of one octant per packet (so the packet path runs) and of
+    // any octant.
+    let packets: Vec<[(Vec3, Vec3, f32); 16]> = (0..200)
+        .map(|k| {
+            std::array::from_fn(|_| {
+                let o = square_to_uniform_sphere(rng.next_2d()) * 3.0;
+                let mut d = square_to_uniform_sphere(rng.next_2d());
+                if k % 2 == 0 {
+                    d = d.abs() * Vec3::new(-1.0, 1.0, -1.0);
+                }
+                (o, d, if k % 3 == 0 { 2.5 } else { f32::INFINITY })
+            })
+        })
+        .collect();
+    assert!(check_packets(&accel, &packets, u32::MAX >> 16) > 500);
+}
+
+#[test]
+fn equal_distances_pick_the_lowest_slot_in_both_traversals() {
+    // Two copies of the same sphere: every hit is a tie between two triangles, which the
+    // one-ray and the packet traversal must resolve alike (nearest t, then lowest slot),
+    // whatever order they visit the copies in.
+    let mut meshes = packet_scene();
+    meshes.push(meshes[0].clone());
+    let accel = Accel::build(&meshes);
+    let rows = camera_rows(Vec3::new(2.2, 0.8, 2.4), 32, |_| f32::INFINITY);
+    let hits = check_packets(&accel, &rows, u32::MAX >> 16);
+    assert!(hits > 150, "only {hits} lane hits in packets");
+    // Every sphere hit is a tie (the copies' triangles are the same bits).
+    let ties = rows
+        .iter()
+        .flatten()
+        .filter(|&&(o, d, t)| accel.intersect(o, d, t).is_some_and(|h| h.mesh != 1))
+        .count();
+    assert!(ties > 60, "only {ties} ties");
+}

@@ -132,8 +132,14 @@ fn traverse<const ANY: bool, V: F8>(
                         lane = l;
                     }
                 }
+                // Equal distances: the lowest slot wins, whatever the visiting order (as
+                // the packet traversal decides).
+                let slot = (LANES * (first + j) + lane) as u32;
+                if !ANY && h.t[lane] == best.t && slot > best.slot {
+                    continue;
+                }
                 best = SlotHit {
-                    slot: (LANES * (first + j) + lane) as u32,
+                    slot,
                     t: h.t[lane],
                     u: h.u[lane],
                     v: h.v[lane],

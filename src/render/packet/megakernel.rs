@@ -148,6 +148,7 @@ pub fn trace_chunk(
             let (tmax, job) = (group(&pool.ray_t, g), group(&pool.job, g));
             let (pass, depth) = (group(&pool.passthrough, g), group(&pool.depth, g));
             let hits = group_mut(&mut pool.hit, g);
+            let traced = group_mut(&mut pool.traced, g);
             let keys = group_mut(&mut scratch.key, g);
             // Lanes that hit a hidden emitter.
             let mut through = 0u32;
@@ -157,7 +158,10 @@ pub fn trace_chunk(
                     continue;
                 }
                 n += 1;
-                let hit = if pass[l] && !(tmax[l] > 0.0) {
+                let hit = if traced[l] {
+                    traced[l] = false;
+                    hits[l]
+                } else if pass[l] && !(tmax[l] > 0.0) {
                     None
                 } else {
                     rs.accel.intersect(ray_o.get(l), ray_d.get(l), tmax[l])

@@ -131,6 +131,8 @@ pub struct PathPool {
     pub cam_t: Vec<f32>,
     /// Closest hit of the current ray (written by the traversal stage).
     pub hit: Vec<Option<Hit>>,
+    /// The current ray is a camera ray already traced with its packet (`hit` holds its hit).
+    pub traced: Vec<bool>,
     pub throughput: Vec3s,
     pub result: Vec3s,
     pub eta: Vec<f32>,
@@ -163,6 +165,7 @@ impl PathPool {
             cam_o: Vec3s::new(n),
             cam_t: vec![0.0; n],
             hit: vec![None; n],
+            traced: vec![false; n],
             throughput: Vec3s::new(n),
             result: Vec3s::new(n),
             eta: vec![1.0; n],

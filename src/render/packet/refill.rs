@@ -84,6 +84,17 @@ fn start(
         (F16::splat(0.5), F16::splat(0.5))
     };
     let (o, d, tmax) = rs.camera.ray_x(fx, fy, ux, uy);
+    // The row's camera rays traced together where a packet pays (the traversal stage takes
+    // their hits as found), else one by one there.
+    let mut hits = [None; LANES];
+    let traced = rs.accel.packets_pay()
+        && rs.accel.intersect16(
+            &[o.x.0, o.y.0, o.z.0],
+            &[d.x.0, d.y.0, d.z.0],
+            &tmax.0,
+            u32::MAX >> (32 - n),
+            &mut hits,
+        );
     for l in 0..n {
         out[fill.job[l] as usize].pos = [fx.0[l], fy.0[l]];
         pool.start(
@@ -94,6 +105,10 @@ fn start(
             d.get(l),
             tmax.0[l],
         );
+        if traced {
+            pool.hit[fill.slot[l]] = hits[l];
+            pool.traced[fill.slot[l]] = true;
+        }
     }
     stats.rays += n as u64;
     fill.n = 0;
