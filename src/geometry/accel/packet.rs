@@ -11,13 +11,13 @@
 //! mixed packet one ray at a time.
 
 use super::node::{FAR_SCALE, Node8, WIDTH};
+use super::stack::Stack;
 use super::traverse::SlotHit;
 use super::tri::{LANES, TriPack};
 #[cfg(target_arch = "x86_64")]
 use crate::math::simd::f8::Avx8;
 use crate::math::simd::f8::{F8, Sse8};
 use crate::math::simd::{Isa, Level};
-use std::mem::MaybeUninit;
 
 /// Rays per packet.
 pub(super) const RAYS: usize = 16;
@@ -42,6 +42,14 @@ trait Lanes16: Copy {
 #[derive(Clone, Copy)]
 struct P<V>([V; 2]);
 
+impl<V: F8> P<V> {
+    /// `f` on both halves.
+    #[inline(always)]
+    fn zip(self, b: P<V>, f: impl Fn(V, V) -> V) -> P<V> {
+        P([f(self.0[0], b.0[0]), f(self.0[1], b.0[1])])
+    }
+}
+
 impl<V: F8> Lanes16 for P<V> {
     #[inline(always)]
     fn load(a: &[f32; RAYS]) -> P<V> {
@@ -57,19 +65,19 @@ impl<V: F8> Lanes16 for P<V> {
     }
     #[inline(always)]
     fn sub(self, b: P<V>) -> P<V> {
-        P([self.0[0].sub(b.0[0]), self.0[1].sub(b.0[1])])
+        self.zip(b, V::sub)
     }
     #[inline(always)]
     fn mul(self, b: P<V>) -> P<V> {
-        P([self.0[0].mul(b.0[0]), self.0[1].mul(b.0[1])])
+        self.zip(b, V::mul)
     }
     #[inline(always)]
     fn max(self, b: P<V>) -> P<V> {
-        P([self.0[0].max(b.0[0]), self.0[1].max(b.0[1])])
+        self.zip(b, V::max)
     }
     #[inline(always)]
     fn min(self, b: P<V>) -> P<V> {
-        P([self.0[0].min(b.0[0]), self.0[1].min(b.0[1])])
+        self.zip(b, V::min)
     }
     #[inline(always)]
     fn le(self, b: P<V>) -> u32 {
@@ -89,48 +97,6 @@ struct Pending<Q> {
     /// Entry distance of the first lane (the visiting order's key).
     key: f32,
     lanes: u32,
-}
-
-/// The packet's traversal stack: fixed-size, spilling to the heap only for pathologically
-/// deep trees (as `stack::Stack`).
-struct Stack<V> {
-    buf: [MaybeUninit<Pending<V>>; 64],
-    len: usize,
-    spill: Vec<Pending<V>>,
-}
-
-impl<V: Copy> Stack<V> {
-    #[inline(always)]
-    fn new() -> Stack<V> {
-        Stack {
-            buf: [const { MaybeUninit::uninit() }; 64],
-            len: 0,
-            spill: Vec::new(),
-        }
-    }
-
-    #[inline(always)]
-    fn push(&mut self, e: Pending<V>) {
-        if self.len < self.buf.len() {
-            self.buf[self.len].write(e);
-            self.len += 1;
-        } else {
-            self.spill.push(e);
-        }
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<Pending<V>> {
-        if let Some(e) = self.spill.pop() {
-            return Some(e);
-        }
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        // SAFETY: slots below `len` were written by `push`, and Pending is Copy.
-        Some(unsafe { self.buf[self.len].assume_init_read() })
-    }
 }
 
 /// [`closest16`] over [`Avx8`] halves, compiled with AVX2 enabled.
@@ -211,7 +177,7 @@ fn closest16<Q: Lanes16, V: F8>(
     let (mut bu, mut bv) = ([0f32; RAYS], [0f32; RAYS]);
     let zero = Q::splat(0.0);
     let far_scale = Q::splat(FAR_SCALE);
-    let mut stack = Stack::<Q>::new();
+    let mut stack = Stack::<Pending<Q>>::new();
     let mut cur = Pending {
         node: 0,
         t: zero,
@@ -264,20 +230,9 @@ fn closest16<Q: Lanes16, V: F8>(
                 let rd = [V::splat(d[0][l]), V::splat(d[1][l]), V::splat(d[2][l])];
                 for (j, pack) in tris[first..first + n.count[i] as usize].iter().enumerate() {
                     let h = pack.intersect(&ro, &rd, best_a[l]);
-                    if h.mask == 0 {
+                    let Some(k) = h.nearest() else {
                         continue;
-                    }
-                    // Nearest lane that hit (the lowest one on a tie), as `traverse`.
-                    let mut hm = h.mask;
-                    let mut k = hm.trailing_zeros() as usize;
-                    hm &= hm - 1;
-                    while hm != 0 {
-                        let q = hm.trailing_zeros() as usize;
-                        hm &= hm - 1;
-                        if h.t[q] < h.t[k] {
-                            k = q;
-                        }
-                    }
+                    };
                     let s = (LANES * (first + j) + k) as u32;
                     // (t ≤ the lane's best: nearer, or as near from a lower slot.)
                     if h.t[k] < best_a[l] || s < slot[l] {

@@ -118,20 +118,9 @@ fn traverse<const ANY: bool, V: F8>(
             let first = n.child[i] as usize;
             for (j, tri) in tris[first..first + n.count[i] as usize].iter().enumerate() {
                 let h = tri.intersect(&rb.o, &da, tmax);
-                if h.mask == 0 {
+                let Some(lane) = h.nearest() else {
                     continue;
-                }
-                // Nearest lane that hit (the lowest one on a tie).
-                let mut m = h.mask;
-                let mut lane = m.trailing_zeros() as usize;
-                m &= m - 1;
-                while m != 0 {
-                    let l = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    if h.t[l] < h.t[lane] {
-                        lane = l;
-                    }
-                }
+                };
                 // Equal distances: the lowest slot wins, whatever the visiting order (as
                 // the packet traversal decides).
                 let slot = (LANES * (first + j) + lane) as u32;

@@ -34,6 +34,27 @@ pub(super) struct PackHit {
     pub v: [f32; LANES],
 }
 
+impl PackHit {
+    /// The nearest lane that hit (the lowest one on a tie), if any.
+    #[inline(always)]
+    pub fn nearest(&self) -> Option<usize> {
+        let mut m = self.mask;
+        if m == 0 {
+            return None;
+        }
+        let mut lane = m.trailing_zeros() as usize;
+        m &= m - 1;
+        while m != 0 {
+            let l = m.trailing_zeros() as usize;
+            m &= m - 1;
+            if self.t[l] < self.t[lane] {
+                lane = l;
+            }
+        }
+        Some(lane)
+    }
+}
+
 impl Default for TriPack {
     fn default() -> TriPack {
         TriPack {
