@@ -8,7 +8,9 @@
 //! again. The traversal is compiled twice, for AVX2 ([`crate::math::simd::f8`]: one ymm register per 8-lane
 //! step, also used on AVX-512 CPUs) and for the baseline (two SSE halves), and picked at runtime
 //! by `simd::isa()`, so a baseline (SSE2) binary still runs 8-wide code on AVX2 machines. Both
-//! builds return the same bits (no fused multiply-adds).
+//! builds return the same bits (no fused multiply-adds). Rows of sixteen coherent camera rays
+//! go through one packet traversal instead ([`packet`], [`Accel::intersect16`]), which gives
+//! every lane the one-ray hit.
 //!
 //! Why not obvhs's own CWBVH traversal: it decodes 8-bit quantised child boxes (u8 → f32 lane
 //! by lane) at every node and sorts nothing; on incoherent rays it ran at ~1 Mray/s on 130k
