@@ -22,22 +22,6 @@ use crate::math::simd::{Isa, Level};
 /// Rays per packet.
 pub(super) const RAYS: usize = 16;
 
-/// Sixteen f32 lanes and what the node test needs of them.
-trait Lanes16: Copy {
-    fn load(a: &[f32; RAYS]) -> Self;
-    fn splat(x: f32) -> Self;
-    fn sub(self, b: Self) -> Self;
-    fn mul(self, b: Self) -> Self;
-    /// `self > b ? self : b` per lane (x86 maxps: `b` when either is NaN).
-    fn max(self, b: Self) -> Self;
-    /// `self < b ? self : b` per lane (x86 minps: `b` when either is NaN).
-    fn min(self, b: Self) -> Self;
-    /// Bit l set where lane l of `self` ≤ that of `b` (false on NaN).
-    fn le(self, b: Self) -> u32;
-    /// Lane `l`.
-    fn lane(self, l: usize) -> f32;
-}
-
 /// Sixteen lanes as two eight-lane halves (lanes 0–7, 8–15): the AVX2 and baseline builds.
 #[derive(Clone, Copy)]
 struct P<V>([V; 2]);
@@ -48,9 +32,6 @@ impl<V: F8> P<V> {
     fn zip(self, b: P<V>, f: impl Fn(V, V) -> V) -> P<V> {
         P([f(self.0[0], b.0[0]), f(self.0[1], b.0[1])])
     }
-}
-
-impl<V: F8> Lanes16 for P<V> {
     #[inline(always)]
     fn load(a: &[f32; RAYS]) -> P<V> {
         let (lo, hi) = a.split_at(8);
@@ -71,18 +52,22 @@ impl<V: F8> Lanes16 for P<V> {
     fn mul(self, b: P<V>) -> P<V> {
         self.zip(b, V::mul)
     }
+    /// `self > b ? self : b` per lane (x86 maxps: `b` when either is NaN).
     #[inline(always)]
     fn max(self, b: P<V>) -> P<V> {
         self.zip(b, V::max)
     }
+    /// `self < b ? self : b` per lane (x86 minps: `b` when either is NaN).
     #[inline(always)]
     fn min(self, b: P<V>) -> P<V> {
         self.zip(b, V::min)
     }
+    /// Bit l set where lane l of `self` ≤ that of `b` (false on NaN).
     #[inline(always)]
     fn le(self, b: P<V>) -> u32 {
         V::bitmask(self.0[0].le(b.0[0])) | V::bitmask(self.0[1].le(b.0[1])) << 8
     }
+    /// Lane `l`.
     #[inline(always)]
     fn lane(self, l: usize) -> f32 {
         self.0[l / 8].to_array()[l % 8]
@@ -91,9 +76,9 @@ impl<V: F8> Lanes16 for P<V> {
 
 /// A node to visit: its index, each lane's entry distance, and the lanes that entered it.
 #[derive(Clone, Copy)]
-struct Pending<Q> {
+struct Pending<V> {
     node: u32,
-    t: Q,
+    t: P<V>,
     /// Entry distance of the first lane (the visiting order's key).
     key: f32,
     lanes: u32,
@@ -110,7 +95,7 @@ fn closest16_avx2(
     tmax: &[f32; RAYS],
     active: u32,
 ) -> Option<[SlotHit; RAYS]> {
-    closest16::<P<Avx8>, Avx8>(nodes, tris, o, d, tmax, active)
+    closest16::<Avx8>(nodes, tris, o, d, tmax, active)
 }
 
 /// Closest hits of the rays `o + t d` (lane l of each axis array) in (0, tmax[l]] for the lanes
@@ -131,12 +116,12 @@ pub(super) fn run16(
         // which checked AVX2 on this CPU (AVX-512 implies it there).
         #[cfg(target_arch = "x86_64")]
         Level::Avx512 | Level::Avx2 => unsafe { closest16_avx2(nodes, tris, o, d, tmax, active) },
-        _ => closest16::<P<Sse8>, Sse8>(nodes, tris, o, d, tmax, active),
+        _ => closest16::<Sse8>(nodes, tris, o, d, tmax, active),
     }
 }
 
 #[inline(always)]
-fn closest16<Q: Lanes16, V: F8>(
+fn closest16<V: F8>(
     nodes: &[Node8],
     tris: &[TriPack],
     o: &[[f32; RAYS]; 3],
@@ -168,16 +153,16 @@ fn closest16<Q: Lanes16, V: F8>(
         }
         near[a] = 2 * a + (neg != 0) as usize;
     }
-    let inv: [Q; 3] = std::array::from_fn(|a| Q::load(&inv_a[a]));
+    let inv: [P<V>; 3] = std::array::from_fn(|a| P::<V>::load(&inv_a[a]));
     let o_a = o;
-    let o: [Q; 3] = std::array::from_fn(|a| Q::load(&o[a]));
-    let mut best = Q::load(tmax);
+    let o: [P<V>; 3] = std::array::from_fn(|a| P::<V>::load(&o[a]));
+    let mut best = P::<V>::load(tmax);
     let mut best_a = *tmax;
     let mut slot = [SlotHit::NONE; RAYS];
     let (mut bu, mut bv) = ([0f32; RAYS], [0f32; RAYS]);
-    let zero = Q::splat(0.0);
-    let far_scale = Q::splat(FAR_SCALE);
-    let mut stack = Stack::<Pending<Q>>::new();
+    let zero = P::<V>::splat(0.0);
+    let far_scale = P::<V>::splat(FAR_SCALE);
+    let mut stack = Stack::<Pending<V>>::new();
     let mut cur = Pending {
         node: 0,
         t: zero,
@@ -196,8 +181,8 @@ fn closest16<Q: Lanes16, V: F8>(
             let mut tn = zero;
             let mut tf = best;
             for a in 0..3 {
-                let lo = Q::splat(n.bounds[near[a]][i]);
-                let hi = Q::splat(n.bounds[near[a] ^ 1][i]);
+                let lo = P::<V>::splat(n.bounds[near[a]][i]);
+                let hi = P::<V>::splat(n.bounds[near[a] ^ 1][i]);
                 tn = lo.sub(o[a]).mul(inv[a]).max(tn);
                 tf = hi.sub(o[a]).mul(inv[a]).min(tf);
             }
@@ -243,7 +228,7 @@ fn closest16<Q: Lanes16, V: F8>(
                     }
                 }
             }
-            best = Q::load(&best_a);
+            best = P::<V>::load(&best_a);
         }
         // Nearest child (by its first lane's entry) next, the others stacked farthest first.
         if k > 0 {

@@ -16,10 +16,10 @@ pub(super) const LANES: usize = 8;
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]
 pub(super) struct TriPack {
-    pub(super) p0: [[f32; LANES]; 3],
-    pub(super) e1: [[f32; LANES]; 3],
-    pub(super) e2: [[f32; LANES]; 3],
-    pub(super) n: [[f32; LANES]; 3],
+    p0: [[f32; LANES]; 3],
+    e1: [[f32; LANES]; 3],
+    e2: [[f32; LANES]; 3],
+    n: [[f32; LANES]; 3],
 }
 
 /// Per-lane hits of one packet: bit k of `mask` set if lane k is hit; t, b1, b2 per lane.
