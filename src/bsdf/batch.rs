@@ -69,7 +69,8 @@ pub struct BsdfBatch<'a> {
     plmc_hits: [MaybeUninit<PlmcHit>; L],
     plmc_lane: [u8; L],
     plmc_n: usize,
-    /// Diffuse lanes: the albedo texture of each started lane (looked up in [`Self::prepare`]).
+    /// Diffuse lanes: the albedo texture of each started lane (looked up in [`Self::prepare`]);
+    /// None for a constant albedo, set in `albedo` as the lane starts.
     tex: [Option<&'a Texture>; L],
     /// The lanes' surface coordinates (set by [`Self::prepare`]).
     uv: V2x,
@@ -210,7 +211,13 @@ impl<'a> BsdfBatch<'a> {
                     }
                     None => return false,
                 };
-                self.tex[l] = Some(tex);
+                // A constant albedo (most scenes' diffuse) is the lane's value at once; only
+                // the other textures wait for `prepare`'s 16-lane lookups.
+                if let Texture::Constant(c) = tex {
+                    self.albedo.set(l, *c);
+                } else {
+                    self.tex[l] = Some(tex);
+                }
                 true
             }
             // (Their textures are looked up in `prepare`, for all lanes at once.)
@@ -282,8 +289,8 @@ impl<'a> BsdfBatch<'a> {
         }
     }
 
-    /// The diffuse lanes' albedos: each texture that several lanes of `live` share looked up
-    /// for all 16 lanes in one call, the others lane by lane.
+    /// The textured diffuse lanes' albedos: each texture that several lanes of `live` share
+    /// looked up for all 16 lanes in one call, the others lane by lane.
     #[inline(always)]
     fn diffuse_albedo(&mut self, live: u16) {
         let mut todo = live;
@@ -302,16 +309,13 @@ impl<'a> BsdfBatch<'a> {
                 }
             }
             todo &= !bits;
-            match tex {
-                Texture::Constant(c) => {
-                    self.albedo = V3x::select(same, V3x::splat(*c), self.albedo)
+            // (Constant albedos never get here: `start_lane` set them.)
+            if bits.count_ones() <= FEW_LANES {
+                for l in (0..L).filter(|&l| bits & (1 << l) != 0) {
+                    self.albedo.set(l, tex.eval(self.uv.get(l)));
                 }
-                _ if bits.count_ones() <= FEW_LANES => {
-                    for l in (0..L).filter(|&l| bits & (1 << l) != 0) {
-                        self.albedo.set(l, tex.eval(self.uv.get(l)));
-                    }
-                }
-                _ => self.albedo = V3x::select(same, tex.eval_x(self.uv), self.albedo),
+            } else {
+                self.albedo = V3x::select(same, tex.eval_x(self.uv), self.albedo);
             }
         }
     }
