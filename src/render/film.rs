@@ -240,19 +240,21 @@ impl Tile {
             first as usize..end.max(first) as usize
         };
         let (xs, ys) = (span(lx, nx, fw, bx0, bw), span(ly, ny, fh, by0, bh));
-        // Hoisted out of the loop: a render without moments adds to two buffers per pixel.
+        // Σ w·L and Σ w row by row, four pixels at a time; second moments and extra channels
+        // (when the render keeps them) pixel by pixel after. Each buffer still receives its
+        // additions in pixel order, so the bits do not depend on which of them a render keeps.
+        for j in ys.clone() {
+            let q = ((ly + j as i64 - by0) * bw + (lx + xs.start as i64 - bx0)) as usize;
+            splat_row(
+                &mut self.sum[q..q + xs.len()],
+                &mut self.weight[q..q + xs.len()],
+                &wx[xs.clone()],
+                wy[j],
+                l,
+            );
+        }
         let moments = self.has_moments();
         if !moments && extra.is_empty() {
-            for j in ys {
-                let q = ((ly + j as i64 - by0) * bw + (lx + xs.start as i64 - bx0)) as usize;
-                splat_row(
-                    &mut self.sum[q..q + xs.len()],
-                    &mut self.weight[q..q + xs.len()],
-                    &wx[xs.clone()],
-                    wy[j],
-                    l,
-                );
-            }
             return finite;
         }
         for j in ys {
@@ -261,10 +263,6 @@ impl Tile {
                 let x = lx + i as i64;
                 let w = (wx[i] * wyj) as f64;
                 let q = ((y - by0) * bw + (x - bx0)) as usize;
-                for c in 0..3 {
-                    self.sum[q][c] += w * l[c] as f64;
-                }
-                self.weight[q] += w;
                 if moments {
                     let w2 = w * w;
                     for c in 0..3 {
@@ -587,11 +585,50 @@ mod tests {
     use super::*;
     use crate::math::{Pcg32, Spectrum};
 
-    /// A render without moments splats rows four pixels at a time; one with moments adds pixel
-    /// by pixel. Their Σ w·L and Σ w must be the same bits for every filter, on tiles cut by
-    /// the film's edges (rows shorter than four, remainders) as well as inner ones.
+    /// Adds one filtered sample to a tile's buffers the plain way: every buffer pixel of the
+    /// tile asks whether it lies in the footprint and inside the film, and adds its weight.
+    #[allow(clippy::too_many_arguments)]
+    fn reference_splat(
+        t: &Tile,
+        s: &RenderSettings,
+        filter: &Filter,
+        fx: f32,
+        fy: f32,
+        l: Spectrum,
+        sum: &mut [[f64; 3]],
+        weight: &mut [f64],
+        sum2: &mut [[f64; 3]],
+    ) {
+        let mut wx = [0f32; FOOTPRINT];
+        let mut wy = [0f32; FOOTPRINT];
+        let ((lx, nx), (ly, ny)) = filter.weights_2d(fx, fy, &mut wx, &mut wy);
+        let b = t.border as i64;
+        let bw = (t.w + 2 * t.border) as i64;
+        let bh = (t.h + 2 * t.border) as i64;
+        for by in 0..bh {
+            for bx in 0..bw {
+                let (x, y) = (t.x0 as i64 - b + bx, t.y0 as i64 - b + by);
+                let inside = (0..s.width as i64).contains(&x) && (0..s.height as i64).contains(&y);
+                let (i, j) = (x - lx, y - ly);
+                if !inside || !(0..nx as i64).contains(&i) || !(0..ny as i64).contains(&j) {
+                    continue;
+                }
+                let w = (wx[i as usize] * wy[j as usize]) as f64;
+                let q = (by * bw + bx) as usize;
+                for c in 0..3 {
+                    sum[q][c] += w * l[c] as f64;
+                    sum2[q][c] += w * w * l[c] as f64 * l[c] as f64;
+                }
+                weight[q] += w;
+            }
+        }
+    }
+
+    /// A filtered sample's Σ w·L, Σ w and second moments are the same bits as the plain
+    /// per-pixel sums, for every filter, with and without moments kept, on tiles cut by the
+    /// film's edges (rows shorter than four, remainders) as well as inner ones.
     #[test]
-    fn row_splats_match_pixel_by_pixel_splats() {
+    fn filtered_splats_match_plain_per_pixel_sums() {
         let filters = [
             Filter::default(),
             Filter::gaussian(0.8).unwrap(),
@@ -599,6 +636,8 @@ mod tests {
             Filter::mitchell(1.0 / 3.0, 1.0 / 3.0, 2.0).unwrap(),
             Filter::lanczos(3).unwrap(),
         ];
+        let bits = |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let wbits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for filter in filters {
             let settings = RenderSettings {
                 width: 70,
@@ -612,6 +651,9 @@ mod tests {
             let mut without = with.clone().without_moments();
             let mut rng = Pcg32::new(3, 7);
             for (a, b) in with.tiles.iter_mut().zip(&mut without.tiles) {
+                let n = a.sum.len();
+                let (mut sum, mut weight, mut sum2) =
+                    (vec![[0.0; 3]; n], vec![0.0; n], vec![[0.0; 3]; n]);
                 for _ in 0..400 {
                     let px = a.x0 + (rng.next_f32() * a.w as f32) as u32 % a.w;
                     let py = a.y0 + (rng.next_f32() * a.h as f32) as u32 % a.h;
@@ -619,13 +661,25 @@ mod tests {
                     let l = Spectrum::new(rng.next_f32(), 3.0 * rng.next_f32(), 0.1);
                     assert!(a.add_sample(&settings, &filter, px, py, fx, fy, l));
                     assert!(b.add_sample(&settings, &filter, px, py, fx, fy, l));
+                    reference_splat(
+                        a,
+                        &settings,
+                        &filter,
+                        fx,
+                        fy,
+                        l,
+                        &mut sum,
+                        &mut weight,
+                        &mut sum2,
+                    );
                 }
-                let bits =
-                    |v: &[[f64; 3]]| v.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&a.sum), bits(&b.sum), "{filter:?}");
-                let wbits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(wbits(&a.weight), wbits(&b.weight), "{filter:?}");
-                assert!(a.weight.iter().any(|&w| w > 0.0));
+                for t in [&*a, &*b] {
+                    assert_eq!(bits(&t.sum), bits(&sum), "{filter:?}");
+                    assert_eq!(wbits(&t.weight), wbits(&weight), "{filter:?}");
+                }
+                assert_eq!(bits(&a.sum2), bits(&sum2), "{filter:?}");
+                assert!(b.sum2.is_empty());
+                assert!(weight.iter().any(|&w| w > 0.0));
             }
         }
     }
