@@ -157,8 +157,9 @@ pub struct DirectionInterp {
     pub(super) cands: Vec<[u16; CANDS]>,
     /// Number of directions in the set.
     n_dirs: usize,
-    /// `simd::isa()` is AVX-512 (so this CPU has AVX-512F): `locate16` runs its gather kernel.
-    pub(super) avx512: bool,
+    /// `simd::isa()`'s level: `locate16` runs its AVX-512 kernel at `Avx512` (the CPU has
+    /// AVX-512F), its AVX2 kernel at `Avx2`, else the scalar search per lane.
+    pub(super) level: crate::math::simd::Level,
 }
 
 impl DirectionInterp {
@@ -230,7 +231,7 @@ impl DirectionInterp {
             cell_tris,
             cands,
             n_dirs: set.len(),
-            avx512: crate::math::simd::isa().level() == crate::math::simd::Level::Avx512,
+            level: crate::math::simd::isa().level(),
         })
     }
 

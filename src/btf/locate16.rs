@@ -12,7 +12,9 @@ use super::directions::DirectionInterp;
 #[cfg(target_arch = "x86_64")]
 use super::directions::{CANDS, NO_CANDS};
 #[cfg(target_arch = "x86_64")]
-use crate::math::simd::transpose::transpose16;
+use crate::math::simd::Level;
+#[cfg(target_arch = "x86_64")]
+use crate::math::simd::transpose::{transpose8, transpose16};
 
 /// Lanes of one batched location (one AVX-512 register of f32).
 pub const LOCATE_LANES: usize = 16;
@@ -58,9 +60,21 @@ impl DirectionInterp {
         lanes: u16,
     ) -> Located16 {
         #[cfg(target_arch = "x86_64")]
-        if self.avx512 {
-            // SAFETY: `avx512` is set only if this CPU has AVX-512F (checked at construction).
-            return unsafe { self.locate16_avx512(qx, qy, lanes) };
+        match self.level {
+            // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
+            Level::Avx512 => return unsafe { self.locate16_avx512(qx, qy, lanes) },
+            Level::Avx2 => {
+                let mut out = Located16 {
+                    tri: [0; LOCATE_LANES],
+                    w: [[0.0; LOCATE_LANES]; 3],
+                };
+                for half in 0..2 {
+                    // SAFETY: `simd::isa()` gives `Level::Avx2` only on CPUs with AVX2.
+                    unsafe { self.locate8_avx2(qx, qy, lanes, half, &mut out) };
+                }
+                return out;
+            }
+            Level::Portable => {}
         }
         let mut out = Located16 {
             tri: [0; LOCATE_LANES],
@@ -76,7 +90,7 @@ impl DirectionInterp {
         out
     }
 
-    /// The scalar search per lane (the reference, and the path of CPUs without AVX-512).
+    /// The scalar search per lane (the reference, and the path of CPUs without AVX2).
     pub fn locate16_scalar(&self, qx: &[f32; LOCATE_LANES], qy: &[f32; LOCATE_LANES]) -> Located16 {
         let mut out = Located16 {
             tri: [0; LOCATE_LANES],
@@ -219,17 +233,179 @@ impl DirectionInterp {
     }
 }
 
+/// Lanes of one AVX2 pass of [`DirectionInterp::locate16`].
+#[cfg(target_arch = "x86_64")]
+const HALF: usize = LOCATE_LANES / 2;
+
+impl DirectionInterp {
+    /// The AVX2 kernel for lanes `8 half .. 8 half + 8` of `out`: `locate16_avx512`'s search
+    /// on 8 lanes, the same operations in the same order (so the scalar search's bits). The
+    /// candidates are read per lane from the cell table, the triangle records by row loads and
+    /// two 8 × 8 transposes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn locate8_avx2(
+        &self,
+        qx: &[f32; LOCATE_LANES],
+        qy: &[f32; LOCATE_LANES],
+        lanes: u16,
+        half: usize,
+        out: &mut Located16,
+    ) {
+        use core::arch::x86_64::*;
+        let o = HALF * half;
+        let grid = self.grid;
+        // SAFETY: 8 f32 loads from the lanes o..o + 8 of arrays of 16.
+        let (x, y) = unsafe {
+            (
+                _mm256_loadu_ps(qx[o..o + HALF].as_ptr()),
+                _mm256_loadu_ps(qy[o..o + HALF].as_ptr()),
+            )
+        };
+        let one = _mm256_set1_ps(1.0);
+        let half_ = _mm256_set1_ps(0.5);
+        let g = _mm256_set1_ps(grid as f32);
+        let top = _mm256_set1_ps((grid - 1) as f32);
+        let zero = _mm256_setzero_ps();
+        // The cell as `locate16_avx512` computes it (clamped before the cast).
+        let cell_of = |q: __m256| {
+            let c = _mm256_mul_ps(_mm256_mul_ps(_mm256_add_ps(q, one), half_), g);
+            _mm256_cvttps_epi32(_mm256_min_ps(_mm256_max_ps(c, zero), top))
+        };
+        let cell = _mm256_add_epi32(
+            _mm256_mullo_epi32(cell_of(y), _mm256_set1_epi32(grid as i32)),
+            cell_of(x),
+        );
+        let mut cells = [0u32; HALF];
+        // SAFETY: a store of 8 u32 to an array of 8.
+        unsafe { _mm256_storeu_si256(cells.as_mut_ptr() as *mut _, cell) };
+        // The cells' candidates per lane; over-full cells (NO_CANDS) read triangle 0 and take
+        // the scalar search.
+        let mut cand = [[0u32; HALF]; CANDS];
+        let mut full = 0u32;
+        for (l, &c) in cells.iter().enumerate() {
+            let c = self.cands[c as usize];
+            if c[0] == NO_CANDS {
+                full |= 1 << l;
+            } else {
+                for k in 0..CANDS {
+                    cand[k][l] = c[k] as u32;
+                }
+            }
+        }
+        // TriGeom::weights of the lanes' triangles `t`: the 8 records (64 bytes, aligned) as
+        // two 8 × 8 transposes, word f of every record in register f (see `locate16_avx512`).
+        let weights = |t: &[u32; HALF]| {
+            let mut r = [[zero; HALF]; 2];
+            for (l, &t) in t.iter().enumerate() {
+                let p = &self.tris[t as usize] as *const super::directions::TriGeom as *const f32;
+                // SAFETY: a `TriGeom` is 16 f32, 64-byte aligned: two aligned 8-float loads.
+                unsafe {
+                    r[0][l] = _mm256_load_ps(p);
+                    r[1][l] = _mm256_load_ps(p.add(8));
+                }
+            }
+            transpose8(&mut r[0]);
+            transpose8(&mut r[1]);
+            let f = |i: usize| r[i / 8][i % 8];
+            let weight = |e: usize, o: usize| {
+                let l = _mm256_mul_ps(f(e), _mm256_sub_ps(y, f(o + 1)));
+                let rr = _mm256_mul_ps(f(e + 1), _mm256_sub_ps(x, f(o)));
+                _mm256_mul_ps(_mm256_sub_ps(l, rr), f(12))
+            };
+            [weight(6, 2), weight(8, 4), weight(10, 0)]
+        };
+        let bits = |m: __m256| _mm256_movemask_ps(m) as u32;
+        let min3 = |w: [__m256; 3]| _mm256_min_ps(_mm256_min_ps(w[0], w[1]), w[2]);
+        let nan = |w: [__m256; 3]| {
+            bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(w[0], w[1]))
+                | bits(_mm256_cmp_ps::<_CMP_UNORD_Q>(w[2], w[2]))
+        };
+        // A lane mask from its bits (lane l all ones where bit l is set).
+        let lane_bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let mask_of = |m: u32| {
+            let b = _mm256_and_si256(_mm256_set1_epi32(m as i32), lane_bits);
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(b, lane_bits))
+        };
+        // The scalar search, lane-wise (as `locate16_avx512`).
+        let load = |c: &[u32; HALF]| {
+            // SAFETY: a load of 8 u32 from an array of 8.
+            unsafe { _mm256_loadu_si256(c.as_ptr() as *const _) }
+        };
+        let first = load(&cand[0]);
+        let mut best_t = _mm256_castsi256_ps(first);
+        let mut best_w = weights(&cand[0]);
+        let mut best_min = min3(best_w);
+        let mut slow = full | nan(best_w);
+        let mut done = bits(_mm256_cmp_ps::<_CMP_GE_OQ>(best_min, zero));
+        for c in &cand[1..] {
+            let cv = load(c);
+            // Repeats of the first candidate pad the list: nothing to test.
+            let repeat = bits(_mm256_castsi256_ps(_mm256_cmpeq_epi32(cv, first)));
+            let need = !done & !slow & !repeat & 0xff;
+            if need == 0 {
+                continue;
+            }
+            let w = weights(c);
+            let m = min3(w);
+            slow |= need & nan(w);
+            let better = need & bits(_mm256_cmp_ps::<_CMP_GT_OQ>(m, best_min));
+            let bm = mask_of(better);
+            best_t = _mm256_blendv_ps(best_t, _mm256_castsi256_ps(cv), bm);
+            for k in 0..3 {
+                best_w[k] = _mm256_blendv_ps(best_w[k], w[k], bm);
+            }
+            best_min = _mm256_blendv_ps(best_min, m, bm);
+            done |= better & bits(_mm256_cmp_ps::<_CMP_GE_OQ>(m, zero));
+        }
+        // SAFETY: stores of 8 lanes to lanes o..o + 8 of arrays of 16.
+        unsafe {
+            for k in 0..3 {
+                _mm256_storeu_ps(out.w[k][o..o + HALF].as_mut_ptr(), best_w[k]);
+            }
+            _mm256_storeu_ps(out.tri[o..o + HALF].as_mut_ptr() as *mut f32, best_t);
+        }
+        // Lanes of over-full cells or NaN weights: the exact scalar search (wanted lanes).
+        let mut slow = slow & (lanes >> o) as u32 & 0xff;
+        while slow != 0 {
+            let i = o + slow.trailing_zeros() as usize;
+            slow &= slow - 1;
+            let (t, w) = self.locate([qx[i], qy[i]]);
+            out.tri[i] = t as u32;
+            for k in 0..3 {
+                out.w[k][i] = w[k];
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::btf::DirectionSet;
     use crate::math::Pcg32;
     use crate::math::frame::from_spherical;
+    use crate::math::simd::Level;
+
+    /// `check_level` at every kernel level this CPU runs (AVX-512, AVX2, scalar).
+    fn check(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
+        let top = crate::math::simd::isa().level();
+        assert_eq!(ip.level, top);
+        let fast = check_level(ip, points);
+        for level in [Level::Avx2, Level::Portable] {
+            if level < top {
+                let mut lower = ip.clone();
+                lower.level = level;
+                assert_eq!(check_level(&lower, points), fast);
+            }
+        }
+        fast
+    }
 
     /// `locate16` (and `locate16_lanes` on its lanes) against `locate` lane by lane, bit for
     /// bit (NaN weights: both NaN), over `points` in chunks of 16; returns how many lanes hit a
     /// cell searched lane-wise.
-    fn check(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
+    fn check_level(ip: &DirectionInterp, points: &[[f32; 2]]) -> usize {
         let mut fast = 0;
         for chunk in points.chunks(LOCATE_LANES) {
             let (mut qx, mut qy) = ([0f32; LOCATE_LANES], [0f32; LOCATE_LANES]);

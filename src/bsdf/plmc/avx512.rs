@@ -13,24 +13,10 @@
 //! About 170 instructions per evaluation (the generic AVX2 build: ~890, mostly shuffles,
 //! spills and bounds checks of the 4-wide lanes).
 
-use super::{FLUSH, LobeRec, PolyRow};
+use super::FLUSH;
+pub(super) use super::query::Tables;
 use crate::math::simd::approx::{fused_exp2_16, fused_log2_16};
 use core::arch::x86_64::*;
-
-/// The tables of a PLM-C material with u8 indices (see `Params::Clustered8` and the
-/// `PlmcMaterial` fields of the same names).
-pub struct Tables<'a> {
-    pub k: usize,
-    pub n_views: usize,
-    pub n_lights: usize,
-    pub records: &'a [LobeRec],
-    pub index: &'a [[u8; 4]],
-    pub polys: &'a [PolyRow],
-    pub y_max: &'a [[f32; 4]],
-    pub out_max: &'a [[f32; 4]],
-    /// The model was fitted on sRGB-encoded values (decode after the polynomial).
-    pub srgb: bool,
-}
 
 /// Lane `4 a + c` of the coefficient `a_j` gathers lane `3 j + c` of view a's interpolated row:
 /// from the first operand for a = 0, the second (+16) for a = 1; lanes 8..10 (a = 2) are

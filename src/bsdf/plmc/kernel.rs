@@ -118,14 +118,14 @@ impl PlmcMaterial {
         self.eval_b_lanes(vi, vw, (li, lw), wo, texels)
     }
 
-    /// The tables of the 16-lane kernels, if this material runs them: PLM-C with u8 indices and
-    /// polynomials on an AVX-512 CPU (nearest texel; the caller checks that).
+    /// The tables of the AVX kernels, if this material has their layout: PLM-C with u8 indices
+    /// and polynomials.
     #[cfg(target_arch = "x86_64")]
     #[inline]
-    fn avx512_tables(&self) -> Option<super::avx512::Tables<'_>> {
-        match (self.isa.level(), &self.params) {
-            (Level::Avx512, Params::Clustered8 { k, records, index }) if !self.polys.is_empty() => {
-                Some(super::avx512::Tables {
+    fn avx_tables(&self) -> Option<super::query::Tables<'_>> {
+        match &self.params {
+            Params::Clustered8 { k, records, index } if !self.polys.is_empty() => {
+                Some(super::query::Tables {
                     k: *k,
                     n_views: self.n_views,
                     n_lights: self.n_lights,
@@ -141,28 +141,55 @@ impl PlmcMaterial {
         }
     }
 
+    /// The tables of the single-query AVX-512 kernel, if this material runs it: the AVX
+    /// layout on an AVX-512 CPU (nearest texel; the caller checks that).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn avx512_tables(&self) -> Option<super::query::Tables<'_>> {
+        (self.isa.level() == Level::Avx512)
+            .then(|| self.avx_tables())
+            .flatten()
+    }
+
+    /// The tables of the 16-query kernel, if this material runs it: the AVX layout on an AVX2
+    /// or AVX-512 CPU (on AVX-512 with every offset within its gathers' 32-bit range).
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    fn batch_tables(&self) -> Option<super::query::Tables<'_>> {
+        let level = self.isa.level();
+        (level >= Level::Avx2)
+            .then(|| self.avx_tables())
+            .flatten()
+            .filter(|t| level != Level::Avx512 || super::batch::fits(t))
+    }
+
     /// True if [`PlmcMaterial::eval_b_batch`] runs the 16-query kernel (else it evaluates the
     /// queries one by one).
     pub fn batches(&self) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if let Some(t) = self.avx512_tables() {
-            return super::batch::fits(&t);
+        if self.batch_tables().is_some() {
+            return true;
         }
         false
     }
 
     /// B (nearest texel) of up to 16 queries, each exactly what [`PlmcMaterial::eval_b_with`]
-    /// returns for it with the single texel `(q.texel, 1.0)`: one pass of the 16-lane kernel
-    /// where [`PlmcMaterial::batches`], else query by query.
+    /// returns for it with the single texel `(q.texel, 1.0)`: one call of the 16-query kernel
+    /// (16 AVX-512 lanes, or two passes of 8 AVX2 lanes) where [`PlmcMaterial::batches`], else
+    /// query by query.
     pub fn eval_b_batch(&self, q: &[BatchQuery], out: &mut [[f32; 3]]) {
         assert!(q.len() <= BATCH && out.len() == q.len());
         #[cfg(target_arch = "x86_64")]
-        if let Some(t) = self.avx512_tables()
-            && super::batch::fits(&t)
-        {
-            // SAFETY: `avx512_tables` is Some only at `Level::Avx512`, which `simd::isa()`
-            // gives only on CPUs with AVX-512F, AVX2 and FMA.
-            unsafe { super::batch::eval(&t, q, out) };
+        if let Some(t) = self.batch_tables() {
+            if self.isa.level() == Level::Avx512 {
+                // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F, AVX2
+                // and FMA.
+                unsafe { super::batch::eval(&t, q, out) };
+            } else {
+                // SAFETY: `batch_tables` is Some only at `Level::Avx2` or above, which
+                // `simd::isa()` gives only on CPUs with AVX2 and FMA.
+                unsafe { super::batch_avx2::eval(&t, q, out) };
+            }
             return;
         }
         for (o, q) in out.iter_mut().zip(q) {

@@ -46,6 +46,8 @@
 mod avx512;
 #[cfg(target_arch = "x86_64")]
 mod batch;
+#[cfg(target_arch = "x86_64")]
+mod batch_avx2;
 mod bsdf;
 mod kernel;
 mod lobes;

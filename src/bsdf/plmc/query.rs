@@ -1,6 +1,8 @@
 //! One query of the batched PLM-C evaluation: what the BSDF hands to
-//! [`PlmcMaterial::eval_b_batch`](super::PlmcMaterial::eval_b_batch) and the 16-query AVX-512
-//! kernel reads.
+//! [`PlmcMaterial::eval_b_batch`](super::PlmcMaterial::eval_b_batch), and the material tables
+//! the 16-query kernels (AVX-512 in `batch.rs`, AVX2 in `batch_avx2.rs`) read.
+
+use super::{LobeRec, PolyRow};
 
 /// Most queries of one [`PlmcMaterial::eval_b_batch`](super::PlmcMaterial::eval_b_batch) call (one per AVX-512 lane).
 pub const BATCH: usize = 16;
@@ -17,4 +19,19 @@ pub struct BatchQuery {
     pub li: [u32; 3],
     pub lw: [f32; 3],
     pub wo: [f32; 3],
+}
+
+/// The tables of a PLM-C material with u8 indices, as the AVX kernels read them (see `Params::Clustered8` and the
+/// `PlmcMaterial` fields of the same names).
+pub(super) struct Tables<'a> {
+    pub k: usize,
+    pub n_views: usize,
+    pub n_lights: usize,
+    pub records: &'a [LobeRec],
+    pub index: &'a [[u8; 4]],
+    pub polys: &'a [PolyRow],
+    pub y_max: &'a [[f32; 4]],
+    pub out_max: &'a [[f32; 4]],
+    /// The model was fitted on sRGB-encoded values (decode after the polynomial).
+    pub srgb: bool,
 }

@@ -710,8 +710,10 @@ fn batched_evaluation_is_the_single_query_evaluation_bit_for_bit() {
     let mut rng = Pcg32::new(21, 8);
     for (kind, space) in ALL {
         let f = fixture(kind, space);
-        // PLM-C on AVX-512 runs the 16-lane kernel; the other models and CPUs one by one.
-        let expect_batch = kind == ModelKind::PlmC && f.bsdf.material().uses_avx512();
+        // PLM-C on AVX2 or AVX-512 runs the 16-query kernel (`f.avx2` its AVX2 build); the
+        // other models and CPUs one by one.
+        let expect_batch = kind == ModelKind::PlmC && f.bsdf.material().uses_avx2();
+        assert_eq!(f.avx2.material().batches(), expect_batch);
         assert_eq!(f.bsdf.material().batches(), expect_batch);
         for bsdf in [&f.bsdf, &f.avx2] {
             for round in 0..40 {

@@ -485,5 +485,65 @@ pub fn fused_exp2_16(x: __m512) -> __m512 {
     _mm512_scalef_ps(_mm512_fmadd_ps(q, f2, p01), r)
 }
 
+/// [`fused_log2_f4`] on 8 AVX2 lanes, to the bit: the same bit tricks, series and order.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA ([`super::isa`] at [`super::Level::Avx2`] or above).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub fn fused_log2_8(x: __m256) -> __m256 {
+    let s = _mm256_set1_ps;
+    let bits = _mm256_castps_si256(x);
+    let e = _mm256_sub_epi32(
+        _mm256_and_si256(_mm256_srli_epi32::<23>(bits), _mm256_set1_epi32(0xff)),
+        _mm256_set1_epi32(127),
+    );
+    let m = _mm256_castsi256_ps(_mm256_or_si256(
+        _mm256_and_si256(bits, _mm256_set1_epi32(0x007f_ffff)),
+        _mm256_set1_epi32(0x3f80_0000),
+    ));
+    let big = _mm256_cmp_ps::<_CMP_GT_OS>(m, s(std::f32::consts::SQRT_2));
+    // m ← m/2 and e ← e+1 where big (the mask is −1 as an integer).
+    let m = _mm256_blendv_ps(m, _mm256_mul_ps(m, s(0.5)), big);
+    let e = _mm256_cvtepi32_ps(_mm256_sub_epi32(e, _mm256_castps_si256(big)));
+    let one = s(1.0);
+    let t = _mm256_div_ps(_mm256_sub_ps(m, one), _mm256_add_ps(m, one));
+    let t2 = _mm256_mul_ps(t, t);
+    const C: f32 = LOG2_ATANH;
+    let t4 = _mm256_mul_ps(t2, t2);
+    let lo = _mm256_fmadd_ps(s(C / 3.0), t2, s(C));
+    let hi = _mm256_fmadd_ps(s(C / 7.0), t2, s(C / 5.0));
+    let hi = _mm256_fmadd_ps(s(C / 9.0), t4, hi);
+    _mm256_fmadd_ps(_mm256_fmadd_ps(hi, t4, lo), t, e)
+}
+
+/// [`fused_exp2_f4`] on 8 AVX2 lanes, to the bit: the same clamp, nearest-integer split,
+/// series and exponent-bit scaling in the same order.
+///
+/// # Safety
+/// The CPU must have AVX2 and FMA ([`super::isa`] at [`super::Level::Avx2`] or above).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+#[inline]
+pub fn fused_exp2_8(x: __m256) -> __m256 {
+    let s = _mm256_set1_ps;
+    let x = _mm256_min_ps(_mm256_max_ps(x, s(-125.0)), s(127.0));
+    let i = _mm256_cvtps_epi32(x); // round to nearest (default MXCSR)
+    let f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(i));
+    let c = EXP2_COEFFS;
+    let f2 = _mm256_mul_ps(f, f);
+    let p01 = _mm256_fmadd_ps(s(c[0]), f, s(1.0));
+    let p23 = _mm256_fmadd_ps(s(c[2]), f, s(c[1]));
+    let p45 = _mm256_fmadd_ps(s(c[4]), f, s(c[3]));
+    let q = _mm256_fmadd_ps(s(c[5]), f2, p45);
+    let q = _mm256_fmadd_ps(q, f2, p23);
+    let p = _mm256_fmadd_ps(q, f2, p01);
+    _mm256_castsi256_ps(_mm256_add_epi32(
+        _mm256_castps_si256(p),
+        _mm256_slli_epi32::<23>(i),
+    ))
+}
+
 #[cfg(test)]
 mod tests;

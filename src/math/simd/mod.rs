@@ -10,7 +10,7 @@
 //!   code), with [`real::Real`] for helpers written once over `f32` and `F16`.
 //! - [`approx`]: every polynomial approximation of a transcendental function (sin/cos, exp2,
 //!   log2, exp, ln, atan2), each written once, with its error bound and which kernels use it.
-//! - [`transpose`]: the AVX-512 16 × 16 transpose.
+//! - [`transpose`]: the AVX-512 16 × 16 and the AVX 8 × 8 register transposes.
 //!
 //! No fused multiply-adds outside the PLM-C kernel's fused approximations: code built for any of
 //! the levels returns the same bits (the image does not depend on the CPU it ran on).
