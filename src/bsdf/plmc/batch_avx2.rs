@@ -20,6 +20,7 @@ use super::query::{BATCH, BatchQuery as Query, Tables};
 use crate::math::simd::approx::{fused_exp2_8, fused_log2_8};
 use crate::math::simd::transpose::transpose8;
 use core::arch::x86_64::*;
+use core::mem::MaybeUninit;
 
 /// Queries per pass: one per lane of an AVX register.
 const LANES: usize = 8;
@@ -90,28 +91,44 @@ fn eval8(t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
     let (nv, nl, k) = (t.n_views, t.n_lights, t.k);
     let zero = _mm256_setzero_ps();
     let query = |l: usize| &q[if l < q.len() { l } else { 0 }];
-    // Per lane and view: the 3 channels' lobe records, the light-interpolated polynomial row
-    // (w0·r0, + w1·r1, + w2·r2 on whole rows, as the other kernels) as two halves, and the
-    // bounds (the 3 lights' largest output, the view's Y bound) packed 3 per two halves.
-    // Every load that depends on the texel comes first, so that the 8 queries' misses overlap.
-    let mut lobes = [[[zero; LANES]; 3]; 3];
-    let mut coef = [[[zero; LANES]; 2]; 3];
-    let mut bounds = [[zero; LANES]; 3];
-    for l in 0..LANES {
+    // Every load that depends on the texel comes first: the 8 queries' 24 index entries, then
+    // their 72 lobe records, so that their misses overlap. (The register arrays are left
+    // uninitialised until every element is written: zeroing them cost a 4 KB memset a pass.)
+    let mut ent = [[[0u8; 4]; 3]; LANES];
+    for (l, e) in ent.iter_mut().enumerate() {
         let s = query(l);
-        let texel = s.texel as usize;
         for a in 0..3 {
             let v = s.vi[a] as usize;
             assert!(v < nv, "PLM-C batch: view index out of range");
-            let e = t.index[texel * nv + v];
+            e[a] = t.index[s.texel as usize * nv + v];
+        }
+    }
+    let mut lobes = MaybeUninit::<[[[__m256; LANES]; 3]; 3]>::uninit();
+    let lobe_at = lobes.as_mut_ptr() as *mut __m256;
+    for (l, e) in ent.iter().enumerate() {
+        let s = query(l);
+        for a in 0..3 {
+            let v = s.vi[a] as usize;
             for c in 0..3 {
-                let r = &t.records[(3 * v + c) * k + e[c] as usize];
-                // SAFETY: `LobeRec` is 8 f32, 32-byte aligned.
-                lobes[a][c][l] = unsafe { _mm256_load_ps(r.0.as_ptr()) };
+                let r = &t.records[(3 * v + c) * k + e[a][c] as usize];
+                // SAFETY: `LobeRec` is 8 f32, 32-byte aligned; element (a, c, l) of `lobes`.
+                unsafe {
+                    lobe_at
+                        .add((3 * a + c) * LANES + l)
+                        .write(_mm256_load_ps(r.0.as_ptr()))
+                };
             }
         }
     }
-    let mut om = [[_mm_setzero_ps(); 3]; LANES];
+    // SAFETY: every (a, c, l) was written above.
+    let mut lobes = unsafe { lobes.assume_init() };
+    // Per lane and view: the light-interpolated polynomial row (w0·r0, + w1·r1, + w2·r2 on
+    // whole rows, as the other kernels) as two halves, and the bounds (the 3 lights' largest
+    // output, the view's Y bound) packed 3 per two halves.
+    let mut coef = MaybeUninit::<[[[__m256; LANES]; 2]; 3]>::uninit();
+    let coef_at = coef.as_mut_ptr() as *mut __m256;
+    let mut bounds = MaybeUninit::<[[__m256; LANES]; 3]>::uninit();
+    let bound_at = bounds.as_mut_ptr() as *mut __m256;
     for l in 0..LANES {
         let s = query(l);
         let (w0, w1, w2) = (
@@ -119,6 +136,7 @@ fn eval8(t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             _mm256_set1_ps(s.lw[1]),
             _mm256_set1_ps(s.lw[2]),
         );
+        let mut om = [_mm_setzero_ps(); 3];
         for a in 0..3 {
             let base = s.vi[a] as usize * nl;
             let row = |b: usize| {
@@ -144,17 +162,29 @@ fn eval8(t: &Tables, q: &[Query], out: &mut [[f32; 3]]) {
             for h in 0..2 {
                 let r = _mm256_mul_ps(w0, r0[h]);
                 let r = _mm256_fmadd_ps(w1, r1[h], r);
-                coef[a][h][l] = _mm256_fmadd_ps(w2, r2[h], r);
+                // SAFETY: element (a, h, l) of `coef`.
+                unsafe {
+                    coef_at
+                        .add((2 * a + h) * LANES + l)
+                        .write(_mm256_fmadd_ps(w2, r2[h], r))
+                };
             }
-            om[l][a] = _mm_max_ps(_mm_max_ps(bound(0), bound(1)), bound(2));
+            om[a] = _mm_max_ps(_mm_max_ps(bound(0), bound(1)), bound(2));
         }
         // SAFETY: rows of 4 f32 (`vi` < nv, checked above for every lane's query).
         let ym =
             s.vi.map(|v| unsafe { _mm_loadu_ps(t.y_max[v as usize].as_ptr()) });
-        bounds[0][l] = _mm256_set_m128(om[l][1], om[l][0]);
-        bounds[1][l] = _mm256_set_m128(ym[0], om[l][2]);
-        bounds[2][l] = _mm256_set_m128(ym[2], ym[1]);
+        // SAFETY: elements (0, l), (1, l), (2, l) of `bounds`.
+        unsafe {
+            bound_at.add(l).write(_mm256_set_m128(om[1], om[0]));
+            bound_at.add(LANES + l).write(_mm256_set_m128(ym[0], om[2]));
+            bound_at
+                .add(2 * LANES + l)
+                .write(_mm256_set_m128(ym[2], ym[1]));
+        }
     }
+    // SAFETY: every (a, h, l) of `coef` and (i, l) of `bounds` was written above.
+    let (mut coef, mut bounds) = unsafe { (coef.assume_init(), bounds.assume_init()) };
     // The queries' fields as lanes: row halves 0..8 and 8..16 (`BatchQuery` is repr(C):
     // texel, vi, vw, li, lw at 0..13, wo at 13..16).
     let mut fields = [[zero; LANES]; 2];
