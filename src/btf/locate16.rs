@@ -30,6 +30,21 @@ pub struct Located16 {
 }
 
 impl Located16 {
+    /// Every lane triangle 0 with weights 0 (what the kernels start from).
+    const ZERO: Located16 = Located16 {
+        tri: [0; LOCATE_LANES],
+        w: [[0.0; LOCATE_LANES]; 3],
+    };
+
+    /// Sets lane `i` to a [`DirectionInterp::locate`] result.
+    #[inline]
+    fn set_lane(&mut self, i: usize, (t, w): (usize, [f32; 3])) {
+        self.tri[i] = t as u32;
+        for k in 0..3 {
+            self.w[k][i] = w[k];
+        }
+    }
+
     /// Lane `i` in the form [`DirectionInterp::locate`] returns.
     #[inline]
     pub fn lane(&self, i: usize) -> (usize, [f32; 3]) {
@@ -59,15 +74,12 @@ impl DirectionInterp {
         qy: &[f32; LOCATE_LANES],
         lanes: u16,
     ) -> Located16 {
+        let mut out = Located16::ZERO;
         #[cfg(target_arch = "x86_64")]
         match self.level {
             // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
             Level::Avx512 => return unsafe { self.locate16_avx512(qx, qy, lanes) },
             Level::Avx2 => {
-                let mut out = Located16 {
-                    tri: [0; LOCATE_LANES],
-                    w: [[0.0; LOCATE_LANES]; 3],
-                };
                 for half in 0..2 {
                     // SAFETY: `simd::isa()` gives `Level::Avx2` only on CPUs with AVX2.
                     unsafe { self.locate8_avx2(qx, qy, lanes, half, &mut out) };
@@ -76,32 +88,17 @@ impl DirectionInterp {
             }
             Level::Portable => {}
         }
-        let mut out = Located16 {
-            tri: [0; LOCATE_LANES],
-            w: [[0.0; LOCATE_LANES]; 3],
-        };
         for i in (0..LOCATE_LANES).filter(|&i| lanes & (1 << i) != 0) {
-            let (t, w) = self.locate([qx[i], qy[i]]);
-            out.tri[i] = t as u32;
-            for k in 0..3 {
-                out.w[k][i] = w[k];
-            }
+            out.set_lane(i, self.locate([qx[i], qy[i]]));
         }
         out
     }
 
     /// The scalar search per lane (the reference, and the path of CPUs without AVX2).
     pub fn locate16_scalar(&self, qx: &[f32; LOCATE_LANES], qy: &[f32; LOCATE_LANES]) -> Located16 {
-        let mut out = Located16 {
-            tri: [0; LOCATE_LANES],
-            w: [[0.0; LOCATE_LANES]; 3],
-        };
+        let mut out = Located16::ZERO;
         for i in 0..LOCATE_LANES {
-            let (t, w) = self.locate([qx[i], qy[i]]);
-            out.tri[i] = t as u32;
-            for k in 0..3 {
-                out.w[k][i] = w[k];
-            }
+            out.set_lane(i, self.locate([qx[i], qy[i]]));
         }
         out
     }
@@ -119,10 +116,7 @@ impl DirectionInterp {
         use core::arch::x86_64::*;
         let grid = self.grid;
         assert!(self.cands.len() == (grid * grid) as usize);
-        let mut out = Located16 {
-            tri: [0; LOCATE_LANES],
-            w: [[0.0; LOCATE_LANES]; 3],
-        };
+        let mut out = Located16::ZERO;
         // SAFETY: loads of the two input arrays (16 f32 each); the candidate gathers read u32
         // 2·cell and 2·cell + 1 of `cands` (grid² entries of 2 u32) with cell < grid² (clamped
         // below); the row loads read the 64-byte record t, t a cell's candidate
@@ -222,11 +216,7 @@ impl DirectionInterp {
             while slow != 0 {
                 let i = slow.trailing_zeros() as usize;
                 slow &= slow - 1;
-                let (t, w) = self.locate([qx[i], qy[i]]);
-                out.tri[i] = t as u32;
-                for k in 0..3 {
-                    out.w[k][i] = w[k];
-                }
+                out.set_lane(i, self.locate([qx[i], qy[i]]));
             }
         }
         out
@@ -370,11 +360,7 @@ impl DirectionInterp {
         while slow != 0 {
             let i = o + slow.trailing_zeros() as usize;
             slow &= slow - 1;
-            let (t, w) = self.locate([qx[i], qy[i]]);
-            out.tri[i] = t as u32;
-            for k in 0..3 {
-                out.w[k][i] = w[k];
-            }
+            out.set_lane(i, self.locate([qx[i], qy[i]]));
         }
     }
 }
