@@ -37,16 +37,23 @@ impl PlmcBsdf {
             .filter(|&l| lanes & (1 << l) != 0 && !(wz[l] <= 0.0))
             .fold(0u16, |k, l| k | 1 << l);
         let located = m.views.locate16_lanes(wx, wy, kept);
-        // Nearest texels of all 16 lanes at once where the CPU has AVX-512 (lanes not in
-        // `lanes` are computed too: plain arithmetic on whatever they hold).
+        // Nearest texels of all 16 lanes at once where the CPU has AVX2 or AVX-512 (lanes not
+        // in `lanes` are computed too: plain arithmetic on whatever they hold).
         #[cfg(target_arch = "x86_64")]
-        let near = (!self.bilinear
-            && m.isa.level() == crate::math::simd::Level::Avx512
-            && nearest16_fits(m.width, m.height))
-        .then(|| {
-            // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
-            unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
-        });
+        let near = if self.bilinear || !nearest16_fits(m.width, m.height) {
+            None
+        } else {
+            use crate::math::simd::Level;
+            match m.isa.level() {
+                // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
+                Level::Avx512 => Some(unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }),
+                // SAFETY: `simd::isa()` gives `Level::Avx2` only on CPUs with AVX2.
+                Level::Avx2 => {
+                    Some(unsafe { nearest16_avx2(self.uv_scale, m.width, m.height, u, v) })
+                }
+                _ => None,
+            }
+        };
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
         let span = m.index_span();
@@ -134,6 +141,39 @@ fn nearest16(
         let y = axis(_mm512_loadu_ps(v.as_ptr()), height);
         let t = _mm512_add_epi32(_mm512_mullo_epi32(y, _mm512_set1_epi32(width as i32)), x);
         _mm512_storeu_si512(out.as_mut_ptr() as *mut _, t);
+    }
+    out
+}
+
+/// [`nearest16`] on AVX2: two passes of 8 lanes, the same operations (`vroundps` toward −∞ is
+/// `vrndscaleps`'s floor; `vmaxps` also returns its second operand, 0, for a NaN first one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn nearest16_avx2(
+    scale: f32,
+    width: usize,
+    height: usize,
+    u: &[f32; PREPARE_LANES],
+    v: &[f32; PREPARE_LANES],
+) -> [u32; PREPARE_LANES] {
+    use core::arch::x86_64::*;
+    debug_assert!(nearest16_fits(width, height));
+    let axis = |c: __m256, n: usize| {
+        let s = _mm256_mul_ps(c, _mm256_set1_ps(scale));
+        let fl = _mm256_floor_ps(s);
+        let x = _mm256_mul_ps(_mm256_sub_ps(s, fl), _mm256_set1_ps(n as f32));
+        let x = _mm256_max_ps(x, _mm256_setzero_ps());
+        _mm256_cvttps_epi32(_mm256_min_ps(x, _mm256_set1_ps((n - 1) as f32)))
+    };
+    let mut out = [0u32; PREPARE_LANES];
+    for h in 0..PREPARE_LANES / 8 {
+        // SAFETY: 8-float loads of `u` and `v` and an 8-u32 store to `out`, at 8 h < 16.
+        unsafe {
+            let x = axis(_mm256_loadu_ps(u.as_ptr().add(8 * h)), width);
+            let y = axis(_mm256_loadu_ps(v.as_ptr().add(8 * h)), height);
+            let t = _mm256_add_epi32(_mm256_mullo_epi32(y, _mm256_set1_epi32(width as i32)), x);
+            _mm256_storeu_si256(out.as_mut_ptr().add(8 * h) as *mut __m256i, t);
+        }
     }
     out
 }

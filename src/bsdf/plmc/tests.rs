@@ -840,16 +840,23 @@ fn prepare16_is_prepare_lane_by_lane_bit_for_bit() {
     };
     let mut rng = Pcg32::new(5, 16);
     for (kind, space) in ALL {
-        let base = &fixture(kind, space).bsdf;
-        let m = base.material().clone();
-        // Nearest and bilinear, tiled, mirrored (negative scale), with and without prefetch.
-        let bsdfs = [
-            base.clone(),
+        let f = fixture(kind, space);
+        let m = f.bsdf.material().clone();
+        // Nearest and bilinear, tiled, mirrored (negative scale), with and without prefetch;
+        // the nearest texels of every kernel level the CPU has (AVX-512, AVX2, scalar).
+        let mut bsdfs = vec![
+            f.bsdf.clone(),
             PlmcBsdf::new(m.clone(), 1.0, true).unwrap(),
             PlmcBsdf::new(m.clone(), 3.7, false).unwrap(),
             PlmcBsdf::new(m.clone(), -2.5, true).unwrap(),
             PlmcBsdf::new(m, 1.0, false).unwrap().without_prefetch(),
         ];
+        for level in [&f.avx2, &f.sse2] {
+            let m = level.material().clone();
+            bsdfs.push(level.clone());
+            bsdfs.push(PlmcBsdf::new(m.clone(), 3.7, false).unwrap());
+            bsdfs.push(PlmcBsdf::new(m, -2.5, false).unwrap());
+        }
         for bsdf in &bsdfs {
             for round in 0..60 {
                 let mut si = Vec::new();
