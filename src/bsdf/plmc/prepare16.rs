@@ -40,20 +40,13 @@ impl PlmcBsdf {
         // Nearest texels of all 16 lanes at once where the CPU has AVX2 or AVX-512 (lanes not
         // in `lanes` are computed too: plain arithmetic on whatever they hold).
         #[cfg(target_arch = "x86_64")]
-        let near = if self.bilinear || !nearest16_fits(m.width, m.height) {
-            None
-        } else {
-            use crate::math::simd::Level;
-            match m.isa.level() {
-                // SAFETY: `simd::isa()` gives `Level::Avx512` only on CPUs with AVX-512F.
-                Level::Avx512 => Some(unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }),
-                // SAFETY: `simd::isa()` gives `Level::Avx2` only on CPUs with AVX2.
-                Level::Avx2 => {
-                    Some(unsafe { nearest16_avx2(self.uv_scale, m.width, m.height, u, v) })
-                }
-                _ => None,
-            }
-        };
+        let near = (!self.bilinear
+            && m.isa.level() >= crate::math::simd::Level::Avx2
+            && nearest16_fits(m.width, m.height))
+        .then(|| {
+            // SAFETY: `simd::isa()` gives `Level::Avx2` or above only on CPUs with AVX2.
+            unsafe { nearest16(self.uv_scale, m.width, m.height, u, v) }
+        });
         #[cfg(not(target_arch = "x86_64"))]
         let near: Option<[u32; PREPARE_LANES]> = None;
         let span = m.index_span();
@@ -110,46 +103,17 @@ fn nearest16_fits(width: usize, height: usize) -> bool {
     width <= 1 << 24 && height <= 1 << 24 && width.checked_mul(height).is_some_and(|t| t <= 1 << 31)
 }
 
-/// [`PlmcBsdf::texel`] of 16 uv points as texel indices `y · width + x`, to the bit: per axis
-/// `((c · scale − ⌊c · scale⌋) · n)` clamped to [0, n − 1] before the truncation instead of
-/// after it (the same integer for every input: NaN and negatives give 0 both ways, +∞ and
-/// values past n − 1 give n − 1, `n − 1` being an exact f32 by [`nearest16_fits`]); the
-/// rounding-mode floor is `floor_fast`'s value for every f32.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-fn nearest16(
-    scale: f32,
-    width: usize,
-    height: usize,
-    u: &[f32; PREPARE_LANES],
-    v: &[f32; PREPARE_LANES],
-) -> [u32; PREPARE_LANES] {
-    use core::arch::x86_64::*;
-    debug_assert!(nearest16_fits(width, height));
-    let axis = |c: __m512, n: usize| {
-        let s = _mm512_mul_ps(c, _mm512_set1_ps(scale));
-        let fl = _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC }>(s);
-        let x = _mm512_mul_ps(_mm512_sub_ps(s, fl), _mm512_set1_ps(n as f32));
-        // max(x, 0) is 0 for NaN x (the second operand is returned).
-        let x = _mm512_max_ps(x, _mm512_setzero_ps());
-        _mm512_cvttps_epi32(_mm512_min_ps(x, _mm512_set1_ps((n - 1) as f32)))
-    };
-    let mut out = [0u32; PREPARE_LANES];
-    // SAFETY: 16-float loads of `u` and `v`, a 16-u32 store to `out`.
-    unsafe {
-        let x = axis(_mm512_loadu_ps(u.as_ptr()), width);
-        let y = axis(_mm512_loadu_ps(v.as_ptr()), height);
-        let t = _mm512_add_epi32(_mm512_mullo_epi32(y, _mm512_set1_epi32(width as i32)), x);
-        _mm512_storeu_si512(out.as_mut_ptr() as *mut _, t);
-    }
-    out
-}
-
-/// [`nearest16`] on AVX2: two passes of 8 lanes, the same operations (`vroundps` toward −∞ is
-/// `vrndscaleps`'s floor; `vmaxps` also returns its second operand, 0, for a NaN first one).
+/// [`PlmcBsdf::texel`] of 16 uv points as texel indices `y · width + x`, to the bit, in two
+/// passes of 8 AVX2 lanes (one build for AVX2 and AVX-512 CPUs: a 16-lane pass would save a
+/// handful of instructions per 16 hits): per axis `((c · scale − ⌊c · scale⌋) · n)` clamped
+/// to [0, n − 1] before the truncation instead of after it (the same integer for every input:
+/// NaN and negatives give 0 both ways, `vmaxps` returning its second operand, 0, for a NaN
+/// first one; +∞ and values past n − 1 give n − 1, `n − 1` being an exact f32 by
+/// [`nearest16_fits`]); the rounding-mode floor (`vroundps` toward −∞) is `floor_fast`'s value
+/// for every f32.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn nearest16_avx2(
+fn nearest16(
     scale: f32,
     width: usize,
     height: usize,
